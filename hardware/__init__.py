@@ -1,0 +1,1 @@
+"""Real-rig backend."""

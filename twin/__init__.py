@@ -1,0 +1,1 @@
+"""TacTip digital twin."""

@@ -1,0 +1,34 @@
+"""Exceptions shared by every stage. The CLI maps UserError to exit code 2."""
+from __future__ import annotations
+
+
+class TwinError(Exception):
+    """Base of every error the twin raises on purpose."""
+
+
+class UserError(TwinError):
+    """Bad input from the user: a malformed scenario, a missing file, a bad value.
+
+    The message names the file, the field and the offending value; the CLI prints it
+    without a traceback and exits with code 2.
+    """
+
+
+class UnreachablePoseError(UserError):
+    """A sensor pose that the arm cannot reach or that violates the joint limits."""
+
+
+class PhysicsError(TwinError):
+    """The simulation went wrong (diverged, penetrated, never settled, warned).
+
+    Raised by the per-frame checks; never swallowed. The message names the scenario,
+    the step, the pose and what failed.
+    """
+
+
+class SafetyError(UserError):
+    """A command the hardware safety limits refuse; nothing was sent to the robot."""
+
+
+class HardwareError(TwinError):
+    """The real rig failed: robot connection lost, camera gave no or a stale frame."""
