@@ -117,7 +117,9 @@ class CameraModel:
     def intrinsics(self) -> np.ndarray:
         """3×3 matrix K (px)."""
         f = self.focal_px
-        return np.array([[f, 0.0, self.width / 2], [0.0, f, self.height / 2], [0.0, 0.0, 1.0]])
+        # GL puts the optical axis on the frame centre, which is pixel (W−1)/2 in the
+        # OpenCV convention (integer coordinates at pixel centres).
+        return np.array([[f, 0.0, (self.width - 1) / 2], [0.0, f, (self.height - 1) / 2], [0.0, 0.0, 1.0]])
 
     @property
     def tool2camera(self) -> np.ndarray:

@@ -1,0 +1,94 @@
+"""`twin` command line. Every sub-command is a thin layer over a module function.
+
+Exit codes: 0 success, 1 the run failed (e.g. PhysicsError, HardwareError),
+2 user error (bad scenario, file, pose or argument), 130 interrupted.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from twin import gl  # noqa: F401  (headless GL before anything imports mujoco)
+from twin.errors import TwinError, UserError
+
+
+def _cmd_check(args: argparse.Namespace) -> int:
+    from twin.scenario import load_scenario
+    from twin.scene import build_scene
+
+    for path in args.scenarios:
+        scenario = load_scenario(path)
+        if args.compile and scenario.backend == "sim":
+            build_scene(scenario)
+        print(f"{path}: ok ({scenario.protocol.kind}, object {scenario.object.name or scenario.object.stl or scenario.object.outline}, "
+              f"effects {', '.join(scenario.effects) or 'none'})")
+    return 0
+
+
+def _cmd_render(args: argparse.Namespace) -> int:
+    from twin.scenario import load_scenario
+    from twin.sim_env import render_scenario_view
+
+    out = render_scenario_view(load_scenario(args.scenario), Path(args.out), view=args.view)
+    print(f"wrote {out}")
+    return 0
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    from twin.demo import run_demo
+
+    return run_demo(Path(args.out), seed=args.seed)
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    from twin.bench import run_bench
+
+    return run_bench(args.what, quick=args.quick, out=Path(args.out) if args.out else None)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="twin", description="TacTip digital twin (Aquilina et al., ICRA 2019)")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("check", help="validate scenario files (and compile their scenes)")
+    p.add_argument("scenarios", nargs="+")
+    p.add_argument("--no-compile", dest="compile", action="store_false", help="only validate the file")
+    p.set_defaults(func=_cmd_check)
+
+    p = sub.add_parser("render", help="render the inside-camera frame or an overview of a scenario")
+    p.add_argument("scenario")
+    p.add_argument("--out", required=True, help="PNG file to write")
+    p.add_argument("--view", choices=("sensor", "scene"), default="sensor")
+    p.set_defaults(func=_cmd_render)
+
+    p = sub.add_parser("demo", help="the main job: the six-object contour-following demo")
+    p.add_argument("--out", default="out/demo")
+    p.add_argument("--seed", type=int, default=0)
+    p.set_defaults(func=_cmd_demo)
+
+    p = sub.add_parser("bench", help="print speed (and accuracy) figures")
+    p.add_argument("what", nargs="?", default="all", choices=("all", "render", "physics", "perception"))
+    p.add_argument("--quick", action="store_true")
+    p.add_argument("--out", default=None)
+    p.set_defaults(func=_cmd_bench)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except UserError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    except TwinError as err:
+        print(f"failed: {type(err).__name__}: {err}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("interrupted; everything recorded so far is kept", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

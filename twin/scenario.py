@@ -1,0 +1,209 @@
+"""Scenario files: everything about one run (object, placement, sensor, protocol,
+fidelity, effects), validated with pydantic. Errors name the file, field and value."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Literal, Union
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from twin.errors import UserError
+from twin.poses import Pose
+
+EFFECTS = ("contact", "friction", "arm_dynamics", "render", "camera_noise", "lighting")
+FIDELITIES = ("fast", "default", "reference")
+BUILTIN_OBJECTS = ("rectangle", "large_circle", "small_circle", "flower", "spiral", "tape_measure")
+
+PoseList = Annotated[list[float], Field(min_length=6, max_length=6)]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class ObjectSpec(_Strict):
+    """The stimulus: a built-in name, a user STL, or a user outline CSV extruded."""
+
+    name: str | None = None
+    stl: str | None = None
+    outline: str | None = None
+    thickness_mm: float | None = Field(default=None, gt=0, le=200)
+    material: str | None = None
+    friction: float | None = Field(default=None, ge=0, le=3)
+
+    @model_validator(mode="after")
+    def _one_source(self) -> "ObjectSpec":
+        given = [k for k in ("name", "stl", "outline") if getattr(self, k) is not None]
+        if len(given) != 1:
+            raise ValueError(f"give exactly one of name, stl, outline (got {given or 'none'})")
+        if self.name is not None and self.name not in BUILTIN_OBJECTS:
+            raise ValueError(f"unknown object {self.name!r}; built-ins are {', '.join(BUILTIN_OBJECTS)}")
+        if self.outline is not None and self.thickness_mm is None:
+            raise ValueError("an outline needs thickness_mm")
+        return self
+
+
+class Placement(_Strict):
+    """Where the object's reference point sits on the table (robot base frame)."""
+
+    position_mm: Annotated[list[float], Field(min_length=2, max_length=2)] = [400.0, 0.0]
+    yaw_deg: float = 0.0
+
+
+class CameraSpec(_Strict):
+    width: int = Field(default=640, ge=64, le=4096)
+    height: int = Field(default=480, ge=48, le=4096)
+    fov_y_deg: float = Field(default=56.0, gt=10, lt=150)
+    msaa: int = Field(default=0, ge=0, le=16)
+    noise_std: float = Field(default=2.0, ge=0, le=50, description="grey levels, with camera_noise")
+
+
+class SensorSpec(_Strict):
+    camera: CameraSpec = CameraSpec()
+
+
+class RenderProtocol(_Strict):
+    """Observe at a list of poses (no-contact frame by default)."""
+
+    kind: Literal["render"] = "render"
+    poses: list[PoseList] = [[0.0, 0.0, -5.0, 0.0, 0.0, 0.0]]
+    speed_mm_s: float = Field(default=20.0, gt=0, le=250)
+
+
+class TapProtocol(_Strict):
+    """The paper's tap training set on a straight edge (§III-A2)."""
+
+    kind: Literal["taps"] = "taps"
+    orientations_deg: list[float] = [float(a) for a in range(-160, 181, 20)]
+    lateral_mm: list[float] = [9.9, 6, 4, 2, 0, -2, -4, -6]
+    depths_mm: list[float] = [2.0, 4.0]
+    edge_point_mm: Annotated[list[float], Field(min_length=2, max_length=2)] = [60.0, 0.0]
+    edge_normal_deg: float = 0.0
+    approach_mm: float = Field(default=5.0, gt=0, le=50)
+    speed_mm_s: float = Field(default=20.0, gt=0, le=250)
+
+
+class SlideProtocol(_Strict):
+    """The paper's multi-directional sliding set (§III-C)."""
+
+    kind: Literal["slides"] = "slides"
+    orientations_deg: list[float] = [float(a) for a in range(-160, 181, 20)]
+    directions_deg: list[float] = [float(a) for a in range(0, 360, 45)]
+    lateral_mm: list[float] = [9.9, 6, 4, 2, 0, -2, -4, -6]
+    depth_mm: float = Field(default=3.0, ge=0, le=6)
+    edge_point_mm: Annotated[list[float], Field(min_length=2, max_length=2)] = [60.0, 0.0]
+    edge_normal_deg: float = 0.0
+    approach_mm: float = Field(default=5.0, gt=0, le=50)
+    speed_mm_s: float = Field(default=20.0, gt=0, le=250)
+
+
+class ContourProtocol(_Strict):
+    """Contour following with the paper's controller (§III-D)."""
+
+    kind: Literal["contour"] = "contour"
+    depth_mm: float = Field(default=3.0, ge=0, le=6)
+    step_mm: float = Field(default=3.0, gt=0, le=20)
+    gain: float = Field(default=0.35, ge=0, le=2)
+    lateral_target_mm: float = Field(default=0.0, ge=-10, le=10)
+    max_steps: int = Field(default=400, ge=1, le=100000)
+    model: str | None = None
+    controller: str = "paper"
+    orientation_deg: float = 0.0
+    speed_mm_s: float = Field(default=20.0, gt=0, le=250)
+
+
+Protocol = Annotated[Union[RenderProtocol, TapProtocol, SlideProtocol, ContourProtocol], Field(discriminator="kind")]
+
+
+class Scenario(_Strict):
+    """One run. See scenarios/README.md for every field with units."""
+
+    name: str
+    description: str = ""
+    backend: Literal["sim", "hardware"] = "sim"
+    seed: int = Field(default=0, ge=0)
+    object: ObjectSpec
+    placement: Placement = Placement()
+    work_frame: Literal["object"] | PoseList = "object"
+    sensor: SensorSpec = SensorSpec()
+    fidelity: Literal["fast", "default", "reference"] = "default"
+    effects: list[str] = ["contact", "friction", "render"]
+    protocol: Protocol = RenderProtocol()
+    hardware_config: str | None = None
+
+    @field_validator("effects")
+    @classmethod
+    def _known_effects(cls, effects: list[str]) -> list[str]:
+        for e in effects:
+            if e not in EFFECTS:
+                raise ValueError(f"unknown effect {e!r}; known effects are {', '.join(EFFECTS)}")
+        if "friction" in effects and "contact" not in effects:
+            raise ValueError("effect 'friction' needs 'contact'")
+        if "camera_noise" in effects and "render" not in effects:
+            raise ValueError("effect 'camera_noise' needs 'render'")
+        return sorted(set(effects), key=EFFECTS.index)
+
+    def has(self, effect: str) -> bool:
+        return effect in self.effects
+
+    @property
+    def source_dir(self) -> Path:
+        return Path(getattr(self, "_source", ".")).parent
+
+    @property
+    def source(self) -> str:
+        return getattr(self, "_source", "<inline>")
+
+    def resolve(self, relative: str) -> Path:
+        """A path named in the scenario, relative to the scenario file."""
+        p = Path(relative).expanduser()
+        return p if p.is_absolute() else (self.source_dir / p)
+
+    def with_changes(self, **changes) -> "Scenario":
+        """A copy with top-level fields replaced and re-validated (keeps the source path)."""
+        data = self.model_dump()
+        data.update(changes)
+        return scenario_from_dict(data, self.source)
+
+
+def _format_validation_error(source: str, err: ValidationError) -> str:
+    lines = [f"{source}: invalid scenario"]
+    for e in err.errors():
+        loc = ".".join(str(p) for p in e["loc"])
+        value = e.get("input")
+        shown = repr(value) if not isinstance(value, dict) else "{…}"
+        if len(shown) > 80:
+            shown = shown[:77] + "…"
+        lines.append(f"  field '{loc or '<root>'}': {e['msg']} (value: {shown})")
+    return "\n".join(lines)
+
+
+def scenario_from_dict(data: dict, source: str = "<inline>") -> Scenario:
+    """Validate a scenario given as a dict; `source` names it in errors."""
+    if not isinstance(data, dict):
+        raise UserError(f"{source}: a scenario is a mapping of fields, got {type(data).__name__}")
+    try:
+        scenario = Scenario.model_validate(data)
+    except ValidationError as err:
+        raise UserError(_format_validation_error(source, err)) from None
+    object.__setattr__(scenario, "_source", source)
+    return scenario
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario YAML file."""
+    path = Path(path)
+    if not path.is_file():
+        raise UserError(f"{path}: no such scenario file")
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as err:
+        mark = getattr(err, "problem_mark", None)
+        where = f" line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        raise UserError(f"{path}:{where} not valid YAML: {getattr(err, 'problem', err)}") from None
+    return scenario_from_dict(data, str(path))
+
+
+def pose_from_list(values: list[float]) -> Pose:
+    return Pose.from_array(values)
