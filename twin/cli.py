@@ -15,11 +15,12 @@ from twin.errors import TwinError, UserError
 
 def _cmd_check(args: argparse.Namespace) -> int:
     from twin.scenario import load_scenario
-    from twin.scene import build_scene
 
     for path in args.scenarios:
         scenario = load_scenario(path)
         if args.compile and scenario.backend == "sim":
+            from twin.scene import build_scene
+
             build_scene(scenario)
         print(f"{path}: ok ({scenario.protocol.kind}, object {scenario.object.name or scenario.object.stl or scenario.object.outline}, "
               f"effects {', '.join(scenario.effects) or 'none'})")

@@ -1,0 +1,48 @@
+"""Scenario validation: every shipped scenario is valid; bad files fail with exit 2,
+naming the file, the field and the value, without a traceback."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from twin.cli import main
+from twin.errors import UserError
+from twin.scenario import load_scenario
+
+SCENARIOS = sorted(Path(__file__).resolve().parents[1].joinpath("scenarios").glob("*.yaml"))
+
+
+@pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
+def test_shipped_scenarios_validate(path: Path) -> None:
+    assert load_scenario(path).name
+
+
+BAD = {
+    "unknown_object": ("name: x\nobject: {name: square}\n", "object", "square"),
+    "bad_effect": ("name: x\nobject: {name: rectangle}\neffects: [render, fog]\n", "effects", "fog"),
+    "bad_depth": ("name: x\nobject: {name: rectangle}\nprotocol: {kind: taps, depths_mm: [2, deep]}\n", "depths_mm", "deep"),
+    "negative_gain": ("name: x\nobject: {name: rectangle}\nprotocol: {kind: contour, gain: -1}\n", "gain", "-1"),
+    "short_pose": ("name: x\nobject: {name: rectangle}\nprotocol: {kind: render, poses: [[0, 0, 1]]}\n", "poses", "[0, 0, 1]"),
+    "typo_field": ("name: x\nobject: {name: rectangle}\nfidelty: fast\n", "fidelty", "fast"),
+    "friction_without_contact": ("name: x\nobject: {name: rectangle}\neffects: [friction]\n", "effects", "friction"),
+    "not_yaml": ("name: [x\n", "line", "YAML"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_scenario_names_file_field_value(case: str, tmp_path: Path, capsys) -> None:
+    text, field, value = BAD[case]
+    path = tmp_path / f"{case}.yaml"
+    path.write_text(text)
+    with pytest.raises(UserError) as err:
+        load_scenario(path)
+    message = str(err.value)
+    assert str(path) in message and field in message and value in message, message
+    assert main(["check", "--no-compile", str(path)]) == 2
+    captured = capsys.readouterr()
+    assert "Traceback" not in captured.err and str(path) in captured.err
+
+
+def test_missing_file_is_user_error(tmp_path: Path) -> None:
+    assert main(["check", str(tmp_path / "nope.yaml")]) == 2
