@@ -1,0 +1,122 @@
+"""The simulated rig behind the `Environment` interface (twin.env)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from twin import gl  # noqa: F401
+import mujoco
+
+from twin.env import Environment, Observation
+from twin.errors import UserError
+from twin.physics import SensorPhysics
+from twin.poses import Pose, invert_transform
+from twin.render import PinRenderer, render_overview
+from twin.scenario import Scenario
+from twin.scene import TOOL2FLANGE, Scene, build_scene, build_spec, kinematics
+
+DEFAULT_START = Pose(0.0, 0.0, -10.0, 0.0, 0.0, 0.0)
+
+
+class SimEnvironment(Environment):
+    """MuJoCo twin of the rig. Poses in the scenario's work frame (mm/deg).
+
+    Every commanded pose is first checked against the real arm's inverse kinematics
+    (reach and joint limits) so the twin refuses what the robot could not do, whether or
+    not the arm's dynamics are simulated.
+    """
+
+    def __init__(self, scenario: Scenario, seed: int | None = None, start_pose: Pose = DEFAULT_START) -> None:
+        if scenario.has("arm_dynamics"):
+            raise UserError(f"{scenario.source}: effect 'arm_dynamics' is not supported by the sim backend yet")
+        self.scenario = scenario
+        self.seed = scenario.seed if seed is None else seed
+        self.start_pose = start_pose
+        self.scene: Scene = build_scene(scenario, start_pose)
+        self.camera = self.scene.camera
+        self.work_frame = Pose.from_matrix(self.scene.work2world)
+        self.world2work = invert_transform(self.scene.work2world)
+        self._renderer = None
+        if scenario.has("render"):
+            self._renderer = PinRenderer(self.camera, lighting=scenario.has("lighting"), msaa=scenario.sensor.camera.msaa)
+        self._noise = scenario.sensor.camera.noise_std if scenario.has("camera_noise") else 0.0
+        self._new_episode()
+
+    def _new_episode(self) -> None:
+        mujoco.mj_resetData(self.scene.model, self.scene.data)
+        self.rng = np.random.default_rng(self.seed)
+        self.physics = SensorPhysics(self.scene.model, self.scene.data, self.scene.tactip, self.scene.dome_params,
+                                     self.scenario.name, self.scene.work2world)
+        self._q = kinematics().inverse(self.scene.work2world @ self.start_pose.to_matrix(), TOOL2FLANGE)
+        self._frame = None
+
+    @property
+    def rest_pins_px(self) -> np.ndarray:
+        """(127, 2) px: the undeformed pins projected through the camera model."""
+        return self.camera.project_tool_points(self.physics.rest_pins)
+
+    def reset(self) -> Observation:
+        self._new_episode()
+        self._frame = self.physics.settle()
+        return self.observe()
+
+    def move_to(self, pose: Pose, speed_mm_s: float | None = None) -> None:
+        target = self.scene.work2world @ pose.to_matrix()
+        self._q = kinematics().inverse(target, TOOL2FLANGE, q_seed=self._q)  # raises UnreachablePoseError
+        self.physics.move(target, speed_mm_s or 20.0)
+        self._frame = self.physics.settle()
+
+    def observe(self) -> Observation:
+        frame = self._frame if self._frame is not None else self.physics.settle()
+        self._frame = frame
+        pins_px = self.camera.project_tool_points(frame.pins_tool)
+        pose = Pose.from_matrix(self.world2work @ frame.tool2world)
+        truth = {"pins_px": pins_px, "contact_force_n": frame.contact_force, "physics_steps": frame.n_steps}
+        if self._renderer is None:
+            return Observation(time=frame.time, pose=pose, pins_px=pins_px, truth=truth)
+        image = self._renderer.render(frame.pins_tool, self._noise, self.rng)
+        return Observation(time=frame.time, pose=pose, frame=image, truth=truth)
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+def first_pose(scenario: Scenario) -> Pose:
+    """The first recorded pose of a scenario's protocol (for single images)."""
+    from twin.protocols import protocol_moves
+
+    if scenario.protocol.kind == "contour":
+        return Pose(0, 0, -10, 0, 0, 0)
+    return next(m.pose for m in protocol_moves(scenario.protocol) if m.record)
+
+
+def render_scenario_view(scenario: Scenario, out: Path, view: str = "sensor") -> Path:
+    """Write the inside-camera frame (`sensor`) or an overview of the rig (`scene`) at
+    the scenario's first recorded pose as a PNG."""
+    pose = first_pose(scenario)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if view == "sensor":
+        with SimEnvironment(scenario.with_changes(effects=sorted(set(scenario.effects) | {"render"}))) as env:
+            env.move_to(pose)
+            image = env.observe().frame
+    else:
+        env_stim = None
+        spec, stimulus, handles, _, object2world, work2world = build_spec(scenario, env_stim, None, visual_arm=True)
+        target = work2world @ pose.to_matrix()
+        spec.body(handles.mount_name).pos = target[:3, 3]
+        q = np.zeros(4)
+        mujoco.mju_mat2Quat(q, target[:3, :3].ravel())
+        spec.body(handles.mount_name).quat = q
+        model = spec.compile()
+        data = mujoco.MjData(model)
+        adr = [model.jnt_qposadr[model.joint(f"arm_joint{i}").id] for i in range(1, 7)]
+        data.qpos[adr] = kinematics().inverse(target, TOOL2FLANGE)
+        mujoco.mj_forward(model, data)
+        image = render_overview(model, data, lookat=np.array([0.3, 0.0, 0.15]), distance=1.3)
+    if not cv2.imwrite(str(out), image[..., ::-1]):
+        raise UserError(f"could not write {out}")
+    return out
