@@ -36,6 +36,20 @@ def _cmd_render(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_run(args: argparse.Namespace) -> int:
+    from twin.runner import run_scenario
+    from twin.scenario import load_scenario
+
+    scenario = load_scenario(args.scenario)
+    if args.backend:
+        scenario = scenario.with_changes(backend=args.backend)
+    out = Path(args.out) if args.out else Path("runs") / f"{scenario.name}_seed{args.seed if args.seed is not None else scenario.seed}"
+    run_dir = run_scenario(scenario, out, seed=args.seed, workers=args.workers, cluster=args.cluster,
+                           progress=not args.quiet)
+    print(f"recorded {run_dir}")
+    return 0
+
+
 def _cmd_demo(args: argparse.Namespace) -> int:
     from twin.demo import run_demo
 
@@ -62,6 +76,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="PNG file to write")
     p.add_argument("--view", choices=("sensor", "scene"), default="sensor")
     p.set_defaults(func=_cmd_render)
+
+    p = sub.add_parser("run", help="run a scenario and record it")
+    p.add_argument("scenario")
+    p.add_argument("--out", default=None, help="run directory (default runs/<name>_seed<N>)")
+    p.add_argument("--seed", type=int, default=None)
+    p.add_argument("--backend", choices=("sim", "hardware"), default=None)
+    p.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
+    p.add_argument("--cluster", default=None, help="Ray address ('local' starts one); needs the ray extra")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser("demo", help="the main job: the six-object contour-following demo")
     p.add_argument("--out", default="out/demo")

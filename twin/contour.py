@@ -1,0 +1,174 @@
+"""Closed-loop contour following (§III-D): perceive θ̂ and l̂ from the pins, step with the
+controller, record every step, stop when the loop closes, at the spiral's end or at the
+step limit; then score the run against the true contour and plot it (Figs. 7–8).
+"""
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from twin.control import Percept, load_controller, normal_from_theta
+from twin.errors import UserError
+from twin.poses import Pose
+from twin.record import RunRecorder, load_run
+from twin.scenario import Scenario
+
+#: The loop is closed when the sensor comes back within this distance (mm) of the first
+#: contact point after having travelled at least CLOSE_MIN_TRAVEL_MM.
+CLOSE_RADIUS_MM = 4.0
+CLOSE_MIN_TRAVEL_MM = 40.0
+COVERAGE_RADIUS_MM = 5.0  # a contour point is covered when the path passes this close
+
+
+def object_to_work_xy(points_mm: np.ndarray) -> np.ndarray:
+    """Object-frame (x, y) mm → work-frame (x, y) mm (work = object turned 180° about x)."""
+    p = np.atleast_2d(np.asarray(points_mm, float))
+    return np.column_stack([p[:, 0], -p[:, 1]])
+
+
+work_to_object_xy = object_to_work_xy  # the flip is its own inverse
+
+
+def object_to_work_deg(angle_deg):
+    return -np.asarray(angle_deg, float)
+
+
+def run_contour(scenario: Scenario, out: Path, seed: int | None = None, progress: bool = True, model=None) -> Path:
+    """Trace the scenario's object and record the run in `out` (with metrics.json and
+    contour.png). `model` is a fitted PerceptionModel; default: scenario's `model` file,
+    else the cached model trained on the tap set (twin.training)."""
+    from twin.runner import PinReader, make_environment
+    from twin.scene import camera_model, load_scenario_stimulus
+
+    p = scenario.protocol
+    seed = scenario.seed if seed is None else seed
+    if model is None:
+        from twin.training import model_for_scenario
+
+        model = model_for_scenario(scenario)
+    stimulus = load_scenario_stimulus(scenario)
+    if scenario.work_frame != "object":
+        raise UserError(f"{scenario.source}: contour following needs work_frame: object")
+    controller = load_controller(p.controller, p, scenario.source_dir)
+    start_xy = object_to_work_xy(stimulus.start_point_mm)[0]
+    end_xy = None if stimulus.end_point_mm is None else object_to_work_xy(stimulus.end_point_mm)[0]
+
+    wall0 = time.perf_counter()
+    env = make_environment(scenario, seed)
+    recorder = RunRecorder(out, scenario, seed, scenario.backend, camera_model(scenario),
+                           extra={"model": model.info.get("path", "in memory")})
+    status = "failed"
+    try:
+        reader = PinReader(env.reset())
+        start = Pose(start_xy[0], start_xy[1], p.depth_mm, 0.0, 0.0, p.orientation_deg)
+        env.move_to(Pose(start.x, start.y, -5.0, 0.0, 0.0, p.orientation_deg), p.speed_mm_s)
+        env.move_to(start, p.speed_mm_s)
+        controller.reset(start)
+        travelled = 0.0
+        path = [start_xy]
+        stop_reason = "step limit"
+        for step in tqdm(range(p.max_steps), desc=scenario.name, unit="step", disable=not progress):
+            obs = env.observe()
+            pins, found, _ = reader.read(obs)
+            pred = model.predict(pins, found, resolution=(env.camera.width, env.camera.height))
+            percept = Percept(float(pred.theta_deg[0]), float(pred.lateral_mm[0]), bool(pred.ok[0]), obs.pose)
+            xy = np.array([obs.pose.x, obs.pose.y])
+            labels = {
+                "step": step,
+                "theta_hat_deg": percept.theta_deg,
+                "lateral_hat_mm": percept.lateral_mm,
+                "perceived_normal_deg": normal_from_theta(obs.pose.gamma, percept.theta_deg),
+                "ok": percept.ok,
+                "reason": pred.reason[0],
+                "true_normal_deg": float(object_to_work_deg(stimulus.outward_normal_deg(work_to_object_xy(xy)))[0]),
+                "true_lateral_mm": float(stimulus.signed_distance_mm(work_to_object_xy(xy))[0]),
+            }
+            recorder.add(obs, obs.pose if step else start, labels, pins, found)
+            if step and travelled > CLOSE_MIN_TRAVEL_MM and np.linalg.norm(xy - start_xy) < CLOSE_RADIUS_MM:
+                stop_reason = "loop closed"
+                break
+            if end_xy is not None and travelled > CLOSE_MIN_TRAVEL_MM and np.linalg.norm(xy - end_xy) < CLOSE_RADIUS_MM:
+                stop_reason = "end of contour"
+                break
+            target = controller.next_pose(percept)
+            env.move_to(target, p.speed_mm_s)
+            travelled += float(np.hypot(target.x - obs.pose.x, target.y - obs.pose.y))
+            path.append(np.array([target.x, target.y]))
+        env.move_to(Pose(obs.pose.x, obs.pose.y, -5.0, 0.0, 0.0, p.orientation_deg), p.speed_mm_s)
+        status = "completed"
+    except KeyboardInterrupt:
+        status = "interrupted"
+        raise
+    finally:
+        sim_time = getattr(env, "physics", None)
+        recorder.meta["stop_reason"] = locals().get("stop_reason", status)
+        recorder.meta["wall_time_s"] = time.perf_counter() - wall0
+        recorder.close(status if status != "failed" else "failed", None if status != "failed" else "see traceback")
+        env.close()
+    metrics = contour_metrics(load_run(out), stimulus)
+    (Path(out) / "metrics.json").write_text(json.dumps(metrics, indent=1))
+    plot_contour(load_run(out), stimulus, Path(out) / "contour.png")
+    return Path(out)
+
+
+def contour_metrics(run, stimulus) -> dict:
+    """The per-run metrics of a contour-following run (units in the key names)."""
+    samples = run.samples
+    xy_work = np.array([[s["pose"][0], s["pose"][1]] for s in samples])
+    xy_obj = work_to_object_xy(xy_work)
+    lab = {k: np.array([s["labels"][k] for s in samples]) for k in
+           ("perceived_normal_deg", "true_normal_deg", "lateral_hat_mm", "true_lateral_mm", "ok")}
+    ok = lab["ok"].astype(bool)
+    d_angle = (lab["perceived_normal_deg"] - lab["true_normal_deg"] + 180.0) % 360.0 - 180.0
+    path_dist = stimulus.distance_to_contour(xy_obj)
+    trace = stimulus.trace_path(1.0)
+    gaps = np.min(np.linalg.norm(trace[:, None, :] - xy_obj[None, :, :], axis=2), axis=1) if len(xy_obj) else np.inf
+    status = run.meta.get("status")
+    stop = run.meta.get("stop_reason", "")
+    return {
+        "object": stimulus.name,
+        "completed": bool(status == "completed" and stop in ("loop closed", "end of contour")),
+        "stop_reason": stop,
+        "steps": len(samples),
+        "orientation_rms_deg": float(np.sqrt(np.mean(d_angle[ok] ** 2))) if ok.any() else float("nan"),
+        "lateral_rms_mm": float(np.sqrt(np.mean((lab["lateral_hat_mm"] - lab["true_lateral_mm"])[ok] ** 2))) if ok.any() else float("nan"),
+        "path_distance_mean_mm": float(np.mean(path_dist)),
+        "path_distance_max_mm": float(np.max(path_dist)),
+        "coverage": float(np.mean(gaps <= COVERAGE_RADIUS_MM)),
+        "sim_time_s": float(samples[-1]["time"]) if samples else 0.0,
+        "wall_time_s": float(run.meta.get("wall_time_s", float("nan"))),
+        "lost_contact_steps": int((~ok).sum()),
+    }
+
+
+def plot_contour(run, stimulus, out: Path) -> Path:
+    """The paper's Figs. 7–8: the object's outline, the sensor path and the perceived
+    edge normals (grey), in the object frame seen from above (mm)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    xy = work_to_object_xy(np.array([[s["pose"][0], s["pose"][1]] for s in run.samples]))
+    normals = -np.array([s["labels"]["perceived_normal_deg"] for s in run.samples])  # work → object angle
+    fig, ax = plt.subplots(figsize=(5, 5), dpi=120)
+    outline = np.asarray(stimulus.outline.exterior.coords)
+    ax.fill(outline[:, 0], outline[:, 1], color="0.92", zorder=0)
+    ax.plot(outline[:, 0], outline[:, 1], color="0.5", lw=0.8, zorder=1)
+    for (x, y), a in zip(xy, np.radians(normals)):
+        ax.plot([x, x - 8 * np.cos(a)], [y, y - 8 * np.sin(a)], color="0.6", lw=0.6, zorder=2)
+    ax.plot(xy[:, 0], xy[:, 1], color="tab:blue", lw=1.5, zorder=3, label="sensor path")
+    ax.plot(*xy[0], "o", color="tab:green", ms=5, zorder=4, label="start")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.set_title(f"{stimulus.name}: contour following")
+    ax.legend(loc="upper right", fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out)
+    plt.close(fig)
+    return out
