@@ -29,7 +29,7 @@ from scipy.optimize import linear_sum_assignment
 from scipy.spatial import cKDTree
 
 from twin.errors import UserError
-from twin.tactip import N_PINS, CameraModel, TacTipGeometry
+from twin.tactip import N_PINS, CameraModel
 
 # Per-pin reasons in TrackResult.reasons ("" = tracked normally).
 OK = ""
@@ -101,6 +101,12 @@ def _aperture_mask(width: int, height: int, cx: float, cy: float, radius: float)
     return mask
 
 
+@lru_cache(maxsize=8)
+def _default_min_area(width: int, height: int) -> float:
+    r_min = float(np.min(template_pin_radii_px(camera_for_frame(width, height))))
+    return max(3.0, 0.15 * np.pi * r_min**2)
+
+
 def _to_gray(frame: np.ndarray) -> np.ndarray:
     if frame.ndim == 3 and frame.shape[2] == 1:
         frame = frame[:, :, 0]
@@ -127,17 +133,16 @@ def detect_pins(
 
     frame: (H, W) gray or (H, W, 3) BGR image, uint8 (floats in [0, 1] or [0, 255] accepted).
     aperture_radius_px / aperture_centre_px: circular region searched; defaults from
-        `CameraModel` at the frame's resolution (centred in the frame).
+        `CameraModel` at the frame's resolution (centred on ((W − 1)/2, (H − 1)/2) like the intrinsics).
     min_area_px: smallest blob kept (px²); default 15 % of the area of the smallest
         expected pin at this resolution (rejects noise specks).
     threshold: fixed gray threshold; default Otsu over the aperture.
     """
     gray = _to_gray(np.asarray(frame))
     height, width = gray.shape
-    camera = camera_for_frame(width, height)
     if aperture_radius_px is None:
-        aperture_radius_px = camera.aperture_radius_px
-    cx, cy = aperture_centre_px if aperture_centre_px is not None else (width / 2, height / 2)
+        aperture_radius_px = camera_for_frame(width, height).aperture_radius_px
+    cx, cy = aperture_centre_px if aperture_centre_px is not None else ((width - 1) / 2, (height - 1) / 2)
     mask = _aperture_mask(width, height, float(cx), float(cy), float(aperture_radius_px))
     masked = cv2.bitwise_and(gray, mask)
     if threshold is None:
@@ -146,8 +151,7 @@ def detect_pins(
         thr, binary = cv2.threshold(masked, float(threshold), 255, cv2.THRESH_BINARY)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(binary, connectivity=8, ltype=cv2.CV_32S)
     if min_area_px is None:
-        r_min = float(np.min(template_pin_radii_px(camera)))
-        min_area_px = max(3.0, 0.15 * np.pi * r_min**2)
+        min_area_px = _default_min_area(width, height)
     area = stats[1:, cv2.CC_STAT_AREA].astype(float)
     bw = stats[1:, cv2.CC_STAT_WIDTH].astype(float)
     bh = stats[1:, cv2.CC_STAT_HEIGHT].astype(float)
@@ -160,7 +164,8 @@ def detect_pins(
 
     # Intensity-weighted centroids over each component's pixels, weights = gray − threshold
     # (the background level contributes nothing, the bright core the most).
-    ys, xs = np.nonzero(binary)
+    nz = cv2.findNonZero(binary).reshape(-1, 2)  # much faster than np.nonzero
+    xs, ys = nz[:, 0], nz[:, 1]
     lab = labels[ys, xs]
     w = gray[ys, xs].astype(np.float64) - (float(thr) - 1.0)
     sw = np.bincount(lab, weights=w, minlength=n)
@@ -199,7 +204,16 @@ def order_to_template(points_px: np.ndarray, template_px: np.ndarray, iterations
         )
     mu_p, mu_t = points_px.mean(0), template_px.mean(0)
     s0 = np.sqrt(np.mean(np.sum((points_px - mu_p) ** 2, 1)) / np.mean(np.sum((template_px - mu_t) ** 2, 1)))
-    moved = (template_px - mu_t) * s0 + mu_p
+    # Coarse roll search (nearest-neighbour cost), then ICP from the best roll.
+    tree = cKDTree(points_px)
+    best = (np.inf, None)
+    for roll in np.radians(np.arange(-25.0, 25.5, 1.0)):
+        c, s = np.cos(roll), np.sin(roll)
+        cand = (template_px - mu_t) @ np.array([[c, s], [-s, c]]) * s0 + mu_p
+        cost = float(np.sum(tree.query(cand)[0] ** 2))
+        if cost < best[0]:
+            best = (cost, cand)
+    moved = best[1]
     best_rms = np.inf
     order = np.arange(len(points_px))
     for _ in range(iterations):
@@ -333,9 +347,9 @@ class PinTracker:
         owner_count = np.bincount(blob, minlength=k)
         assigned_blob = np.full(N_PINS, -1)
         assigned_blob[rows] = blob
-        for i, j in zip(rows, blob):
-            pins[i] = cents[j]
-            found[i] = True
+        pins[rows] = cents[blob]
+        found[rows] = True
+        for i in rows:
             reasons[i] = OK
 
         # Unassigned pins whose nearest blob (within the gate) was taken: they merged into it.
@@ -357,14 +371,15 @@ class PinTracker:
                 reasons[i] = MERGED
 
         # Ambiguity: the blob is nearly as close to another pin's previous position.
-        for i in np.flatnonzero(found):
-            j = assigned_blob[i]
-            d_own = dist[i, j]
-            if d_own < 0.25 * self.spacing_px:
-                continue
-            others = np.delete(dist[:, j], i)
-            if d_own > self.ambiguity_ratio * float(np.min(others)):
-                found[i] = False
+        idx = np.flatnonzero(found)
+        if len(idx) and N_PINS > 1:
+            two = np.partition(dist, 1, axis=0)[:2]  # (2, K): closest and second-closest pin per blob
+            j = assigned_blob[idx]
+            d_own = dist[idx, j]
+            d_other = np.where(np.argmin(dist, axis=0)[j] == idx, two[1, j], two[0, j])
+            amb = idx[(d_own >= 0.25 * self.spacing_px) & (d_own > self.ambiguity_ratio * d_other)]
+            found[amb] = False
+            for i in amb:
                 reasons[i] = AMBIGUOUS
 
         self._previous = pins
@@ -392,7 +407,7 @@ def render_pins_frame(
     camera = camera_for_frame(width, height)
     frame = np.zeros((height, width), np.uint8)
     shift = 4
-    cv2.circle(frame, (width * 8, height * 8), int(camera.aperture_radius_px * 16), int(background), -1, cv2.LINE_AA, shift)
+    cv2.circle(frame, ((width - 1) * 8, (height - 1) * 8), int(camera.aperture_radius_px * 16), int(background), -1, cv2.LINE_AA, shift)
     pins_px = np.asarray(pins_px, float)
     if radii_px is None:
         radii = template_pin_radii_px(camera) if len(pins_px) == N_PINS else np.full(len(pins_px), 7.0)
@@ -407,7 +422,3 @@ def render_pins_frame(
         frame = np.clip(frame + rng.normal(0.0, noise_std, frame.shape), 0, 255).astype(np.uint8)
     return frame
 
-
-def default_geometry() -> TacTipGeometry:
-    """The TacTip geometry the tracker's template is built from."""
-    return CameraModel().geometry

@@ -1,0 +1,146 @@
+"""Pin tracker on synthetic TacTip frames (anti-aliased white discs, known positions)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from twin.errors import UserError
+from twin.tactip import N_PINS, CameraModel
+from twin.tracker import (
+    MERGED,
+    MISSING,
+    PinTracker,
+    detect_pins,
+    reference_pins_from_frame,
+    render_pins_frame,
+    template_pins_px,
+)
+
+TEMPLATE = template_pins_px()
+SPACING = 32.6  # px, median neighbour distance of the 640×480 template
+
+
+def _rms(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.sum((a - b) ** 2, axis=1))))
+
+
+@pytest.fixture()
+def tracker() -> PinTracker:
+    ref, areas = reference_pins_from_frame(render_pins_frame(TEMPLATE))
+    return PinTracker(ref, reference_areas_px=areas)
+
+
+def test_detects_all_pins_subpixel() -> None:
+    rng = np.random.default_rng(0)
+    pins = TEMPLATE + rng.uniform(-3, 3, TEMPLATE.shape)
+    det = detect_pins(render_pins_frame(pins, noise_std=3.0, rng=rng))
+    assert len(det.centroids_px) == N_PINS
+    nearest = np.min(np.linalg.norm(pins[:, None] - det.centroids_px[None], axis=2), axis=1)
+    assert np.sqrt(np.mean(nearest**2)) <= 0.5
+
+
+def test_reference_from_frame_is_canonical_order() -> None:
+    # A "real" camera: template shifted, scaled and rolled a little.
+    ang = np.radians(8.0)
+    rot = np.array([[np.cos(ang), -np.sin(ang)], [np.sin(ang), np.cos(ang)]])
+    centre = np.array([320.0, 240.0])
+    pins = (TEMPLATE - centre) @ rot.T * 0.93 + centre + [6.0, -4.0]
+    ref, areas = reference_pins_from_frame(render_pins_frame(pins))
+    assert _rms(ref, pins) < 0.3
+    assert np.all(areas > 50)
+
+
+def test_reference_frame_with_missing_pin_is_refused() -> None:
+    pins = TEMPLATE.copy()
+    pins[40] = np.nan
+    with pytest.raises(UserError, match="126"):
+        reference_pins_from_frame(render_pins_frame(pins))
+
+
+def test_track_random_displacement_keeps_identity(tracker: PinTracker) -> None:
+    rng = np.random.default_rng(1)
+    pins = TEMPLATE + rng.uniform(-4, 4, TEMPLATE.shape)
+    res = tracker.track(render_pins_frame(pins, noise_std=2.0, rng=rng))
+    assert res.n_found == N_PINS and res.n_detected == N_PINS
+    assert _rms(res.pins_px, pins) <= 0.5
+    assert all(r == "" for r in res.reasons)
+
+
+@pytest.mark.parametrize("direction_deg", [0.0, 30.0, 75.0, 200.0])
+def test_identity_under_large_smooth_displacement(tracker: PinTracker, direction_deg: float) -> None:
+    rng = np.random.default_rng(2)
+    d = np.radians(direction_deg)
+    shift = 0.4 * SPACING * np.array([np.cos(d), np.sin(d)])
+    pins = TEMPLATE + shift + rng.uniform(-1, 1, TEMPLATE.shape)
+    res = tracker.track(render_pins_frame(pins))
+    assert res.n_found == N_PINS
+    assert np.max(np.linalg.norm(res.pins_px - pins, axis=1)) < 0.5
+
+
+def test_multi_frame_drift_beyond_one_spacing(tracker: PinTracker) -> None:
+    # Pins slide 1.2 spacings over 6 frames: frame-to-frame assignment follows them.
+    for k in range(1, 7):
+        pins = TEMPLATE + [0.2 * SPACING * k, 0.0]
+        res = tracker.track(render_pins_frame(pins))
+    inside = np.linalg.norm(pins - [320.0, 240.0], axis=1) < CameraModel().aperture_radius_px - 10.0
+    assert res.found[inside].all()
+    ok = res.found & inside  # pins cut by the aperture rim have biased centroids
+    assert np.max(np.linalg.norm(res.pins_px[ok] - pins[ok], axis=1)) < 0.5
+
+
+def test_removed_pin_is_missing_and_others_keep_identity(tracker: PinTracker) -> None:
+    rng = np.random.default_rng(3)
+    pins = TEMPLATE + rng.uniform(-3, 3, TEMPLATE.shape)
+    drawn = pins.copy()
+    drawn[57] = np.nan
+    res = tracker.track(render_pins_frame(drawn))
+    assert not res.found[57] and res.reasons[57] == MISSING
+    assert np.allclose(res.pins_px[57], tracker.reference_pins_px[57])  # last known position
+    others = np.arange(N_PINS) != 57
+    assert res.found[others].all()
+    assert _rms(res.pins_px[others], pins[others]) <= 0.5
+    # The pin comes back next frame.
+    res2 = tracker.track(render_pins_frame(pins))
+    assert res2.found.all()
+
+
+@pytest.mark.parametrize("overlap", [1.0, 0.5])
+def test_pins_on_top_of_each_other_are_merged(tracker: PinTracker, overlap: float) -> None:
+    pins = TEMPLATE.copy()
+    i, j = 0, 1  # centre pin and its +x neighbour
+    mid = 0.5 * (pins[i] + pins[j])
+    half = 0.5 * (1.0 - overlap) * 7.0 * np.array([1.0, 0.0])  # separation (1 − overlap)·radius
+    pins[i], pins[j] = mid - half, mid + half
+    res = tracker.track(render_pins_frame(pins))
+    assert res.reasons[i] == MERGED and res.reasons[j] == MERGED
+    assert not res.found[i] and not res.found[j]
+    others = np.setdiff1d(np.arange(N_PINS), [i, j])
+    assert res.found[others].all()
+    assert np.all(np.isfinite(res.pins_px))
+
+
+def test_other_resolution_and_colour_frame() -> None:
+    cam = CameraModel(width=1280, height=960)
+    pins = template_pins_px(cam)
+    frame = render_pins_frame(pins, width=1280, height=960)
+    bgr = np.repeat(frame[:, :, None], 3, axis=2)
+    tracker = PinTracker(bgr)
+    res = tracker.track(render_pins_frame(pins + [5.0, -3.0], width=1280, height=960))
+    assert res.n_found == N_PINS
+    assert _rms(res.pins_px, pins + [5.0, -3.0]) < 0.5
+
+
+def test_empty_frame_keeps_all_pins_flagged(tracker: PinTracker) -> None:
+    res = tracker.track(np.zeros((480, 640), np.uint8))
+    assert res.n_detected == 0 and not res.found.any()
+    assert set(res.reasons) == {MISSING}
+    assert np.allclose(res.pins_px, tracker.reference_pins_px)
+
+
+def test_tracker_speed(tracker: PinTracker) -> None:
+    frame = render_pins_frame(TEMPLATE + 2.0, noise_std=2.0, rng=np.random.default_rng(4))
+    times = []
+    for _ in range(20):
+        tracker.reset()
+        times.append(tracker.track(frame).ms)
+    assert np.median(times) < 15.0  # ≈ 2–3 ms on the 2-core dev machine; generous for CI
