@@ -10,6 +10,7 @@ import pytest
 from twin import gl  # noqa: F401
 import mujoco
 
+from twin.poses import Pose
 from twin.scenario import load_scenario
 from twin.scene import build_scene
 
@@ -42,7 +43,7 @@ def test_scenario_scene_steps_without_warnings(path: Path) -> None:
     scenario = load_scenario(path)
     if scenario.backend != "sim":
         pytest.skip("hardware scenario")
-    scene = build_scene(scenario)
+    scene = build_scene(scenario, Pose(0, 0, -10, 0, 0, 0))
     _step_one_second(scene.model, scene.data)
 
 

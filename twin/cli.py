@@ -19,9 +19,10 @@ def _cmd_check(args: argparse.Namespace) -> int:
     for path in args.scenarios:
         scenario = load_scenario(path)
         if args.compile and scenario.backend == "sim":
+            from twin.poses import Pose
             from twin.scene import build_scene
 
-            build_scene(scenario)
+            build_scene(scenario, Pose(0, 0, -10, 0, 0, 0))
         print(f"{path}: ok ({scenario.protocol.kind}, object {scenario.object.name or scenario.object.stl or scenario.object.outline}, "
               f"effects {', '.join(scenario.effects) or 'none'})")
     return 0

@@ -15,7 +15,7 @@ from twin.physics import SensorPhysics
 from twin.poses import Pose, invert_transform
 from twin.render import PinRenderer, render_overview
 from twin.scenario import Scenario
-from twin.scene import TOOL2FLANGE, Scene, build_scene, build_spec, kinematics
+from twin.scene import TOOL2FLANGE, Scene, build_overview, build_scene, kinematics
 
 DEFAULT_START = Pose(0.0, 0.0, -10.0, 0.0, 0.0, 0.0)
 
@@ -29,8 +29,6 @@ class SimEnvironment(Environment):
     """
 
     def __init__(self, scenario: Scenario, seed: int | None = None, start_pose: Pose = DEFAULT_START) -> None:
-        if scenario.has("arm_dynamics"):
-            raise UserError(f"{scenario.source}: effect 'arm_dynamics' is not supported by the sim backend yet")
         self.scenario = scenario
         self.seed = scenario.seed if seed is None else seed
         self.start_pose = start_pose
@@ -47,9 +45,11 @@ class SimEnvironment(Environment):
     def _new_episode(self) -> None:
         mujoco.mj_resetData(self.scene.model, self.scene.data)
         self.rng = np.random.default_rng(self.seed)
+        start = self.scene.work2world @ self.start_pose.to_matrix()
+        self._q = kinematics().inverse(start, TOOL2FLANGE)  # the start pose must be reachable too
         self.physics = SensorPhysics(self.scene.model, self.scene.data, self.scene.tactip, self.scene.dome_params,
-                                     self.scenario.name, self.scene.work2world)
-        self._q = kinematics().inverse(self.scene.work2world @ self.start_pose.to_matrix(), TOOL2FLANGE)
+                                     self.scenario.name, start, stimulus2world=self.scene.object2world,
+                                     work2world=self.scene.work2world)
         self._frame = None
 
     @property
@@ -85,6 +85,13 @@ class SimEnvironment(Environment):
             self._renderer = None
 
 
+def build_scene_frames(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
+    """(object2world, work2world) of a scenario without building its physics."""
+    from twin.scene import load_scenario_stimulus, object_and_work_frames
+
+    return object_and_work_frames(scenario, load_scenario_stimulus(scenario))
+
+
 def first_pose(scenario: Scenario) -> Pose:
     """The first recorded pose of a scenario's protocol (for single images)."""
     from twin.protocols import protocol_moves
@@ -104,18 +111,7 @@ def render_scenario_view(scenario: Scenario, out: Path, view: str = "sensor") ->
             env.move_to(pose)
             image = env.observe().frame
     else:
-        env_stim = None
-        spec, stimulus, handles, _, object2world, work2world = build_spec(scenario, env_stim, None, visual_arm=True)
-        target = work2world @ pose.to_matrix()
-        spec.body(handles.mount_name).pos = target[:3, 3]
-        q = np.zeros(4)
-        mujoco.mju_mat2Quat(q, target[:3, :3].ravel())
-        spec.body(handles.mount_name).quat = q
-        model = spec.compile()
-        data = mujoco.MjData(model)
-        adr = [model.jnt_qposadr[model.joint(f"arm_joint{i}").id] for i in range(1, 7)]
-        data.qpos[adr] = kinematics().inverse(target, TOOL2FLANGE)
-        mujoco.mj_forward(model, data)
+        model, data = build_overview(scenario, build_scene_frames(scenario)[1] @ pose.to_matrix())
         image = render_overview(model, data, lookat=np.array([0.3, 0.0, 0.15]), distance=1.3)
     if not cv2.imwrite(str(out), image[..., ::-1]):
         raise UserError(f"could not write {out}")
