@@ -51,6 +51,18 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_evaluate(args: argparse.Namespace) -> int:
+    from twin.evaluate import evaluate, format_table
+
+    result = evaluate(Path(args.train), Path(args.test), Path(args.out), seed=args.seed)
+    print(format_table(result["table_i_rms_orientation_deg"]))
+    for name, v in result["lateral_rms_mm"].items():
+        print(f"lateral RMS error, {name}: {v:.2f} mm (paper: 2.15 mm)")
+    print(f"variance explained by 3 PCs: {100 * result['variance_explained_3pc']:.1f} % (paper: 88.3 %)")
+    print(f"wrote {args.out}/table_i.csv, table_i.json and the PCA figures")
+    return 0
+
+
 def _cmd_demo(args: argparse.Namespace) -> int:
     from twin.demo import run_demo
 
@@ -87,6 +99,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cluster", default=None, help="Ray address ('local' starts one); needs the ray extra")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("evaluate", help="the paper's offline test: Table I from a tap run and a slides run")
+    p.add_argument("--train", required=True, help="tap run directory")
+    p.add_argument("--test", required=True, help="multi-directional slides run directory")
+    p.add_argument("--out", required=True)
+    p.add_argument("--seed", type=int, default=0)
+    p.set_defaults(func=_cmd_evaluate)
 
     p = sub.add_parser("demo", help="the main job: the six-object contour-following demo")
     p.add_argument("--out", default="out/demo")

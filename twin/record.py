@@ -45,7 +45,7 @@ def package_versions() -> dict[str, str]:
 
 def _jsonable(value):
     if isinstance(value, np.ndarray):
-        return np.round(value, 6).tolist()
+        return (np.round(value, 6) if value.dtype.kind == "f" else value).tolist()
     if isinstance(value, (np.floating, np.integer, np.bool_)):
         return value.item()
     if isinstance(value, Pose):

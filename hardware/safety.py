@@ -1,0 +1,125 @@
+"""Software safety limits of the real rig, checked before any command leaves the PC.
+
+All limits are in the **work frame** (README "Conventions"): +z points *into* the object,
+so the indentation depth of a pose is its z (mm) and `max_depth_mm` caps z. Bounds are
+inclusive: a value equal to a limit passes, anything beyond it (even by one ulp) or not
+finite (NaN, ±inf) is refused with a `SafetyError` naming the field, value and limit.
+
+| field                     | unit  | meaning                                                |
+|---------------------------|-------|--------------------------------------------------------|
+| x_mm, y_mm, z_mm          | mm    | [min, max] workspace box of the TCP in the work frame  |
+| max_depth_mm              | mm    | deepest allowed indentation = max z in the work frame  |
+| alpha_deg, beta_deg       | deg   | [min, max] of the tilt angles α, β (extrinsic XYZ)     |
+| max_linear_speed_mm_s     | mm/s  | highest TCP speed that may be commanded                |
+| max_angular_speed_deg_s   | deg/s | highest reorientation speed that may be commanded      |
+
+γ (the sensor's rotation about its own axis, the paper's θ) is free but must be finite.
+A straight move between two poses inside the box stays inside it (the box is convex);
+the α/β interpolation of the controller can leave the α/β box by a fraction of a degree
+on long reorientations.
+
+These limits are a second line of defence: keep the controller's own world zones (the
+RAPID server defines a workspace box) configured as well.
+"""
+from __future__ import annotations
+
+import math
+import numbers
+from typing import Annotated
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
+
+from twin.errors import SafetyError
+from twin.poses import Pose
+
+Range = Annotated[tuple[float, float], Field(description="[min, max], inclusive")]
+
+
+class SafetyLimits(BaseModel):
+    """Limits every command is checked against (see the module table for units)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    x_mm: Range = (-80.0, 80.0)
+    y_mm: Range = (-80.0, 80.0)
+    z_mm: Range = (-60.0, 6.0)
+    max_depth_mm: float = Field(default=6.0, ge=0.0, le=20.0)
+    alpha_deg: Range = (-20.0, 20.0)
+    beta_deg: Range = (-20.0, 20.0)
+    max_linear_speed_mm_s: float = Field(default=50.0, gt=0.0, le=250.0)
+    max_angular_speed_deg_s: float = Field(default=30.0, gt=0.0, le=180.0)
+
+    @field_validator("x_mm", "y_mm", "z_mm", "alpha_deg", "beta_deg")
+    @classmethod
+    def _ordered(cls, value: tuple[float, float], info: ValidationInfo) -> tuple[float, float]:
+        lo, hi = value
+        if not lo <= hi:
+            raise ValueError(f"min {lo} is above max {hi}")
+        if info.field_name in ("alpha_deg", "beta_deg") and (lo < -90.0 or hi > 90.0):
+            raise ValueError(f"tilt range [{lo}, {hi}] must lie within [-90, 90] deg")
+        return value
+
+    @model_validator(mode="after")
+    def _depth(self) -> "SafetyLimits":
+        if self.z_mm[0] > self.max_depth_mm:
+            raise ValueError(f"z_mm min {self.z_mm[0]} is deeper than max_depth_mm {self.max_depth_mm}")
+        return self
+
+    # ------------------------------------------------------------------ checks
+    @property
+    def z_max_mm(self) -> float:
+        """Effective max z (mm): the tighter of the box's top and the depth limit."""
+        return min(self.z_mm[1], self.max_depth_mm)
+
+    def check_pose(self, pose: Pose) -> None:
+        """Raise SafetyError unless every coordinate of `pose` (work frame, mm/deg) is
+        finite and inside the limits."""
+        for name in ("x", "y", "z", "alpha", "beta", "gamma"):
+            value = getattr(pose, name)
+            if not isinstance(value, numbers.Real) or not math.isfinite(value):
+                raise SafetyError(f"pose {_fmt(pose)}: {name} = {value!r} is not a finite number")
+        self._check_range(pose, "x", pose.x, self.x_mm, "mm", "safety.x_mm")
+        self._check_range(pose, "y", pose.y, self.y_mm, "mm", "safety.y_mm")
+        if pose.z > self.max_depth_mm:
+            raise SafetyError(
+                f"pose {_fmt(pose)}: z = {pose.z!r} mm is deeper than the max indentation depth "
+                f"{self.max_depth_mm} mm (safety.max_depth_mm; +z points into the object)"
+            )
+        self._check_range(pose, "z", pose.z, (self.z_mm[0], self.z_mm[1]), "mm", "safety.z_mm")
+        self._check_range(pose, "alpha", pose.alpha, self.alpha_deg, "deg", "safety.alpha_deg")
+        self._check_range(pose, "beta", pose.beta, self.beta_deg, "deg", "safety.beta_deg")
+
+    def check_speed(self, linear_mm_s: float | None = None, angular_deg_s: float | None = None) -> None:
+        """Raise SafetyError unless the given speeds are finite, > 0 and within the limits."""
+        for name, value, limit, unit, field in (
+            ("linear speed", linear_mm_s, self.max_linear_speed_mm_s, "mm/s", "safety.max_linear_speed_mm_s"),
+            ("angular speed", angular_deg_s, self.max_angular_speed_deg_s, "deg/s", "safety.max_angular_speed_deg_s"),
+        ):
+            if value is None:
+                continue
+            if not isinstance(value, numbers.Real) or not math.isfinite(value):
+                raise SafetyError(f"{name} = {value!r} {unit} is not a finite number")
+            if not value > 0.0:
+                raise SafetyError(f"{name} = {value!r} {unit} must be > 0")
+            if value > limit:
+                raise SafetyError(f"{name} = {value!r} {unit} exceeds the limit {limit} {unit} ({field})")
+
+    def allows(self, pose: Pose) -> bool:
+        """True if `check_pose` would pass."""
+        try:
+            self.check_pose(pose)
+        except SafetyError:
+            return False
+        return True
+
+    @staticmethod
+    def _check_range(pose: Pose, name: str, value: float, bounds: tuple[float, float], unit: str, field: str) -> None:
+        lo, hi = bounds
+        if value < lo:
+            raise SafetyError(f"pose {_fmt(pose)}: {name} = {value!r} {unit} is below the limit {lo} {unit} ({field})")
+        if value > hi:
+            raise SafetyError(f"pose {_fmt(pose)}: {name} = {value!r} {unit} is above the limit {hi} {unit} ({field})")
+
+
+def _fmt(pose: Pose) -> str:
+    return "(" + ", ".join(f"{v:.6g}" for v in (pose.x, pose.y, pose.z, pose.alpha, pose.beta, pose.gamma)) + ")"
