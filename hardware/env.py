@@ -65,6 +65,19 @@ class HardwareEnvironment(Environment):
             raise
         self._speed_mm_s = r.linear_speed_mm_s
 
+    @classmethod
+    def from_scenario(cls, scenario, config_path: str | None = None) -> "HardwareEnvironment":
+        """The rig for a scenario: its `hardware_config` file (or `config_path`), with the
+        scenario's camera resolution."""
+        from hardware.config import load_hardware_config
+        from twin.scene import camera_model
+
+        name = config_path or scenario.hardware_config
+        if name is None:
+            raise UserError(f"{scenario.source}: the hardware backend needs a config file: set field "
+                            "'hardware_config' or pass --hardware-config (see hardware/example_config.yaml)")
+        return cls(load_hardware_config(scenario.resolve(name)), camera_model(scenario))
+
     def reset(self) -> Observation:
         """Move (straight line) to the config's no-contact start pose and observe."""
         self.move_to(self.config.robot.start_pose)

@@ -49,7 +49,27 @@ def bench_render(quick: bool = False) -> list[dict]:
     return rows
 
 
-SECTIONS: dict[str, Callable[[bool], list[dict]]] = {"render": bench_render}
+def bench_physics(quick: bool = False) -> list[dict]:
+    """ms of physics per settled frame for each fidelity level (contour-like steps)."""
+    from twin.physics import benchmark_physics
+
+    rows = benchmark_physics(repeats=1 if quick else 3, verbose=False)
+    return [{"section": "physics", **r} for r in rows]
+
+
+def bench_perception(quick: bool = False) -> list[dict]:
+    """Tracker ms/frame at 640×480, GP training on 288 points, prediction per frame."""
+    from twin.perception import benchmark_perception
+
+    r = benchmark_perception(np.random.default_rng(0), n_frames=20 if quick else 50, n_restarts=1 if quick else 2)
+    return [{"section": "perception", **{k: v for k, v in r.items() if not isinstance(v, (list, dict))}}]
+
+
+SECTIONS: dict[str, Callable[[bool], list[dict]]] = {
+    "render": bench_render,
+    "physics": bench_physics,
+    "perception": bench_perception,
+}
 
 
 def _print_rows(title: str, rows: list[dict]) -> None:

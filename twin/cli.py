@@ -44,6 +44,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario)
     if args.backend:
         scenario = scenario.with_changes(backend=args.backend)
+    if args.hardware_config:
+        scenario = scenario.with_changes(hardware_config=str(Path(args.hardware_config).resolve()))
     out = Path(args.out) if args.out else Path("runs") / f"{scenario.name}_seed{args.seed if args.seed is not None else scenario.seed}"
     run_dir = run_scenario(scenario, out, seed=args.seed, workers=args.workers, cluster=args.cluster,
                            progress=not args.quiet)
@@ -60,6 +62,13 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         print(f"lateral RMS error, {name}: {v:.2f} mm (paper: 2.15 mm)")
     print(f"variance explained by 3 PCs: {100 * result['variance_explained_3pc']:.1f} % (paper: 88.3 %)")
     print(f"wrote {args.out}/table_i.csv, table_i.json and the PCA figures")
+    return 0
+
+
+def _cmd_serve_robot(args: argparse.Namespace) -> int:
+    from twin.virtual_robot import serve_robot
+
+    serve_robot(args.host, args.port, realtime_factor=args.realtime)
     return 0
 
 
@@ -95,6 +104,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=None, help="run directory (default runs/<name>_seed<N>)")
     p.add_argument("--seed", type=int, default=None)
     p.add_argument("--backend", choices=("sim", "hardware"), default=None)
+    p.add_argument("--hardware-config", default=None, help="robot/camera config for --backend hardware")
     p.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
     p.add_argument("--cluster", default=None, help="Ray address ('local' starts one); needs the ray extra")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -106,6 +116,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True)
     p.add_argument("--seed", type=int, default=0)
     p.set_defaults(func=_cmd_evaluate)
+
+    p = sub.add_parser("serve-robot", help="answer the IRB120's RAPID socket protocol with the simulated arm")
+    p.add_argument("--host", default="127.0.0.1")
+    p.add_argument("--port", type=int, default=5000)
+    p.add_argument("--realtime", type=float, default=0.0, help="1 = moves take their real duration; 0 = instant")
+    p.set_defaults(func=_cmd_serve_robot)
 
     p = sub.add_parser("demo", help="the main job: the six-object contour-following demo")
     p.add_argument("--out", default="out/demo")

@@ -120,7 +120,7 @@ class DomeParams:
     cellcount: tuple[int, int, int] = (4, 4, 2)
     impratio: float = 30.0
     timestep: float = 0.02
-    settle_speed: float = 5e-5
+    settle_speed: float = 2.5e-4
     free_settle_speed: float = 5e-6
     settle_steps: int = 2
     max_settle_steps: int = 200
@@ -140,7 +140,7 @@ class DomeParams:
 FIDELITY_LEVELS: dict[str, DomeParams] = {
     # a 3.5 mm collision mesh chattered on the edge (never settled), so "fast" keeps the
     # default mesh and only loosens the settling criterion
-    "fast": DomeParams(settle_speed=1e-4, free_settle_speed=1e-5, settle_steps=1),
+    "fast": DomeParams(settle_speed=5e-4, free_settle_speed=1e-5, settle_steps=1),
     "default": DomeParams(),
     "reference": DomeParams(
         surface_spacing=0.0015, timestep=0.005, settle_speed=3e-5, free_settle_speed=2e-6, settle_steps=3,

@@ -32,3 +32,7 @@ class SafetyError(UserError):
 
 class HardwareError(TwinError):
     """The real rig failed: robot connection lost, camera gave no or a stale frame."""
+
+
+class LostPinsError(TwinError):
+    """Too many pins could not be tracked in a frame: the run stops (records kept)."""

@@ -16,6 +16,7 @@ import numpy as np
 from tqdm import tqdm
 
 from twin.env import Environment, Observation
+from twin.errors import LostPinsError
 from twin.protocols import Move, protocol_moves
 from twin.record import RunRecorder
 from twin.scenario import Scenario
@@ -32,19 +33,24 @@ class Sample:
     track_ms: float
 
 
-def make_environment(scenario: Scenario, seed: int | None = None) -> Environment:
+def make_environment(scenario: Scenario, seed: int | None = None, hardware_config: str | None = None) -> Environment:
     """The scenario's backend behind the Environment interface."""
     if scenario.backend == "hardware":
         from hardware.env import HardwareEnvironment
 
-        return HardwareEnvironment.from_scenario(scenario)
+        return HardwareEnvironment.from_scenario(scenario, hardware_config)
     from twin.sim_env import SimEnvironment
 
     return SimEnvironment(scenario, seed=seed)
 
 
 class PinReader:
-    """Turns observations into pins: tracked from frames, or taken as projected."""
+    """Turns observations into pins: tracked from frames, or taken as projected.
+
+    A frame with more than `max_lost_fraction` of its pins untracked stops the run with
+    LostPinsError (a torn skin, a covered lens or a camera that moved)."""
+
+    max_lost_fraction = 0.2
 
     def __init__(self, reference: Observation) -> None:
         self.tracker = None
@@ -57,6 +63,11 @@ class PinReader:
         if obs.frame is None or self.tracker is None:
             return obs.pins_px, None, 0.0
         result = self.tracker.track(obs.frame)
+        lost = int((~result.found).sum())
+        if lost > self.max_lost_fraction * len(result.found):
+            reasons = sorted({r for r in result.reasons if r})
+            raise LostPinsError(f"lost {lost}/{len(result.found)} pins at pose {obs.pose} ({', '.join(reasons)}); "
+                                "check the camera and the skin")
         return result.pins_px, result.found, result.ms
 
 
