@@ -72,6 +72,23 @@ def _cmd_serve_robot(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_compare(args: argparse.Namespace) -> int:
+    from twin.compare import compare_runs
+
+    r = compare_runs(Path(args.run_a), Path(args.run_b), Path(args.out))
+    print(f"{r['n_pairs']} paired samples ({r['pairing']})")
+    print(f"pin RMS difference: {r['pin_rms_difference_px']:.3f} px")
+    c = r["pin_displacement_correlation"]
+    if c["mean"] is not None:
+        print(f"per-pin displacement correlation: mean {c['mean']:.3f}, min {c['min']:.3f} over {c['pins']} pins")
+    if r["ssim"]:
+        print(f"image SSIM: mean {r['ssim']['mean']:.3f}, min {r['ssim']['min']:.3f} over {r['ssim']['frames']} frames")
+    if "path_distance" in r:
+        print(f"path distance: mean {r['path_distance']['mean_mm']:.2f} mm, Hausdorff {r['path_distance']['hausdorff_mm']:.2f} mm")
+    print(f"wrote {args.out}/comparison.json and plots")
+    return 0
+
+
 def _cmd_demo(args: argparse.Namespace) -> int:
     from twin.demo import run_demo
 
@@ -122,6 +139,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--port", type=int, default=5000)
     p.add_argument("--realtime", type=float, default=0.0, help="1 = moves take their real duration; 0 = instant")
     p.set_defaults(func=_cmd_serve_robot)
+
+    p = sub.add_parser("compare", help="compare two runs of one scenario (sim vs sim, sim vs real)")
+    p.add_argument("run_a")
+    p.add_argument("run_b")
+    p.add_argument("--out", required=True)
+    p.set_defaults(func=_cmd_compare)
 
     p = sub.add_parser("demo", help="the main job: the six-object contour-following demo")
     p.add_argument("--out", default="out/demo")
