@@ -1,21 +1,36 @@
 """Headless OpenGL selection. Import this before mujoco or pyrender anywhere.
 
-EGL (Mesa llvmpipe on CPU, or a GPU driver) is the default; OSMesa is the fallback.
+EGL (Mesa llvmpipe on CPU, or a GPU driver) is the default; OSMesa is the fallback when
+no EGL library can be loaded. `TWIN_GL` or `MUJOCO_GL` (egl | osmesa) force a choice.
 Both MuJoCo and PyOpenGL read their backend from the environment at import time, so
 the two variables must agree and be set first (DESIGN §5).
 """
 from __future__ import annotations
 
+import ctypes
 import os
 
 GL_BACKENDS = ("egl", "osmesa")
+_LIBRARIES = {"egl": ("libEGL.so.1", "libEGL.so"), "osmesa": ("libOSMesa.so.8", "libOSMesa.so.6", "libOSMesa.so")}
+
+
+def _loadable(backend: str) -> bool:
+    for name in _LIBRARIES[backend]:
+        try:
+            ctypes.CDLL(name)
+            return True
+        except OSError:
+            continue
+    return False
 
 
 def select_gl_backend() -> str:
     """Set MUJOCO_GL and PYOPENGL_PLATFORM consistently; returns the backend in use."""
-    backend = os.environ.get("TWIN_GL") or os.environ.get("MUJOCO_GL") or "egl"
-    if backend not in GL_BACKENDS:
-        backend = "egl"
+    requested = os.environ.get("TWIN_GL") or os.environ.get("MUJOCO_GL")
+    if requested in GL_BACKENDS:
+        backend = requested
+    else:
+        backend = next((b for b in GL_BACKENDS if _loadable(b)), "egl")
     os.environ["MUJOCO_GL"] = backend
     os.environ["PYOPENGL_PLATFORM"] = backend
     return backend
