@@ -1,0 +1,108 @@
+"""The hardware backend end to end: the same runner, tracker, perception and controller
+as in sim, driving the virtual IRB120 controller over its socket protocol on loopback
+(through the lab's own client, cri), with the camera fed from a real video file through
+cv2.VideoCapture. Also: a camera that runs dry stops the run safely and keeps the records."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+import yaml
+
+from hardware.protocol import Command
+from twin.errors import HardwareError
+from twin.kinematics import Irb120Kinematics
+from twin.poses import Pose
+from twin.record import load_run
+from twin.runner import run_scenario
+from twin.scenario import scenario_from_dict
+from twin.sim_env import SimEnvironment
+from twin.training import train_from_run
+from twin.virtual_robot import KinematicArm, VirtualRobotServer
+
+POSES = [[0, 0, -5, 0, 0, 0], [60, 0, 2, 0, 0, 0], [62, 0, 3, 0, 0, 40], [58, 5, 4, 0, 0, -60]]
+
+
+@pytest.fixture(scope="module")
+def video(tmp_path_factory) -> Path:
+    """A real MJPG video of rendered TacTip frames: rest, then presses on the edge."""
+    path = tmp_path_factory.mktemp("video") / "tactip.avi"
+    scenario = scenario_from_dict({"name": "video", "object": {"name": "rectangle"}, "fidelity": "fast",
+                                   "effects": ["contact", "render"]})
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 30, (640, 480))
+    with SimEnvironment(scenario) as env:
+        frames = [env.reset().frame]
+        for pose in POSES[1:]:
+            frames.append(env.step(Pose.from_array(pose)).frame)
+    for frame in frames[:1] * 3 + frames[1:] * 4:  # enough frames for the reads below
+        writer.write(frame[..., ::-1])
+    writer.release()
+    return path
+
+
+@pytest.fixture
+def server():
+    with VirtualRobotServer("127.0.0.1", 0, KinematicArm(Irb120Kinematics())) as srv:
+        yield srv
+
+
+def _config(tmp_path: Path, port: int, video: Path) -> Path:
+    config = {"robot": {"host": "127.0.0.1", "port": port, "client": "cri", "linear_speed_mm_s": 40,
+                        "work_frame_mm_deg": [400, 0, 10, 180, 0, 0], "start_pose_mm_deg": [0, 0, -5, 0, 0, 0]},
+              "camera": {"source": str(video), "warmup": 0},
+              "safety": {"x_mm": [-100, 100], "y_mm": [-100, 100], "z_mm": [-60, 6]}}
+    path = tmp_path / "rig.yaml"
+    path.write_text(yaml.safe_dump(config))
+    return path
+
+
+def test_runner_records_a_hardware_run(tmp_path, server, video) -> None:
+    scenario = scenario_from_dict({"name": "hw_render", "backend": "hardware", "object": {"name": "rectangle"},
+                                   "hardware_config": str(_config(tmp_path, server.port, video)),
+                                   "protocol": {"kind": "render", "poses": POSES[1:]}})
+    run = load_run(run_scenario(scenario, tmp_path / "run", progress=False))
+    assert run.meta["backend"] == "hardware" and run.meta["status"] == "completed"
+    assert len(run.samples) == 3
+    for sample, target in zip(run.samples, POSES[1:]):
+        assert np.allclose(sample["pose"][:3], target[:3], atol=0.01)   # measured by the controller
+        assert sample["truth"] == {} and sample["frame"] is not None
+        assert sum(sample["found"]) == 127                               # tracked from MJPG video frames
+    assert run.frame(0).shape == (480, 640, 3)
+
+
+@pytest.fixture(scope="module")
+def tap_model_file(tmp_path_factory) -> Path:
+    """A PCA+GP model trained on a small sim tap set (6 orientations) of the same sensor."""
+    tmp = tmp_path_factory.mktemp("taps")
+    taps = scenario_from_dict({"name": "small_taps", "object": {"name": "rectangle"}, "fidelity": "fast",
+                               "effects": ["contact"],
+                               "protocol": {"kind": "taps", "orientations_deg": [-120, -60, 0, 60, 120, 180]}})
+    model = train_from_run(load_run(run_scenario(taps, tmp / "taps", workers=1, progress=False)))
+    return model.save(tmp / "model.npz")
+
+
+def test_same_contour_controller_runs_on_hardware(tmp_path, server, video, tap_model_file) -> None:
+    model_path = tap_model_file
+    scenario = scenario_from_dict({"name": "hw_contour", "backend": "hardware", "object": {"name": "rectangle"},
+                                   "hardware_config": str(_config(tmp_path, server.port, video)),
+                                   "effects": ["contact", "friction", "render"],
+                                   "protocol": {"kind": "contour", "max_steps": 3, "model": str(model_path)}})
+    run = load_run(run_scenario(scenario, tmp_path / "contour", progress=False))
+    assert run.meta["status"] == "completed" and len(run.samples) == 3
+    assert (tmp_path / "contour" / "metrics.json").exists() and (tmp_path / "contour" / "contour.png").exists()
+    # reset + approach + descend + 2 controller steps + lift, all sent to the controller
+    assert server.count(Command.MOVE_LINEAR) >= 6
+
+
+def test_camera_running_dry_stops_safely_and_keeps_records(tmp_path, server, video) -> None:
+    poses = [[60, 0, 2, 0, 0, 0]] * 40  # more observations than the video has frames
+    scenario = scenario_from_dict({"name": "hw_dry", "backend": "hardware", "object": {"name": "rectangle"},
+                                   "hardware_config": str(_config(tmp_path, server.port, video)),
+                                   "protocol": {"kind": "render", "poses": poses}})
+    with pytest.raises(HardwareError, match="end of video"):
+        run_scenario(scenario, tmp_path / "dry", progress=False)
+    run = load_run(tmp_path / "dry")
+    assert run.meta["status"] == "failed" and "end of video" in run.meta["error"]
+    assert 0 < len(run.samples) < 40
