@@ -11,9 +11,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from twin.errors import UserError
 from twin.poses import Pose
 
-EFFECTS = ("contact", "friction", "render", "camera_noise", "lighting")
-#: Named in the design but not simulated yet; a scenario asking for them is refused.
-PLANNED_EFFECTS = ("arm_dynamics",)
+EFFECTS = ("contact", "friction", "arm_dynamics", "render", "camera_noise", "lighting")
 FIDELITIES = ("fast", "default", "reference")
 BUILTIN_OBJECTS = ("rectangle", "large_circle", "small_circle", "flower", "spiral", "tape_measure")
 
@@ -138,8 +136,6 @@ class Scenario(_Strict):
     @classmethod
     def _known_effects(cls, effects: list[str]) -> list[str]:
         for e in effects:
-            if e in PLANNED_EFFECTS:
-                raise ValueError(f"effect {e!r} is not implemented yet (the sensor follows the commanded pose exactly)")
             if e not in EFFECTS:
                 raise ValueError(f"unknown effect {e!r}; known effects are {', '.join(EFFECTS)}")
         if "friction" in effects and "contact" not in effects:

@@ -9,6 +9,7 @@ import numpy as np
 from twin import gl  # noqa: F401
 import mujoco
 
+from twin.arm import ArmDynamics
 from twin.env import Environment, Observation
 from twin.errors import UserError
 from twin.physics import SensorPhysics
@@ -47,6 +48,8 @@ class SimEnvironment(Environment):
         self.rng = np.random.default_rng(self.seed)
         start = self.scene.work2world @ self.start_pose.to_matrix()
         self._q = kinematics().inverse(start, TOOL2FLANGE)  # the start pose must be reachable too
+        self._commanded = start
+        self.arm = ArmDynamics(kinematics(), TOOL2FLANGE, self._q) if self.scenario.has("arm_dynamics") else None
         self.physics = SensorPhysics(self.scene.model, self.scene.data, self.scene.tactip, self.scene.dome_params,
                                      self.scenario.name, start, stimulus2world=self.scene.object2world,
                                      work2world=self.scene.work2world)
@@ -65,7 +68,18 @@ class SimEnvironment(Environment):
     def move_to(self, pose: Pose, speed_mm_s: float | None = None) -> None:
         target = self.scene.work2world @ pose.to_matrix()
         self._q = kinematics().inverse(target, TOOL2FLANGE, q_seed=self._q)  # raises UnreachablePoseError
-        self.physics.move(target, speed_mm_s or 20.0)
+        speed = speed_mm_s or 20.0
+        if self.arm is None:
+            self.physics.move(target, speed)
+        else:
+            # the dome follows the arm's actual tool pose, one physics step per sample
+            dt = self.scene.model.opt.timestep
+            previous = self._commanded
+            for actual in self.arm.move(self._commanded, target, speed, dt):
+                step_mm_s = np.linalg.norm(actual[:3, 3] - previous[:3, 3]) * 1e3 / dt
+                self.physics.move(actual, max(step_mm_s * (1 + 1e-9), 1e-6))
+                previous = actual
+        self._commanded = target
         self._frame = self.physics.settle()
 
     def observe(self) -> Observation:
