@@ -59,6 +59,21 @@ class CameraSpec(_Strict):
     noise_std: float = Field(default=2.0, ge=0, le=50, description="grey levels, with camera_noise")
 
 
+class PhysicsOverrides(_Strict):
+    """Overrides of the fidelity level's dome parameters (twin.dome.DomeParams), for sweeps."""
+
+    cellcount: Annotated[list[int], Field(min_length=3, max_length=3)] | None = None
+    timestep_s: float | None = Field(default=None, gt=0, le=0.05)
+    settle_px: float | None = Field(default=None, gt=0, le=5)
+    surface_spacing_mm: float | None = Field(default=None, ge=0.5, le=10)
+
+    def as_dome_changes(self) -> dict:
+        changes = {"cellcount": None if self.cellcount is None else tuple(self.cellcount), "timestep": self.timestep_s,
+                   "settle_px": self.settle_px,
+                   "surface_spacing": None if self.surface_spacing_mm is None else self.surface_spacing_mm * 1e-3}
+        return {k: v for k, v in changes.items() if v is not None}
+
+
 class SensorSpec(_Strict):
     camera: CameraSpec = CameraSpec()
 
@@ -128,6 +143,7 @@ class Scenario(_Strict):
     work_frame: Literal["object"] | PoseList = "object"
     sensor: SensorSpec = SensorSpec()
     fidelity: Literal["fast", "default", "reference"] = "default"
+    physics: PhysicsOverrides = PhysicsOverrides()
     effects: list[str] = ["contact", "friction", "render"]
     protocol: Protocol = RenderProtocol()
     hardware_config: str | None = None

@@ -109,10 +109,15 @@ def _add_object(spec: mujoco.MjSpec, body: mujoco.MjsBody, stimulus: Stimulus, c
             g.contype = g.conaffinity = 0
 
 
+def dome_params(scenario: Scenario) -> DomeParams:
+    """The scenario's fidelity level with its `physics` overrides applied."""
+    return FIDELITY_LEVELS[scenario.fidelity].with_(**scenario.physics.as_dome_changes())
+
+
 def build_scene(scenario: Scenario, start_pose: Pose) -> Scene:
     """Compile the physics scene with the sensor at `start_pose` (work frame, mm/deg)."""
     stimulus = load_scenario_stimulus(scenario)
-    params = FIDELITY_LEVELS[scenario.fidelity]
+    params = dome_params(scenario)
     object2world, work2world = object_and_work_frames(scenario, stimulus)
     spec = mujoco.MjSpec()
     spec.modelname = f"twin_{scenario.name}"

@@ -1,6 +1,7 @@
 """The simulated rig behind the `Environment` interface (twin.env)."""
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import cv2
@@ -41,6 +42,8 @@ class SimEnvironment(Environment):
         if scenario.has("render"):
             self._renderer = PinRenderer(self.camera, lighting=scenario.has("lighting"), msaa=scenario.sensor.camera.msaa)
         self._noise = scenario.sensor.camera.noise_std if scenario.has("camera_noise") else 0.0
+        #: wall time (s) spent per stage since construction: physics (move + settle), render
+        self.timings = {"physics": 0.0, "render": 0.0, "frames": 0}
         self._new_episode()
 
     def _new_episode(self) -> None:
@@ -69,6 +72,7 @@ class SimEnvironment(Environment):
         target = self.scene.work2world @ pose.to_matrix()
         self._q = kinematics().inverse(target, TOOL2FLANGE, q_seed=self._q)  # raises UnreachablePoseError
         speed = speed_mm_s or 20.0
+        t0 = time.perf_counter()
         if self.arm is None:
             self.physics.move(target, speed)
         else:
@@ -81,16 +85,20 @@ class SimEnvironment(Environment):
                 previous = actual
         self._commanded = target
         self._frame = self.physics.settle()
+        self.timings["physics"] += time.perf_counter() - t0
 
     def observe(self) -> Observation:
         frame = self._frame if self._frame is not None else self.physics.settle()
         self._frame = frame
+        self.timings["frames"] += 1
         pins_px = self.camera.project_tool_points(frame.pins_tool)
         pose = Pose.from_matrix(self.world2work @ frame.tool2world)
         truth = {"pins_px": pins_px, "contact_force_n": frame.contact_force, "physics_steps": frame.n_steps}
         if self._renderer is None:
             return Observation(time=frame.time, pose=pose, pins_px=pins_px, truth=truth)
+        t0 = time.perf_counter()
         image = self._renderer.render(frame.pins_tool, self._noise, self.rng)
+        self.timings["render"] += time.perf_counter() - t0
         return Observation(time=frame.time, pose=pose, frame=image, truth=truth)
 
     def close(self) -> None:
