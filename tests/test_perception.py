@@ -227,3 +227,32 @@ def test_fit_rejects_bad_input(train) -> None:
         PerceptionModel().fit(pins[:, :100], th, la, de, np.random.default_rng(0))
     with pytest.raises(UserError, match="no-contact"):
         PerceptionModel().fit(pins, th, np.minimum(la, 6.0), de, np.random.default_rng(0))
+
+
+def test_no_contact_is_measured_not_labelled(train) -> None:
+    # On the twin the 40 mm dome pressed 4 mm deep at l = 9.9 mm touches the edge. Those
+    # frames are contact frames; the contact threshold must not swallow the 2 mm taps.
+    pins, th, la, de = train
+    touching = (la == 9.9) & (de == 4.0)
+    pins = pins.copy()
+    pins[touching] = synthetic_tap_pins(th[touching], np.full(touching.sum(), 6.0), de[touching])
+    m = PerceptionModel(gp=FAST).fit(pins, th, la, de, np.random.default_rng(0))
+    assert m.info["n_no_contact"] == 18 and m.info["n_labelled_no_contact_touching"] == 18
+    nc = m.training_summary["no_contact"]
+    assert nc[(la == 9.9) & (de == 2.0)].all() and not nc[touching].any()
+    assert np.allclose(m.reference_pins_px, pins[0])
+    light = (la <= 4.0) & (de == 2.0)  # the lightest real contacts of the training set
+    assert m.predict(pins[light]).ok.all()
+    assert not m.predict(pins[(la == 9.9) & (de == 2.0)]).ok.any()
+
+
+@pytest.mark.parametrize("mode", ["pooled", "none"])
+def test_depth_shift_modes(train, mode: str) -> None:
+    pins, th, la, de = train
+    m = PerceptionModel(gp=FAST, depth_shift_mode=mode).fit(pins, th, la, de, np.random.default_rng(0))
+    assert len(m.depth_shift.shifts) == (1 if mode == "pooled" else 0)
+    assert m.info["depth_shift"] == mode
+    pred = m.predict(synthetic_tap_pins([30.0, -100.0], [0.0, 3.0], [3.0, 3.0]))
+    assert pred.ok.all() and np.max(np.abs(angle_error_deg(pred.theta_deg, [30.0, -100.0]))) < 5.0
+    with pytest.raises(UserError, match="depth_shift_mode"):
+        PerceptionModel(depth_shift_mode="sideways")

@@ -10,7 +10,8 @@ Pipeline (method "pca"):
 
 1. PCA of the tap training matrix D (N × 254): p = E3ᵀ (z − z̄), 3 components (SVD; each
    eigenvector's sign is fixed so its largest-magnitude loading is positive).
-2. q = p − p0 with p0 the projection of the *first* no-contact training frame.
+2. q = p − p0 with p0 the projection of the reference no-contact training frame (the
+   first one: see "No contact" below).
    θ_PC23 = atan2(q3, q2) about that origin. ρ and φ are taken about an origin shifted in
    the PC2–PC3 plane by c(θ_PC23) = s(θ_PC23)·(cos θ_PC23, sin θ_PC23) (paper: "shifted in
    the PC2-PC3 plane for each θ_PC23 so that the same lateral positions in the middle of
@@ -21,7 +22,11 @@ Pipeline (method "pca"):
    along the points' mean PC2–PC3 direction, the least-squares line t = s + k·q1 through
    the points of all depths gives s, the shift that puts them on one ray from the new
    origin (equal φ). s is interpolated periodically (linear) over θ_PC23 at prediction
-   time. With a single depth s ≡ 0 (the paper's unshifted origin).
+   time. With a single depth s ≡ 0 (the paper's unshifted origin). Only contact frames
+   enter the fit. `depth_shift_mode`: "per_orientation" (the above, the paper's; default),
+   "pooled" (one s from one line through the mid-range points of all orientations — an
+   option for data whose per-orientation fits scatter, as on a dome model that is not
+   rotation-invariant) or "none" (s ≡ 0).
 3. Pruning (paper §"Training Data Pruning"): the no-contact frames are removed from both
    sets (the paper: "we remove them from the training set"); then sensitivity S = ‖Δp‖/|Δw| to the neighbouring
    labels (lateral: along l within each (θ, depth); orientation: circularly along θ within
@@ -37,6 +42,16 @@ Pipeline (method "pca"):
    unit variance, undone on prediction). Hyperparameters maximise the log marginal
    likelihood with bounded L-BFGS-B (sklearn), restarts seeded from the passed-in Generator.
    θ̂ = atan2(f̄_sin, f̄_cos) (deg), l̂ = f̄_lat (mm).
+
+No contact. The paper's l = 9.9 mm taps do not touch anything; on the twin the 40 mm dome
+pressed 4 mm deep there does touch the edge (pins move ≈ 5 px). So "no contact" is what the
+pins show, not the label: the frames labelled l ≥ `no_contact_lateral_mm` are only the
+candidates for the reference frame, and a frame is no-contact when all its pins lie within
+`no_contact_px` (0.3 px ≈ 3× the tracker's error on twin frames) of the reference. The
+touching l = 9.9 frames then train the GPs with their labels like any contact frame, and
+the contact threshold of `predict` (3 × the RMS ‖q‖ of the no-contact frames, at least
+half the smallest ‖q‖ of a kept contact frame) is no longer inflated by them — with the
+label rule it exceeded every 2 mm tap, so half of all predictions came out "no contact".
 
 Baseline (method "baseline", paper: "raw sensor measurements … one hyperparameter for all
 the pin positions"): the same three GPs on x = (z − z_ref) / scale with an isotropic Matern
@@ -75,6 +90,7 @@ FORMAT_VERSION = 1
 N_DIMS = 2 * N_PINS
 GP_NAMES = ("cos", "sin", "lat")
 NO_CONTACT = "no contact"
+SHIFT_MODES = ("pooled", "per_orientation", "none")
 
 
 # ----------------------------------------------------------------------------- helpers
@@ -203,16 +219,25 @@ class DepthShift:
         return np.interp(theta_pc23, self.anchors_rad, self.shifts, period=2 * np.pi)
 
     @classmethod
-    def fit(cls, q: np.ndarray, theta_deg: np.ndarray, lateral_mm: np.ndarray, depth_mm: np.ndarray) -> DepthShift:
-        """Fit from training projections q = p − p0 (N, 3) and their labels (see module doc)."""
+    def fit(
+        cls, q: np.ndarray, theta_deg: np.ndarray, lateral_mm: np.ndarray, depth_mm: np.ndarray,
+        mode: str = "per_orientation"
+    ) -> DepthShift:
+        """Fit from training projections q = p − p0 (N, 3) and their labels (see module doc).
+
+        mode: "pooled" (one shift from the mid-range points of all orientations),
+        "per_orientation" (one per orientation label, interpolated over θ_PC23) or "none".
+        """
+        if mode not in SHIFT_MODES:
+            raise UserError(f"perception: depth_shift must be one of {', '.join(SHIFT_MODES)}, got {mode!r}")
         depths = np.unique(np.round(depth_mm, 9))
         lats = np.unique(np.round(lateral_mm, 9))
         empty = cls(np.zeros(0), np.zeros(0))
-        if len(depths) < 2 or len(lats) == 0:
+        if mode == "none" or len(depths) < 2 or len(lats) == 0:
             return empty
         mid = 0.5 * (lats.min() + lats.max())
         l_mid = lats[np.argmin(np.abs(lats - mid))]
-        anchors, shifts = [], []
+        anchors, shifts, x1s, ts = [], [], [], []
         for th in np.unique(np.round(theta_deg, 9)):
             sel = np.flatnonzero((np.abs(theta_deg - th) < 1e-6) & (np.abs(lateral_mm - l_mid) < 1e-6))
             if len(np.unique(np.round(depth_mm[sel], 9))) < 2:
@@ -230,8 +255,13 @@ class DepthShift:
             slope, intercept = np.polyfit(x1, t, 1)
             anchors.append(math.atan2(u[1], u[0]))
             shifts.append(float(intercept))
+            x1s.append(x1)
+            ts.append(t)
         if not anchors:
             return empty
+        if mode == "pooled":
+            x1, t = np.concatenate(x1s), np.concatenate(ts)
+            return cls(np.zeros(1), np.array([float(np.polyfit(x1, t, 1)[1])]))
         order = np.argsort(anchors)
         return cls(np.asarray(anchors)[order], np.asarray(shifts)[order])
 
@@ -342,7 +372,13 @@ class PerceptionModel:
     gp: kernel bounds and optimiser settings.
     max_missing_fraction: above this fraction of missing pins a prediction is not ok.
     lateral_keep_fraction: pruning keeps at least this fraction of the lateral set.
-    no_contact_lateral_mm: default no-contact rule for `fit`: lateral label ≥ this (mm).
+    no_contact_lateral_mm: frames labelled with a lateral position ≥ this (mm) are the
+        candidates for the reference (no-contact) frame.
+    no_contact_px: default no-contact rule for `fit`: a frame whose pins all lie within this
+        distance (px, training resolution) of the reference pins is "no contact" — by what
+        the pins show, not by the label (see `fit`).
+    depth_shift_mode: origin shift of ρ/φ — "per_orientation" (the paper), "pooled" or "none"
+        (module doc, step 2).
     """
 
     method: str = "pca"
@@ -351,6 +387,8 @@ class PerceptionModel:
     lateral_keep_fraction: float = 0.9
     no_contact_lateral_mm: float = 9.9
     n_components: int = 3
+    no_contact_px: float = 0.3
+    depth_shift_mode: str = "per_orientation"
 
     # Fitted state (set by fit / load).
     resolution: tuple[int, int] = (640, 480)
@@ -371,6 +409,9 @@ class PerceptionModel:
     def __post_init__(self) -> None:
         if self.method not in ("pca", "baseline"):
             raise UserError(f"perception: method must be 'pca' or 'baseline', got {self.method!r}")
+        if self.depth_shift_mode not in SHIFT_MODES:
+            raise UserError(f"perception: depth_shift_mode must be one of {', '.join(SHIFT_MODES)}, "
+                            f"got {self.depth_shift_mode!r}")
 
     # ------------------------------------------------------------------ features
 
@@ -424,9 +465,17 @@ class PerceptionModel:
         """Fit from N tap frames.
 
         pins_px: (N, 127, 2) px at `resolution` (W, H). theta_deg (deg), lateral_mm (mm),
-        depth_mm (mm): (N,) labels. no_contact: (N,) bool, default lateral ≥
-        `no_contact_lateral_mm`; the first no-contact frame is the origin and the reference
-        pins. rng seeds the hyperparameter restarts. source: "sim" or "real" (recorded).
+        depth_mm (mm): (N,) labels. rng seeds the hyperparameter restarts. source: "sim" or
+        "real" (recorded).
+
+        no_contact: (N,) bool; default measured from the pins. The frames labelled with
+        lateral ≥ `no_contact_lateral_mm` are the candidates; the reference is the first
+        candidate whose pins lie within `no_contact_px` of the candidates' median pins (the
+        first candidate if none does); a frame is "no contact" when all its pins lie within
+        `no_contact_px` of the reference. (On the twin the 40 mm dome pressed 4 mm deep at
+        l = 9.9 mm does touch the edge — pins move by ≈ 5 px — so those frames are contact
+        frames and train the GPs with their labels.) With `no_contact` given, the reference
+        is its first frame. The reference is the origin p0 and the model's reference pins.
         """
         t0 = time.perf_counter()
         pins = np.asarray(pins_px, float)
@@ -439,19 +488,31 @@ class PerceptionModel:
                 raise UserError(f"perception fit: {name} must be {n} finite labels, got {len(arr)}")
         if not np.all(np.isfinite(pins)):
             raise UserError("perception fit: training pins contain NaN/inf (fill or drop those frames)")
-        if no_contact is None:
-            no_contact = lateral_mm >= self.no_contact_lateral_mm - 1e-9
-        no_contact = np.asarray(no_contact, bool)
-        if not no_contact.any():
-            raise UserError(
-                f"perception fit: no no-contact frame in the training set (lateral ≥ {self.no_contact_lateral_mm} mm); "
-                "pass no_contact="
-            )
         if source not in ("sim", "real"):
             raise UserError(f"perception fit: source must be 'sim' or 'real', got {source!r}")
+        if no_contact is None:
+            candidates = np.flatnonzero(lateral_mm >= self.no_contact_lateral_mm - 1e-9)
+            if not len(candidates):
+                raise UserError(
+                    f"perception fit: no no-contact frame in the training set (lateral ≥ {self.no_contact_lateral_mm} mm); "
+                    "pass no_contact="
+                )
+            median = np.median(pins[candidates], axis=0)
+            near = [i for i in candidates if _max_shift(pins[i], median) <= self.no_contact_px]
+            ref_idx = int(near[0] if near else candidates[0])
+            no_contact = np.array([_max_shift(p, pins[ref_idx]) <= self.no_contact_px for p in pins])
+            rule = f"measured: all pins within {self.no_contact_px:g} px of frame {ref_idx}"
+        else:
+            no_contact = np.asarray(no_contact, bool).reshape(-1)
+            if len(no_contact) != n:
+                raise UserError(f"perception fit: no_contact must be {n} bools, got {len(no_contact)}")
+            if not no_contact.any():
+                raise UserError("perception fit: no_contact marks no frame; the reference needs a no-contact frame")
+            ref_idx = int(np.flatnonzero(no_contact)[0])
+            rule = "given"
         self.resolution = (int(resolution[0]), int(resolution[1]))
         self.source = source
-        first_nc = int(np.flatnonzero(no_contact)[0])
+        first_nc = ref_idx
         self.reference_pins_px = pins[first_nc].copy()
 
         z = pins_to_vectors(pins)
@@ -459,7 +520,8 @@ class PerceptionModel:
         p = (z - self.pca_mean) @ self.pca_components.T
         self.origin_p = p[first_nc].copy()
         q = p - self.origin_p
-        self.depth_shift = DepthShift.fit(q, theta_deg, lateral_mm, depth_mm)
+        self.depth_shift = DepthShift.fit(q[~no_contact], theta_deg[~no_contact], lateral_mm[~no_contact],
+                                          depth_mm[~no_contact], self.depth_shift_mode)
 
         # Pruning (paper): orientation set per (l, depth), lateral set per (θ, depth).
         s_orient = sensitivity(p, theta_deg, _group_ids(lateral_mm, depth_mm), circular_deg=True)
@@ -499,8 +561,13 @@ class PerceptionModel:
             kernel = make_kernel(x.shape[1], ard, self.gp)
             self._gps[name] = fit_gp(x[keep], y[keep], kernel, self.gp, rng)
             self._gp_y[name] = y[keep].copy()
+        touching = (lateral_mm >= self.no_contact_lateral_mm - 1e-9) & ~no_contact
         self.info = {
             "n_train": n,
+            "no_contact_rule": rule,
+            "n_no_contact": int(no_contact.sum()),
+            "n_labelled_no_contact_touching": int(touching.sum()),
+            "depth_shift": self.depth_shift_mode,
             "n_orientation_kept": int(keep_orient.sum()),
             "n_lateral_kept": int(keep_lat.sum()),
             "variance_explained": [float(a) for a in self.variance_explained],
@@ -597,6 +664,8 @@ class PerceptionModel:
             "max_missing_fraction": self.max_missing_fraction,
             "lateral_keep_fraction": self.lateral_keep_fraction,
             "no_contact_lateral_mm": self.no_contact_lateral_mm,
+            "no_contact_px": self.no_contact_px,
+            "depth_shift_mode": self.depth_shift_mode,
             "input_scale": self.input_scale,
             "contact_threshold": self.contact_threshold,
             "info": self.info,
@@ -644,6 +713,8 @@ class PerceptionModel:
             method=header["method"], gp=gp_cfg, max_missing_fraction=header["max_missing_fraction"],
             lateral_keep_fraction=header["lateral_keep_fraction"],
             no_contact_lateral_mm=header["no_contact_lateral_mm"], n_components=header["n_components"],
+            no_contact_px=header.get("no_contact_px", 0.3),
+            depth_shift_mode=header.get("depth_shift_mode", "per_orientation"),
         )
         model.resolution = tuple(int(a) for a in header["camera_resolution"])
         model.source = header["source"]
@@ -669,6 +740,11 @@ class PerceptionModel:
     def training_summary(self) -> dict:
         """Training-set projections, labels and pruning masks (for plots and reports)."""
         return dict(self._train)
+
+
+def _max_shift(a: np.ndarray, b: np.ndarray) -> float:
+    """Largest pin displacement (px) between two (127, 2) pin sets."""
+    return float(np.max(np.linalg.norm(a - b, axis=1)))
 
 
 def _group_ids(*labels: np.ndarray) -> np.ndarray:

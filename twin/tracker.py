@@ -2,14 +2,18 @@
 
 The same code runs on rendered (sim) and filmed (real) frames: it only sees pixels.
 
-* `detect_pins` finds the white pin tips in one frame: grayscale → circular aperture mask →
-  Otsu threshold → connected components → area/shape filter → intensity-weighted
-  sub-pixel centroids (px, u right, v down).
+* `detect_pins` finds the white pin tips in one frame: grayscale → circular aperture mask
+  (only the aperture's bounding box is processed) → Otsu threshold → connected components
+  → area/shape filter → intensity-weighted sub-pixel centroids (px, u right, v down).
 * `PinTracker` keeps every pin's identity (the fixed 127-pin order of README
-  "Conventions") from a no-contact reference frame onwards: each frame's detections are
-  assigned to the previous frame's positions with the Hungarian method, gated by a
-  maximum jump. A pin that cannot be assigned keeps its last known position and is
-  flagged; pins are never reordered or dropped.
+  "Conventions") from a no-contact reference frame onwards. Pins can move by more than
+  half a pin spacing between two frames — independent taps (the sensor lifts between
+  them: ≈ 21 px on the twin) or the shear when a slide starts (up to 1.2 spacings) — so
+  detections are not matched to the previous positions directly but through a smooth
+  displacement field over the pin lattice, grown from the pins that match unambiguously
+  (see `PinTracker`), then assigned one-to-one with the Hungarian method. A pin that
+  cannot be assigned is reported where its neighbours' motion puts it and flagged with a
+  reason; pins are never reordered or dropped.
 * `reference_pins_from_frame` orders the detections of a no-contact frame into the
   canonical order by fitting the projected pin template (`CameraModel`) with a
   similarity transform, so it also works for a real camera whose centre, scale and
@@ -111,7 +115,12 @@ def _to_gray(frame: np.ndarray) -> np.ndarray:
     if frame.ndim == 3 and frame.shape[2] == 1:
         frame = frame[:, :, 0]
     if frame.ndim == 3:
-        frame = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
+        if frame.shape[2] == 3 and frame.strides[2] < 0:
+            # A channel-reversed view (e.g. RGB ↔ BGR by [..., ::-1]): reverse it back for
+            # free instead of letting OpenCV copy it.
+            frame = cv2.cvtColor(frame[..., ::-1], cv2.COLOR_RGB2GRAY)
+        else:
+            frame = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
     if frame.ndim != 2:
         raise UserError(f"tracker: a frame must be (H, W) or (H, W, 3), got shape {frame.shape}")
     if frame.dtype != np.uint8:
@@ -131,49 +140,71 @@ def detect_pins(
 ) -> Detections:
     """Detect white pin tips in a TacTip frame.
 
-    frame: (H, W) gray or (H, W, 3) BGR image, uint8 (floats in [0, 1] or [0, 255] accepted).
+    frame: (H, W) gray or (H, W, 3) colour image (BGR weights; the pins are white, so RGB
+        works the same), uint8 (floats in [0, 1] or [0, 255] accepted).
     aperture_radius_px / aperture_centre_px: circular region searched; defaults from
         `CameraModel` at the frame's resolution (centred on ((W − 1)/2, (H − 1)/2) like the intrinsics).
+        Only the aperture's bounding box is processed.
     min_area_px: smallest blob kept (px²); default 15 % of the area of the smallest
         expected pin at this resolution (rejects noise specks).
-    threshold: fixed gray threshold; default Otsu over the aperture.
+    threshold: fixed gray threshold; default Otsu over the aperture's bounding box
+        (outside the aperture counts as black).
+
+    Shape filter (rotation invariant, from each blob's second moments): aspect
+    √(λmax/λmin) ≤ 3 and fill = area / (4π·√det Σ) ≥ 0.6 (1 for a filled ellipse; two
+    touching discs ≈ 0.9, so merged pins are kept and flagged later by their area).
     """
-    gray = _to_gray(np.asarray(frame))
-    height, width = gray.shape
+    frame = np.asarray(frame)
+    height, width = frame.shape[:2]
     if aperture_radius_px is None:
         aperture_radius_px = camera_for_frame(width, height).aperture_radius_px
     cx, cy = aperture_centre_px if aperture_centre_px is not None else ((width - 1) / 2, (height - 1) / 2)
-    mask = _aperture_mask(width, height, float(cx), float(cy), float(aperture_radius_px))
+    r = float(aperture_radius_px)
+    x0, x1 = max(0, int(np.floor(cx - r)) - 1), min(width, int(np.ceil(cx + r)) + 2)
+    y0, y1 = max(0, int(np.floor(cy - r)) - 1), min(height, int(np.ceil(cy + r)) + 2)
+    if x1 <= x0 or y1 <= y0:
+        return Detections(np.zeros((0, 2)), np.zeros(0), 0.0)
+    gray = _to_gray(frame[y0:y1, x0:x1])
+    mask = _aperture_mask(x1 - x0, y1 - y0, float(cx) - x0, float(cy) - y0, r)
     masked = cv2.bitwise_and(gray, mask)
     if threshold is None:
         thr, binary = cv2.threshold(masked, 0, 255, cv2.THRESH_BINARY | cv2.THRESH_OTSU)
     else:
         thr, binary = cv2.threshold(masked, float(threshold), 255, cv2.THRESH_BINARY)
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(binary, connectivity=8, ltype=cv2.CV_32S)
+    n, labels = cv2.connectedComponents(binary, connectivity=8, ltype=cv2.CV_32S)
+    if n <= 1:
+        return Detections(np.zeros((0, 2)), np.zeros(0), float(thr))
     if min_area_px is None:
         min_area_px = _default_min_area(width, height)
-    area = stats[1:, cv2.CC_STAT_AREA].astype(float)
-    bw = stats[1:, cv2.CC_STAT_WIDTH].astype(float)
-    bh = stats[1:, cv2.CC_STAT_HEIGHT].astype(float)
-    fill = area / np.maximum(bw * bh, 1.0)
-    aspect = np.maximum(bw, bh) / np.maximum(np.minimum(bw, bh), 1.0)
-    # Discs fill π/4 of their box; two merged discs still fill > 0.5 with aspect ≤ 2.
-    keep = (area >= min_area_px) & (fill >= 0.45) & (aspect <= 3.0)
-    if n <= 1 or not keep.any():
+    nz = cv2.findNonZero(binary).reshape(-1, 2)  # much faster than np.nonzero
+    xs, ys = nz[:, 0].astype(np.float64), nz[:, 1].astype(np.float64)
+    lab = labels[nz[:, 1], nz[:, 0]]
+    area = np.bincount(lab, minlength=n).astype(float)
+    safe = np.maximum(area, 1.0)
+    mx, my = np.bincount(lab, xs, n) / safe, np.bincount(lab, ys, n) / safe
+    sxx = np.bincount(lab, xs * xs, n) / safe - mx**2
+    syy = np.bincount(lab, ys * ys, n) / safe - my**2
+    sxy = np.bincount(lab, xs * ys, n) / safe - mx * my
+    # Pixels are unit squares: add their own variance (1/12) so one-pixel-wide blobs stay finite.
+    sxx, syy = sxx + 1.0 / 12.0, syy + 1.0 / 12.0
+    half_tr, det = 0.5 * (sxx + syy), np.maximum(sxx * syy - sxy**2, 1e-12)
+    disc = np.sqrt(np.maximum(half_tr**2 - det, 0.0))
+    aspect = np.sqrt((half_tr + disc) / np.maximum(half_tr - disc, 1e-12))
+    fill = area / (4.0 * np.pi * np.sqrt(det))
+    keep = (area >= min_area_px) & (fill >= 0.6) & (aspect <= 3.0)
+    keep[0] = False  # background
+    if not keep.any():
         return Detections(np.zeros((0, 2)), np.zeros(0), float(thr))
 
     # Intensity-weighted centroids over each component's pixels, weights = gray − threshold
     # (the background level contributes nothing, the bright core the most).
-    nz = cv2.findNonZero(binary).reshape(-1, 2)  # much faster than np.nonzero
-    xs, ys = nz[:, 0], nz[:, 1]
-    lab = labels[ys, xs]
-    w = gray[ys, xs].astype(np.float64) - (float(thr) - 1.0)
+    w = gray[nz[:, 1], nz[:, 0]].astype(np.float64) - (float(thr) - 1.0)
     sw = np.bincount(lab, weights=w, minlength=n)
     su = np.bincount(lab, weights=w * xs, minlength=n)
     sv = np.bincount(lab, weights=w * ys, minlength=n)
-    idx = np.flatnonzero(keep) + 1
-    centroids = np.column_stack([su[idx] / sw[idx], sv[idx] / sw[idx]])
-    return Detections(centroids, area[idx - 1], float(thr))
+    idx = np.flatnonzero(keep)
+    centroids = np.column_stack([su[idx] / sw[idx] + x0, sv[idx] / sw[idx] + y0])
+    return Detections(centroids, area[idx], float(thr))
 
 
 def _similarity_fit(src: np.ndarray, dst: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
@@ -252,17 +283,52 @@ def reference_pins_from_frame(frame: np.ndarray, camera: CameraModel | None = No
 
 
 class PinTracker:
-    """Frame-to-frame pin tracker that preserves the canonical pin identities.
+    """Pin tracker that preserves the canonical pin identities from frame to frame.
+
+    Each frame's detections are matched to the pins through a smooth displacement field
+    over the pin lattice (the skin moves as a continuum: on the twin, neighbouring pins
+    differ in displacement by at most ≈ 0.35 spacing even when the pins jump by more than
+    a spacing between frames):
+
+    1. Start from a prediction of every pin's position: the previous frame's pins; if that
+       leaves pins unresolved, the previous pins moved by the mean displacement of the
+       detections (with all pins seen, the mean of the blobs minus the mean of the pins is
+       the pins' mean motion: it catches the whole-pattern shear when a slide starts), the
+       reference moved likewise, and the reference itself (taps are independent presses,
+       so the previous frame may belong to another contact). The start that resolves the
+       most pins (then the smoothest field) wins.
+    2. Confident matches: the pin's nearest blob is within `confident_fraction` of a pin
+       spacing, the match is mutual (the blob's nearest prediction is that pin) and both
+       pass a ratio test (the second-nearest blob / prediction is at least twice as far).
+    3. Consistency: each confident match's displacement from the reference is compared
+       with the field fitted to the *other* confident pins (leave-one-out); matches that
+       disagree by more than `consistency_fraction` of a spacing are dropped — a pin that
+       took its neighbour's blob is a spacing off its neighbours' motion.
+    4. The field (moving-least-squares affine fit over the reference lattice, Gaussian
+       weights of σ = `field_sigma` spacings, ridge `field_ridge` on the affine part)
+       predicts the unresolved pins; repeat from 2 until the confident set stops changing
+       (at most `max_iterations`), so the resolved region grows into the pins near the
+       contact that moved furthest.
+    5. If every pin is resolved that is the assignment. Otherwise all pins are assigned
+       one-to-one to blobs (Hungarian) on the distance to their prediction, gated by
+       `max_jump_px`; a blob much larger than a pin may take several.
+
+    A pin without a blob within the gate is "missing"; pins sharing one blob are
+    "merged"; a pin whose blob is nearly as close to another pin's prediction is
+    "ambiguous". Such pins are reported at their predicted position (from the motion of
+    their neighbours) with the reason; pins are never reordered or dropped.
 
     reference: (127, 2) reference pin positions (px, canonical order) or a no-contact
         frame (H, W[, 3]) from which they are detected and ordered.
-    max_jump_px: largest per-frame pin displacement accepted (px); default half the
-        median nearest-neighbour pin spacing of the reference.
+    max_jump_px: largest distance between a pin's predicted position and its blob (px);
+        default half the median nearest-neighbour pin spacing of the reference.
     merge_area_ratio: a blob whose area exceeds this multiple of the expected pin area
         may hold several pins.
     ambiguity_ratio: a pin is "ambiguous" when the distance to its blob is more than this
-        fraction of the blob's distance to the next-closest pin (and at least a quarter
-        of a pin spacing).
+        fraction of the blob's distance to the next-closest predicted pin (and at least a
+        quarter of a pin spacing).
+    confident_fraction, consistency_fraction, field_sigma (spacings), field_ridge,
+    max_iterations: steps 2–4 above.
     """
 
     def __init__(
@@ -273,6 +339,11 @@ class PinTracker:
         merge_area_ratio: float = 1.45,
         ambiguity_ratio: float = 0.8,
         reference_areas_px: np.ndarray | None = None,
+        confident_fraction: float = 0.35,
+        consistency_fraction: float = 0.4,
+        field_sigma: float = 0.75,
+        field_ridge: float = 0.05,
+        max_iterations: int = 8,
     ) -> None:
         reference = np.asarray(reference)
         if reference.shape == (N_PINS, 2):
@@ -289,6 +360,17 @@ class PinTracker:
         self.max_jump_px = float(max_jump_px) if max_jump_px is not None else 0.5 * self.spacing_px
         self.merge_area_ratio = float(merge_area_ratio)
         self.ambiguity_ratio = float(ambiguity_ratio)
+        self.confident_px = float(confident_fraction) * self.spacing_px
+        self.consistency_px = float(consistency_fraction) * self.spacing_px
+        self.field_ridge = float(field_ridge)
+        self.max_iterations = int(max_iterations)
+        # Lattice geometry of the field fit (spacing units), fixed by the reference.
+        # Weighted moments over pin pairs (i, j): w, w·x, w·y, w·x², w·xy, w·y², with (x, y) the
+        # offset of j from i in spacings and w = exp(−|offset|² / 2σ²).
+        off = (pins[None, :, :] - pins[:, None, :]) / self.spacing_px
+        w = np.exp(-np.sum(off**2, axis=2) / (2.0 * float(field_sigma) ** 2))
+        ox, oy = off[..., 0], off[..., 1]
+        self._moments = np.stack([w, w * ox, w * oy, w * ox * ox, w * ox * oy, w * oy * oy])
         self._previous = pins.copy()
 
     @property
@@ -297,7 +379,7 @@ class PinTracker:
         return self._reference.copy()
 
     def reset(self) -> None:
-        """Forget the motion history: the next frame is matched against the reference."""
+        """Forget the motion history: the next frame is matched starting from the reference."""
         self._previous = self._reference.copy()
 
     def _expected_areas(self, detections: Detections) -> np.ndarray:
@@ -317,24 +399,105 @@ class PinTracker:
         ms = (time.perf_counter() - t0) * 1e3
         return TrackResult(result.pins_px, result.found, result.reasons, result.n_detected, ms)
 
+    # ------------------------------------------------------------------ displacement field
+
+    def _field(self, disp: np.ndarray, use: np.ndarray, exclude_self: bool = False) -> np.ndarray:
+        """(127, 2) displacement (px) predicted at every pin from the displacements `disp`
+        of the pins in `use` (see the class doc, step 4). exclude_self: leave each pin out
+        of its own fit (the consistency check)."""
+        u = use.astype(float)
+        rhs = np.column_stack([u, u[:, None] * disp])               # (127, 3): u, u·du, u·dv
+        g = self._moments @ rhs                                     # (6, 127, 3)
+        if exclude_self:  # the pin's own term: weight 1, offset 0 → only in the Σw rows
+            g[0] -= rhs
+        sw = g[0, :, 0] + 1e-300
+        ridge = self.field_ridge * sw
+        a = np.empty((N_PINS, 3, 3))
+        a[:, 0, 0] = sw
+        a[:, 0, 1] = a[:, 1, 0] = g[1, :, 0]
+        a[:, 0, 2] = a[:, 2, 0] = g[2, :, 0]
+        a[:, 1, 1] = g[3, :, 0] + ridge
+        a[:, 1, 2] = a[:, 2, 1] = g[4, :, 0]
+        a[:, 2, 2] = g[5, :, 0] + ridge
+        b = g[:3, :, 1:].transpose(1, 0, 2)                         # (127, 3, 2)
+        return np.linalg.solve(a, b)[:, 0, :]
+
+    def _match_field(self, cents: np.ndarray, tree: cKDTree, start: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+        """Steps 2–4 of the class doc from the predicted positions `start`.
+
+        Returns (predicted positions (127, 2) px — the matched blob for confident pins, the
+        field's prediction otherwise —, confident mask (127,), RMS leave-one-out residual of
+        the confident pins (px))."""
+        ref = self._reference
+        k = len(cents)
+        pred = start
+        conf = np.zeros(N_PINS, bool)
+        loo_rms = np.inf
+        pin_ids = np.arange(N_PINS)
+        for _ in range(self.max_iterations):
+            d, nn = tree.query(pred, k=2)
+            d = d.reshape(N_PINS, -1)
+            nn = nn.reshape(N_PINS, -1)
+            j = nn[:, 0]
+            second = d[:, 1] if k > 1 else np.full(N_PINS, np.inf)
+            dp, ip = cKDTree(pred).query(cents, k=2)
+            new = (ip[j, 0] == pin_ids) & (d[:, 0] <= self.confident_px) & (d[:, 0] <= 0.5 * second)
+            new &= dp[j, 0] <= 0.5 * dp[j, 1]
+            disp = cents[j] - ref
+            if new.sum() >= 4:
+                resid = np.linalg.norm(disp - self._field(disp, new, exclude_self=True), axis=1)
+                new &= resid <= self.consistency_px
+                loo_rms = float(np.sqrt(np.mean(resid[new] ** 2))) if new.any() else np.inf
+            if new.all():  # every pin has its own blob: nothing left to predict
+                return cents[j], new, loo_rms
+            pred = ref + self._field(disp, new)
+            pred[new] = cents[j[new]]
+            if np.array_equal(new, conf):
+                break
+            conf = new
+        return pred, conf, loo_rms
+
     def assign(self, det: Detections) -> TrackResult:
         """Assign detections to pin identities and advance the tracker state."""
         t0 = time.perf_counter()
-        prev = self._previous
         cents, areas = det.centroids_px, det.areas_px
         k = len(cents)
-        pins = prev.copy()
         found = np.zeros(N_PINS, bool)
         reasons = [MISSING] * N_PINS
         if k == 0:
-            self._previous = pins
+            pins = self._previous.copy()
             return TrackResult(pins, found, tuple(reasons), 0, (time.perf_counter() - t0) * 1e3)
 
-        dist = np.linalg.norm(prev[:, None, :] - cents[None, :, :], axis=2)  # (127, K)
+        # Steps 1–4: predict every pin, from the previous frame, then if pins are left
+        # unresolved from the previous frame and the reference moved by the detections' mean
+        # displacement (a jump of a spacing or more: shear when sliding starts, or a new tap).
+        tree = cKDTree(cents)
+        shift = cents.mean(axis=0) - self._reference.mean(axis=0) if k >= 0.9 * N_PINS else None
+        starts = [self._previous]
+        if shift is not None:
+            starts += [self._previous + (cents.mean(axis=0) - self._previous.mean(axis=0)), self._reference + shift]
+        starts.append(self._reference)
+        best = None
+        for start in starts:
+            pred, conf, loo = self._match_field(cents, tree, start)
+            score = (int(conf.sum()), -loo)
+            if best is None or score > best[0]:
+                best = (score, pred)
+            if score[0] == N_PINS:
+                break
+        pred = best[1]
+        if best[0][0] == N_PINS:
+            # Every pin matched its own blob mutually and unambiguously (ratio tests) and
+            # consistently with its neighbours: that is the assignment (no merges possible).
+            self._previous = pred
+            return TrackResult(pred.copy(), np.ones(N_PINS, bool), (OK,) * N_PINS, k,
+                               (time.perf_counter() - t0) * 1e3)
+
+        # Step 5: one-to-one assignment to the predictions, gated; large blobs may take several pins.
+        dist = np.linalg.norm(pred[:, None, :] - cents[None, :, :], axis=2)  # (127, K)
         expected = self._expected_areas(det)
         nearest_pin = np.argmin(dist, axis=0)
         ratio = areas / np.maximum(expected[nearest_pin], 1e-9)
-        # A blob of area ratio r can hold up to round(r) pins (at most 3 offered).
         mult = np.clip(np.rint(ratio), 1, 3).astype(int)
         mult[ratio <= self.merge_area_ratio] = 1
         cols = np.repeat(np.arange(k), mult)
@@ -344,6 +507,7 @@ class PinTracker:
         valid = gated[rows, cc] < _BIG_COST
         rows, blob = rows[valid], cols[cc[valid]]
 
+        pins = pred.copy()  # unassigned pins: where their neighbours' motion puts them
         owner_count = np.bincount(blob, minlength=k)
         assigned_blob = np.full(N_PINS, -1)
         assigned_blob[rows] = blob
@@ -363,14 +527,14 @@ class PinTracker:
             merged_groups.setdefault(int(j), [])
         for j, extra in merged_groups.items():
             group = sorted(set(np.flatnonzero(assigned_blob == j).tolist()) | set(extra))
-            # The group moves with its blob; each pin keeps its offset within the group.
-            shift = cents[j] - prev[group].mean(axis=0)
+            # The group's predicted layout, centred on its blob.
+            shift = cents[j] - pred[group].mean(axis=0)
             for i in group:
-                pins[i] = prev[i] + shift
+                pins[i] = pred[i] + shift
                 found[i] = False
                 reasons[i] = MERGED
 
-        # Ambiguity: the blob is nearly as close to another pin's previous position.
+        # Ambiguity: the blob is nearly as close to another pin's predicted position.
         idx = np.flatnonzero(found)
         if len(idx) and N_PINS > 1:
             two = np.partition(dist, 1, axis=0)[:2]  # (2, K): closest and second-closest pin per blob
