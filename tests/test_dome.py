@@ -112,9 +112,32 @@ def test_deterministic():
 
 def test_absurd_stiffness_raises():
     with pytest.raises(PhysicsError, match=r"\[edge\] step \d+"):
-        _press(DomeParams(young=30.0), 0, 0, 4)  # the dome collapses: pins leave the envelope
+        _press(DomeParams(young=5.0e7), 0, 0, 4)  # 1000× too stiff: the press needs kN, the force bound trips
 
 
 def test_absurd_settling_cap_raises():
     with pytest.raises(PhysicsError, match="did not settle"):
         _press(DomeParams(max_settle_steps=2), 0, 0, 4)
+
+
+def test_pin_map_is_exact():
+    """SensorPhysics reads the pins through a linear map of the node joints (PinMap); it must
+    equal MuJoCo's own trilinear interpolation in a deformed state."""
+    import mujoco
+
+    from twin.dome import pin_tips_tool
+
+    physics, _ = _press(FIDELITY_LEVELS["default"], 0, 0, 4)
+    assert physics._pin_map.exact
+    mujoco.mj_kinematics(physics.model, physics.data)
+    mujoco.mj_flex(physics.model, physics.data)
+    exact = pin_tips_tool(physics.model, physics.data, physics.handles)
+    assert np.max(np.abs(physics._pin_map(physics.data.qpos) - exact)) < 1e-12
+
+
+def test_benchmark_rows():
+    from twin.physics import benchmark_physics
+
+    (row,) = benchmark_physics(["fast"], repeats=1, verbose=False)
+    assert set(row) == {"level", "ms_per_frame", "steps_per_frame", "ms_per_step"}
+    assert row["level"] == "fast" and row["ms_per_frame"] > 0 and row["steps_per_frame"] >= 1

@@ -12,6 +12,16 @@ the dome's base plane (the equator, where the real skin is clamped to the rigid 
 are pinned to the sensor mount; the collision surface is the outer layer of tetrahedra,
 so contacts are resolved on the fine mesh even though deformation lives on the grid.
 
+Contact geometry. The collision surface is the dome shrunk by ``margin`` (0.5 mm) and
+MuJoCo's contact margin is the same 0.5 mm, so contacts form, and stay, while the surfaces
+are still ``margin`` apart: the skin's true surface touches the object exactly where the
+undeformed dome would, but the solver sees each contact before it is reached. Contact
+points and normals then come from the *distance* between the separated shapes (smooth
+around an edge: the object's edges act as if rounded with a 0.5 mm radius, as real cut
+and printed edges are), not from the penetration direction, which jumps between an edge's
+two faces (measured: horizontal normals fighting at 150 N at the rectangle's edge, and
+contacts lost and regained every step).
+
 Pin tips move with the gel around them (they are interpolated vertices); what the
 camera sees is ``pin_tips_tool`` — the vertex positions expressed in the tool frame.
 
@@ -23,7 +33,8 @@ jointless body holding the rigid base and the flex; the physics scene is built i
 tool frame (dome still at the origin, stimuli on ``add_stimulus_carrier``'s body, moved
 by twin.physics.SensorPhysics — see add_stimulus_carrier for why). ``add_tactip`` also
 applies ``configure_options`` (discrete integrator, Newton, elliptic cone, impratio,
-viscosity, timestep) to the whole spec.
+viscosity, timestep) to the whole spec; ``apply_contact_law`` (called by SensorPhysics)
+gives every contact with the dome the dome's normal contact law.
 """
 from __future__ import annotations
 
@@ -43,68 +54,96 @@ DOME_REAL_MASS = 0.017
 
 @dataclass(frozen=True)
 class DomeParams:
-    """Material, contact and numerical parameters of the dome (SI units).
+    """Material, contact and numerical parameters of the dome (SI units; settling in px).
 
     Material
       young (Pa): effective Young's modulus of the skin+gel solid. The real TacTip is an
         Agilus30/Tango-like rubber skin (E ≈ 0.5–1 MPa, 1.5 mm thick) over a very soft
         gel (E ≈ 10–50 kPa); the *effective* solid modulus of the composite is of order
-        0.1 MPa. The coarse trilinear grid is stiffer than a continuum (few modes, mild
-        volumetric locking), so the value here is calibrated to forces, not to a datasheet:
-        the default gives ≈ 1.5 N for a 2 mm and ≈ 4 N for a 4 mm press centred on a
-        straight edge (half the dome in contact), matching the "a few N at 4 mm" that the
-        real sensor shows.
+        0.1 MPa. A coarse trilinear grid is stiffer than a continuum (few modes, mild
+        volumetric locking), so the value is calibrated per grid to forces, not to a
+        datasheet: every fidelity level gives ≈ 4.2–4.3 N for a 4 mm press centred on a
+        straight edge (half the dome in contact; default: 1.7 / 4.3 / 7.3 N at 2 / 4 / 6 mm),
+        the "a few N at 4 mm" the real sensor shows.
       poisson (–): gel is nearly incompressible, but ν → 0.5 locks a trilinear grid
         (it stiffens and stops bulging); 0.40 keeps the lateral bulge without locking.
-      damping (s): Rayleigh stiffness-proportional damping β (damping matrix = β·K). It only
-        shapes how frames settle (the twin records settled, quasi-static frames); large
-        enough to kill oscillation within a few steps, small enough not to add a viscous
-        drag that would look like extra shear during slides.
-      mass_scale (–): the dome's mass is DOME_REAL_MASS × mass_scale. Quasi-static frames
-        don't depend on inertia; a heavier dome makes the implicit step better conditioned
-        in contact (DESIGN §5: ×100 was stable over the whole dt/E range).
+      damping (s): Rayleigh stiffness-proportional damping β (damping matrix = β·K). It
+        damps the dynamics *during moves*: without it the flower's contour blew up (a pin
+        13 mm from rest) and, at mass ×10, a slide along an edge tunnelled 2.5 mm into the
+        object (measured). Frames are settled quasi-statically, see quasi_static_settle.
+      mass_scale (–): the dome's mass is DOME_REAL_MASS × mass_scale. Frames are
+        quasi-static, so the mass is a numerical device: MuJoCo's soft contact and friction
+        constraints are stiff in proportion to the effective mass they act on, so ×100
+        keeps contacts stiff (≈ 0.05 mm beyond the margin at 3 N) and the friction creep
+        slow; ×10 let a stuck skin creep 3 px within 400 steps, ×1000 slowed settling.
 
-    Contact (dome side; the object's geom brings its own friction)
-      friction (–): sliding friction coefficient of the skin. MuJoCo takes the *max* of the
-        two geoms' friction (equal priority), so the contact μ = max(skin, object). Rubber
-        on 3D-printed plastic: μ ≈ 0.6–1.2. With ``add_tactip(..., friction=False)`` the
-        flex gets condim=1 and contact priority 1, so contacts are frictionless (no
-        friction rows are even built) whatever the object says.
-      solref (s, –): contact time constant and damping ratio. Stiffer than the gel by far
-        (the object is rigid); the time constant is clamped by MuJoCo to ≥ 2·timestep.
-      solimp (–, –, m, –, –): impedance; width 0.5 mm so the impedance ramps to 0.99
-        within a small penetration — penetration stays < 0.5 mm at 6 mm presses.
+    Contact (MuJoCo soft constraints; apply_contact_law writes them into the model so they
+    hold whichever geom wins MuJoCo's priority mix)
+      friction (–): sliding friction coefficient of the skin. The object's geoms get
+        priority in twin.scene, so the contact μ is the object's (its material). With
+        ``add_tactip(..., friction=False)`` the flex gets condim=1 and contact priority 1,
+        so contacts are frictionless (no friction rows are even built).
+      solref (s, –): contact time constant and damping ratio; MuJoCo raises the time
+        constant to 2·timestep (the stable limit), so the effective value is 2·timestep.
+      solimp (–, –, m, –, –): impedance d from 0.99 (at the surface) to 0.999 (0.5 mm in).
+        The constraint "softness" R ∝ (1 − d)/d sets both how far a loaded contact sinks
+        and how fast a stuck skin creeps under shear; 0.999 (vs MuJoCo's default 0.95)
+        cut the creep of a sheared skin over 400 steps from 0.8 px to 0.07 px (measured).
+      impratio (–): frictional/normal impedance ratio (elliptic cones): makes static
+        friction ≈ 30× harder than the normal contact. MuJoCo's noslip post-solver, the
+        textbook cure for soft-friction creep, is refused by MuJoCo 4.0 for flexes with
+        the discrete integrator ("PGS and noslip not yet supported with flex").
+      margin (m): contact margin = inset of the collision surface (module docstring).
+        0.5 mm: larger than how far a loaded contact sinks (≈ 0.05–0.1 mm up to 10 N), so
+        contacts stay in the smooth "separated" regime; a real 0.2–0.5 mm edge radius.
 
     Resolution
       surface_spacing (m): spacing of the collision vertices on the outer surface. The
         edge of a box is resolved to about this length.
       cellcount: trilinear background grid (cells along tool x, y, z). 4×4×2 = 10 mm cells
         in a 40 × 40 × 20 mm box (DESIGN §5); the pin field is as smooth as this grid.
-
       pin_ghost_nodes: pin the grid nodes in the bounding box's corner columns (outside the
         dome's footprint). Unpinned, they have ~no stiffness and no Rayleigh damping, drift
         and kicked the pins by 0.1–0.3 mm seconds after lift-off (measured).
       viscosity (Pa·s): global MuJoCo fluid viscosity = a mass-like drag on the node
         bodies (the only mass-proportional damping a flex can get; joint damping on flex
-        nodes is refused by the compiler). 3 makes an out-of-contact dome return to
-        rest to < 0.1 µm in ≈ 40 steps; it doesn't change equilibria.
-      impratio (–): frictional/normal impedance ratio; 30 cuts soft-friction creep ≈ 10×
-        (see configure_options).
+        nodes is refused by the compiler); damps moves, doesn't change equilibria.
+      solver_iterations, solver_tolerance: Newton solver limits (converges in 1–7
+        iterations here).
 
     Stepping (used by twin.physics.SensorPhysics)
-      timestep (s): physics step. The discrete integrator is implicit, so large steps are
-        stable; each step moves the mount by speed × timestep.
-      settle_speed (m/s): a frame is settled when every pin tip moves slower than this
-        (in contact; the soft-friction creep floor is ≈ 2e-5 m/s, so 5e-5 m/s ≈ 1 µm per
-        20 ms step) — free_settle_speed applies when nothing touches the dome…
-      settle_steps: …for this many consecutive steps.
+      timestep (s): physics step. Moves advance the sensor by speed × timestep per step.
+        0.02 s: larger steps (0.03, 0.04 s) made the flower's thin convex pieces (1.1 mm
+        slivers) throw the skin into 1–11 px oscillations that never settled (measured).
+      quasi_static_settle: while settling (sensor at rest), zero the dome's velocities
+        before every step, turning the implicit step into a damped Newton iteration
+        towards equilibrium: the mass-scaled dome has no momentum to bounce with, so a
+        frame settles in a few steps instead of ringing for 20–50 (the dome's real
+        inertia, 17 g, is negligible at robot speeds). Moves keep the velocities: the
+        skin stuck to a sliding object must keep moving with it, and resetting them every
+        step made friction slip (the shear halved and depended on the timestep).
+
+    Settling, in camera pixels (1 px ≈ 75 µm of lateral pin motion: focal ≈ 451 px, pin
+    tips 30–42 mm in front of the camera; what the camera cannot see does not matter)
+      settle_px (px): a contact frame is settled when over the last `settle_steps` steps
+        no pin's image moved more than this. Tracker noise is ≈ 0.7 px (DESIGN §5); the
+        default 0.05 px leaves frames within 0.05 px (median) / 0.2 px (90 %) of the same
+        run settled to 0.02 px over 3 steps (measured on 31 edge frames).
+      free_settle_px (px): the same out of contact. Tighter: a no-contact frame is the
+        tracker's reference and out of contact the motion decays cleanly to rest.
+      settle_steps: the window of that criterion (steps).
+      cycle_after, cycle_px: a frame still moving after `cycle_after` steps is accepted if
+        its motion stays below `cycle_px`. One contact per tetrahedron means the contact
+        point can hop between an element's vertices, so some configurations (the flank
+        on an edge) never come to rest but cycle with a fixed amplitude of 0.02–0.1 px
+        (measured); that is a settled frame for any camera.
       max_settle_steps: cap; not settled by then → PhysicsError.
       max_penetration (m), max_force (N), max_pin_excursion (m): per-step sanity bounds.
         Pin excursion: a 6 mm press plus ≈ 2–3 mm of stuck shear while being dragged off
-        an edge reached 8.0 mm (measured), so the envelope is 12 mm.
-        Penetration is the tet-vs-geom depth MuJoCo reports; tetrahedra straddling a
-        sharp box edge report up to ≈ 1.2 mm while sliding along it (measured), so the
-        bound is 2 mm — a real tunnelling/explosion goes far beyond it.
+        an edge reached 8.0 mm (measured), so the envelope is 12 mm. Penetration: MuJoCo's
+        contact distance; with the 0.5 mm margin a healthy contact has dist > 0, and a real
+        tunnelling/explosion goes far beyond 2 mm. Force: the net contact force (6 mm
+        presses give ≈ 10 N).
     """
 
     young: float = 5.0e4
@@ -115,14 +154,20 @@ class DomeParams:
     mass_scale: float = 100.0
     friction: float = 1.0
     solref: tuple[float, float] = (0.01, 1.0)
-    solimp: tuple[float, float, float, float, float] = (0.95, 0.99, 0.0005, 0.5, 2.0)
+    solimp: tuple[float, float, float, float, float] = (0.99, 0.999, 0.0005, 0.5, 2.0)
+    impratio: float = 30.0
+    margin: float = 0.0005
     surface_spacing: float = 0.0025
     cellcount: tuple[int, int, int] = (4, 4, 2)
-    impratio: float = 30.0
+    solver_iterations: int = 100
+    solver_tolerance: float = 1e-8
     timestep: float = 0.02
-    settle_speed: float = 2.5e-4
-    free_settle_speed: float = 5e-6
-    settle_steps: int = 2
+    quasi_static_settle: bool = True
+    settle_px: float = 0.05
+    free_settle_px: float = 0.005
+    settle_steps: int = 1
+    cycle_after: int = 40
+    cycle_px: float = 0.25
     max_settle_steps: int = 200
     max_penetration: float = 0.002
     max_force: float = 50.0
@@ -137,14 +182,24 @@ class DomeParams:
         return replace(self, **changes)
 
 
+#: The fidelity levels (scenario field `fidelity`); `twin bench physics` measures their
+#: cost (twin.physics.benchmark_physics). Every level runs the taps, the slides and full
+#: contour traces of all six objects without PhysicsError (tests/test_physics_hard_cases.py
+#: holds the hard cases). Against `reference`, the default's pins differ by ≈ 3 px RMS
+#: (median over 31 edge frames; the coarser grid), far more than its settling tolerance.
 FIDELITY_LEVELS: dict[str, DomeParams] = {
-    # a 3.5 mm collision mesh chattered on the edge (never settled), so "fast" keeps the
-    # default mesh and only loosens the settling criterion
-    "fast": DomeParams(settle_speed=5e-4, free_settle_speed=1e-5, settle_steps=1),
+    # coarser: a 3×3×2 grid (10 free nodes instead of 26: ≈ 0.23 ms/step instead of 0.46),
+    # 3 mm collision surface, 0.1 px settling; young recalibrated for the stiffer grid
+    # (4.2 N at 4 mm). Pins are the smoothest and least accurate.
+    "fast": DomeParams(cellcount=(3, 3, 2), young=2.8e4, surface_spacing=0.003, settle_px=0.1,
+                       free_settle_px=0.01, cycle_after=20, cycle_px=0.3),
     "default": DomeParams(),
+    # the accuracy reference: a 6×6×3 grid (6.7 mm cells), 1.5 mm collision surface, 10 ms
+    # steps (contact time constant 20 ms), settled to 0.02 px over 3 steps; young
+    # recalibrated for the softer grid (4.3 N at 4 mm). (An 8×8×4 grid costs 8 ms per step.)
     "reference": DomeParams(
-        surface_spacing=0.0015, timestep=0.005, settle_speed=3e-5, free_settle_speed=2e-6, settle_steps=3,
-        max_settle_steps=2000,
+        cellcount=(6, 6, 3), young=6.5e4, surface_spacing=0.0015, timestep=0.01, settle_px=0.02, settle_steps=3,
+        free_settle_px=0.001, max_settle_steps=1000, cycle_after=200, cycle_px=0.1,
     ),
 }
 
@@ -191,15 +246,16 @@ class TacTipHandles:
         )
 
 
-def dome_mesh(geometry: TacTipGeometry, spacing: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def dome_mesh(geometry: TacTipGeometry, spacing: float, inset: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Tetrahedral mesh of the solid dome, tool frame (m).
 
     Returns (points (N,3), tets (M,4), pin_vertices (127,)). The points are the 127 pin
     tips (first, in pin order), the outer hemisphere sampled in rings `spacing` apart (the
-    collision surface, equator included), and a coarse inner shell; the tets are their
-    Delaunay tetrahedralisation (the hemisphere is convex), slivers removed.
+    collision surface, equator included) with its radius reduced by `inset` (m; the
+    contact margin, see the module docstring), and a coarse inner shell; the tets are
+    their Delaunay tetrahedralisation (the hemisphere is convex), slivers removed.
     """
-    r = geometry.dome_outer_radius
+    r = geometry.dome_outer_radius - inset
     zc = geometry.sphere_centre_z
     pins = geometry.pin_tip_points()
     outer = _hemisphere_rings(r, zc, spacing)
@@ -229,6 +285,16 @@ def _fmt(values) -> str:
     return " ".join(f"{float(v):.9g}" for v in np.ravel(values))
 
 
+#: Collision bits. MuJoCo collides a and b if (a.contype & b.conaffinity) or
+#: (b.contype & a.conaffinity). Objects keep MuJoCo's default (1, 1); the flex (1, 0) and
+#: the rigid base (1, 2) both collide with objects but never with each other: the flex's
+#: equator tets lie on the base's top face, and their on/off contacts with the (static)
+#: base threw 150 N force spikes into slides (measured). Parent/child filtering does not
+#: apply to flex–geom pairs.
+FLEX_CONTYPE, FLEX_CONAFFINITY = 1, 0
+BASE_CONTYPE, BASE_CONAFFINITY = 1, 2
+
+
 def tactip_mjcf(geometry: TacTipGeometry, params: DomeParams, friction: bool, name: str = "tactip_") -> str:
     """MJCF of one body ``{name}dome`` holding the rigid base and the flex dome.
 
@@ -237,7 +303,7 @@ def tactip_mjcf(geometry: TacTipGeometry, params: DomeParams, friction: bool, na
     prefix ``{name}_``); exposed so a scene can also be written as XML — then paste the
     body under a mount body and apply ``configure_options``'s settings to ``<option>``.
     """
-    points, tets, _ = dome_mesh(geometry, params.surface_spacing)
+    points, tets, _ = dome_mesh(geometry, params.surface_spacing, params.margin)
     r = geometry.dome_outer_radius
     zc = geometry.sphere_centre_z
     cx, cy, cz = params.cellcount
@@ -249,13 +315,14 @@ def tactip_mjcf(geometry: TacTipGeometry, params: DomeParams, friction: bool, na
  <worldbody>
   <body name="{name}dome">
    <geom name="{name}base" type="cylinder" size="{r:.9g} {geometry.base_length / 2:.9g}"
-     pos="0 0 {zc - geometry.base_length / 2:.9g}" rgba="0.15 0.15 0.15 1" mass="0.05"/>
+     pos="0 0 {zc - geometry.base_length / 2:.9g}" rgba="0.15 0.15 0.15 1" mass="0.05"
+     contype="{BASE_CONTYPE}" conaffinity="{BASE_CONAFFINITY}"/>
    <flexcomp name="{name}flex" type="direct" dim="3" dof="trilinear" cellcount="{cx} {cy} {cz}"
      mass="{params.mass:.9g}" radius="0" rgba="0.9 0.9 0.9 0.5"
      point="{_fmt(points)}" element="{' '.join(map(str, tets.ravel()))}">
     <elasticity young="{params.young:.9g}" poisson="{params.poisson:.9g}" damping="{params.damping:.9g}"/>
-    <contact {contact} solref="{_fmt(params.solref)}" solimp="{_fmt(params.solimp)}"
-      selfcollide="none"/>
+    <contact {contact} contype="{FLEX_CONTYPE}" conaffinity="{FLEX_CONAFFINITY}" solref="{_fmt(params.solref)}" solimp="{_fmt(params.solimp)}"
+      margin="{params.margin:.9g}" selfcollide="none"/>
     <pin gridrange="0 0 0 {cx} {cy} 0"/>{_ghost_pins(geometry, params)}
    </flexcomp>
   </body>
@@ -290,11 +357,13 @@ def configure_options(spec: mujoco.MjSpec, params: DomeParams) -> None:
     """Set the solver options the dome needs on the whole scene (DESIGN §5).
 
     impratio (frictional/normal impedance ratio, elliptic cones only) makes static
-    friction "harder": MuJoCo's soft friction otherwise lets a sheared dome creep back
-    at ≈ 0.3 mm/s, erasing the path dependence; impratio 30 cuts the creep ≈ 10×.
+    friction "harder": MuJoCo's soft friction otherwise lets a sheared dome creep back,
+    erasing the path dependence; impratio 30 cuts the creep ≈ 10× (DomeParams).
     """
     spec.option.timestep = params.timestep
     spec.option.impratio = params.impratio
+    spec.option.iterations = params.solver_iterations
+    spec.option.tolerance = params.solver_tolerance
     spec.option.viscosity = params.viscosity
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_DISCRETE
     spec.option.solver = mujoco.mjtSolver.mjSOL_NEWTON
@@ -327,12 +396,10 @@ def add_tactip(
     for body in child.bodies:
         if body.name.startswith("flex"):
             body.gravcomp = 1.0  # the mass-scaled gel must not sag under gravity
-            for joint in body.joints:
-                pass
     frame = parent.add_frame(pos=tool_in_parent[:3, 3], quat=_quat(tool_in_parent[:3, :3]))
     frame.attach_body(child.body("dome"), f"{name}_", "")
     configure_options(spec, params)
-    _, _, pin_vertices = dome_mesh(geometry, params.surface_spacing)
+    _, _, pin_vertices = dome_mesh(geometry, params.surface_spacing, params.margin)
     return TacTipHandles(
         prefix=name,
         mount_name=parent.name,
@@ -363,6 +430,30 @@ def pin_tips_tool(model: mujoco.MjModel, data: mujoco.MjData, handles: TacTipHan
     """
     world = data.flexvert_xpos[handles.vert_adr + handles.pin_vertices]
     return transform_points(invert_transform(tool2world(model, data, handles)), world)
+
+
+def apply_contact_law(model: mujoco.MjModel, handles: TacTipHandles, params: DomeParams) -> None:
+    """Make the dome's contact law hold for every contact with the dome, in the compiled model.
+
+    MuJoCo takes condim, friction, solref and solimp of a contact from the side with the
+    higher ``priority`` (twin.scene gives the object priority so that the contact μ is
+    the object's). That would also hand the object's default solref/solimp (0.02 s,
+    width 1 mm) to the *normal* contact law whenever friction is on, and the dome's
+    otherwise — two different indentation laws for the same press. The normal law is a
+    property of the soft side, so this writes ``params.solref`` / ``params.solimp`` into
+    every geom that can collide with the flex (and into the flex), leaving their
+    friction and condim alone. Idempotent; call after compiling (SensorPhysics does).
+    """
+    f = handles.flex
+    model.flex_solref[f] = params.solref
+    model.flex_solimp[f] = params.solimp
+    ftype, faff = model.flex_contype[f], model.flex_conaffinity[f]
+    for g in range(model.ngeom):
+        if g == handles.base_geom:
+            continue
+        if (model.geom_contype[g] & faff) or (model.geom_conaffinity[g] & ftype):
+            model.geom_solref[g] = params.solref
+            model.geom_solimp[g] = params.solimp
 
 
 #: Mass (kg) and rotational inertia (kg·m²) of the kinematic stimulus carrier. It is driven

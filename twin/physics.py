@@ -6,37 +6,58 @@ in the tool frame: the dome sits still at the world origin and the stimulus carr
 (twin.dome.add_stimulus_carrier, a heavy free body) is driven with a prescribed velocity
 so that its pose is inv(tool2world) · stimulus2world at every step — see that function
 for why. Contacts see the true sliding velocity, so friction shears the skin along the
-path. `settle` then steps with the sensor at rest until the pins stop moving and returns
-a `Frame`. Poses given to and reported by this class are lab poses (tool2world).
+path. `settle` then steps with the sensor at rest until the pins stop moving *as the
+camera sees them* and returns a `Frame`. Poses given to and reported by this class are
+lab poses (tool2world, 4×4, m).
+
+Settling is quasi-static (DomeParams.quasi_static_settle): with the sensor at rest the
+dome's velocities are zeroed before every step, so each implicit step is a damped Newton
+iteration towards the equilibrium that the move left the skin near; friction keeps the
+shear the path put in (the stuck contacts hold it), and a frame settles in a few steps.
 
 Flex runs in MuJoCo can go wrong without NaN (DESIGN §5), so *every* step is checked and
 any failure raises `PhysicsError` naming the scenario, the step, the pose and what failed:
   * a MuJoCo warning counter increased (mjData.warning);
-  * NaN/Inf in qpos, qvel or the flex vertices;
+  * NaN/Inf in qpos, qvel or the pin tips;
   * penetration deeper than `params.max_penetration` (contact dist < −bound);
-  * total contact force above `params.max_force`;
+  * net contact force above `params.max_force`;
   * a pin tip farther than `params.max_pin_excursion` from its rest position;
   * pins not settled within `params.max_settle_steps` (settle only).
 
-Settling criterion: the largest pin-tip speed in the tool frame, |Δpin|/timestep, is below
-`params.settle_speed` (in contact) or `params.free_settle_speed` (no contact) for
-`params.settle_steps` consecutive steps. In contact the floor is MuJoCo's soft-friction
-creep (≈ 0.02 mm/s with impratio 30), so a contact frame is "settled" to ≈ 1 µm/step.
+Settling criterion (in camera pixels, DomeParams "Settling"): the pins are projected
+through the camera model after every step; a frame is settled when over the last
+`params.settle_steps` steps no pin's image moved more than `params.settle_px` (in contact)
+or `params.free_settle_px` (no contact) away from where it is now; after
+`params.cycle_after` steps, a contact frame cycling within `params.cycle_px` is accepted.
+Scale: the camera's focal length is ≈ 451 px and the pin tips lie 30–42 mm in front of
+it, so 1 px ≈ 65–92 µm (≈ 75 µm) of lateral pin motion; motion along the viewing ray
+(the apex pin moving in z) is nearly invisible, exactly as for the real camera. This is
+what made "pins did not settle" go away at poses like x = 64, z = 4, γ = −40 on the
+rectangle: the apex pin kept moving ±10 µm *in depth* (a contact-switching cycle), which
+no camera sees.
+
+Pins are read from the state without recomputing MuJoCo's kinematics: with
+``dof="trilinear"`` every flex vertex is a fixed linear combination of the grid nodes'
+slide joints, so ``pins_tool = rest + J · (q_nodes − q_nodes_rest)`` with J measured once
+(and verified) at construction (`PinMap`). mj_kinematics + mj_flex after every step cost
+≈ 15 % of a step.
 
 Deterministic: same model, inputs and call sequence → bit-identical pins (MuJoCo is
 single-threaded here and nothing random is used).
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from twin.dome import DomeParams, TacTipHandles, pin_tips_tool, tool2world
+from twin.dome import DomeParams, TacTipHandles, apply_contact_law, pin_tips_tool, tool2world
 from twin.errors import PhysicsError
 from twin.poses import Pose, invert_transform, make_transform
+from twin.tactip import CameraModel
 
 
 @dataclass(frozen=True)
@@ -50,6 +71,9 @@ class Frame:
     n_steps: physics steps since the previous frame (move + settle).
     settled: True if the settling criterion was met (always True: otherwise settle raises).
     tool2world: 4×4 pose of the tool frame at this frame (m).
+    settle_steps: steps spent in `settle` for this frame (part of n_steps).
+    last_motion_px: the settling band met: largest pin motion (px, u or v) over the last
+      `settle_steps` steps, in the physics' camera model.
     """
 
     pins_tool: np.ndarray
@@ -59,6 +83,52 @@ class Frame:
     n_steps: int
     settled: bool
     tool2world: np.ndarray
+    settle_steps: int = 0
+    last_motion_px: float = 0.0
+
+
+class PinMap:
+    """Pin tips (tool frame, m) as an affine function of the flex nodes' joint positions.
+
+    For an interpolated flex (``dof="trilinear"``) a vertex is Σ wᵢ·nodeᵢ and a node is
+    its body position plus its slide joints' qpos, so pins = p0 + J·(q − q0) exactly.
+    J is measured by unit perturbations of each node coordinate (exact for a linear map)
+    and checked on a random configuration; if the check fails (a flex that is not
+    interpolated), `exact` is False and callers recompute kinematics instead.
+    """
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, handles: TacTipHandles) -> None:
+        self.model, self.handles = model, handles
+        qadr = []
+        for b in handles.node_bodies:
+            for j in range(model.body_jntadr[b], model.body_jntadr[b] + model.body_jntnum[b]):
+                if model.jnt_type[j] != mujoco.mjtJoint.mjJNT_SLIDE:
+                    raise PhysicsError(f"flex node body {model.body(b).name!r} has a non-slide joint")
+                qadr.append(model.jnt_qposadr[j])
+        self.qadr = np.array(qadr, dtype=int)
+        scratch = mujoco.MjData(model)
+        scratch.qpos[:] = data.qpos
+        self.q0 = scratch.qpos[self.qadr].copy()
+        self.p0 = self._exact(scratch)
+        self.jacobian = np.zeros((self.p0.size, len(self.qadr)))
+        step = 1e-3  # m; the map is linear, so the size only sets the rounding (≈ 1e-16 m)
+        for k, a in enumerate(self.qadr):
+            scratch.qpos[a] += step
+            self.jacobian[:, k] = (self._exact(scratch) - self.p0).ravel() / step
+            scratch.qpos[a] -= step
+        rng = np.random.default_rng(0)
+        scratch.qpos[self.qadr] = self.q0 + rng.normal(0.0, 2e-3, len(self.qadr))
+        err = np.max(np.abs(self._exact(scratch) - self(scratch.qpos)))
+        self.exact = bool(err < 1e-9)
+
+    def _exact(self, d: mujoco.MjData) -> np.ndarray:
+        mujoco.mj_kinematics(self.model, d)
+        mujoco.mj_flex(self.model, d)
+        return pin_tips_tool(self.model, d, self.handles)
+
+    def __call__(self, qpos: np.ndarray) -> np.ndarray:
+        """(127, 3) pin tips in the tool frame (m) for the full qpos vector."""
+        return self.p0 + (self.jacobian @ (qpos[self.qadr] - self.q0)).reshape(self.p0.shape)
 
 
 class SensorPhysics:
@@ -66,7 +136,9 @@ class SensorPhysics:
 
     model, data: a compiled scene with the TacTip added to the world body
       (twin.dome.add_tactip) and the stimuli on twin.dome.add_stimulus_carrier's body;
-      `handles` resolved against `model`.
+      `handles` resolved against `model`. The dome's contact law (solref, solimp, margin)
+      is written into `model` for every geom that can touch the dome
+      (twin.dome.apply_contact_law), so it holds whichever side wins MuJoCo's priority mix.
     start_tool2world: the sensor's initial lab pose (4×4, m); must be out of contact.
     stimulus2world: the carrier body's lab pose (4×4, m); identity = its frame is the
       lab world frame.
@@ -75,6 +147,8 @@ class SensorPhysics:
     work2world: 4×4 work frame in the world (m), used only to report poses in errors in
       the lab convention; world if None.
     angular_speed_deg_s: rotation speed used when a move rotates the sensor (deg/s).
+    camera: the camera model whose pixels the settling criterion is expressed in
+      (default: the paper's 640×480 camera, twin.tactip.CameraModel()).
     """
 
     def __init__(
@@ -89,12 +163,14 @@ class SensorPhysics:
         carrier: str = "stimulus",
         work2world: np.ndarray | None = None,
         angular_speed_deg_s: float = 45.0,
+        camera: CameraModel | None = None,
     ) -> None:
         self.model = model
         self.data = data
         self.handles = handles
         self.params = params
         self.scenario_name = scenario_name
+        self.camera = CameraModel() if camera is None else camera
         self.world2work = np.eye(4) if work2world is None else invert_transform(np.asarray(work2world, float))
         self.angular_speed = np.radians(angular_speed_deg_s)
         body = model.body(carrier).id
@@ -106,19 +182,28 @@ class SensorPhysics:
             )
         if handles.mount_body != 0:
             raise PhysicsError(f"[{scenario_name}] the TacTip must be added to the world body (static dome)")
+        apply_contact_law(model, handles, params)
         self._qadr = int(model.jnt_qposadr[jnt])
         self._vadr = int(model.jnt_dofadr[jnt])
+        #: dofs of the flex's grid nodes (zeroed by quasi-static settling)
+        self._dome_dofs = np.concatenate([np.arange(model.body_dofadr[b], model.body_dofadr[b] + model.body_dofnum[b])
+                                          for b in handles.node_bodies]).astype(int)
         self.stimulus2world = np.eye(4) if stimulus2world is None else np.asarray(stimulus2world, float)
         mujoco.mj_kinematics(model, data)
         self._tool2scene = tool2world(model, data, handles)  # fixed pose of the tool frame in the scene
         self._steps = 0
         self._since_frame = 0
-        self._warnings = self._warning_counts()
+        self._warnings = data.warning.number.copy()
         self._commanded = np.asarray(start_tool2world, float)
-        self._place_carrier(self._commanded, np.zeros(3), np.zeros(3))
+        self._pin_map = PinMap(model, data, handles)
+        self._set_carrier(self._carrier_state(self._commanded, np.zeros(3), np.zeros(3)))
         mujoco.mj_forward(model, data)
         self.rest_pins = pin_tips_tool(model, data, handles).copy()
-        self._pins = self.rest_pins.copy()
+        k = self.camera.intrinsics
+        self._projection = (k[0, 0], k[1, 1], k[0, 2], k[1, 2], self.camera.geometry.camera_to_apex)
+        self._pins = self._read_pins()
+        self._pins_px = self._project(self._pins)
+        self.step_seconds = 0.0  # wall time spent in physics steps (s), for benchmarks
         self._check(self._commanded)
 
     # ------------------------------------------------------------------ motion
@@ -142,27 +227,51 @@ class SensorPhysics:
         duration = n * dt
         v_tool = delta_p / duration  # lab frame, constant
         w_tool = start[:3, :3] @ (rotvec / duration)  # lab frame, constant (rotation axis is fixed)
-        for k in range(1, n + 1):
-            s = k / n
-            pose = make_transform(
-                start[:3, :3] @ Rotation.from_rotvec(rotvec * s).as_matrix(), start[:3, 3] + delta_p * s
-            )
-            self._step(pose, v_tool, w_tool)
+        s = np.arange(1, n + 1) / n
+        rotations = start[:3, :3] @ Rotation.from_rotvec(rotvec[None, :] * s[:, None]).as_matrix()
+        positions = start[:3, 3] + delta_p * s[:, None]
+        qpos, qvel = self._carrier_states(rotations, positions, v_tool, w_tool)
+        # the carrier is at the start pose: give it the move's velocity for the first step
+        _, qvel0 = self._carrier_states(start[None, :3, :3], start[None, :3, 3], v_tool, w_tool)
+        qvel = np.vstack([qvel0, qvel])
+        for k in range(n):
+            self._set_carrier_velocity(qvel[k])
+            self._advance()
+            self._set_carrier((qpos[k], qvel[k + 1]))  # snap onto the commanded path (removes ≤ nm drift)
+            self._after_step_at(rotations[k], positions[k])
         self._commanded = target
         return n
 
     def settle(self) -> Frame:
-        """Step with the sensor at rest until the pins settle; return the settled Frame."""
+        """Step with the sensor at rest until the pins settle; return the settled Frame.
+
+        Settled = over the last `settle_steps` steps no pin's image moved more than the
+        tolerance (px, in u or in v) away from where it is now: `settle_px` in contact,
+        `free_settle_px` without contact; after `cycle_after` steps `cycle_px` in contact
+        (DomeParams "Settling").
+        """
         p = self.params
-        calm = 0
-        for _ in range(p.max_settle_steps):
-            before = self._pins
-            self._step(self._commanded, np.zeros(3), np.zeros(3))
-            speed = float(np.max(np.abs(self._pins - before))) / self.model.opt.timestep
-            # out of contact there is no friction creep, so hold the pins to a tighter bound
-            tol = p.settle_speed if self.data.ncon else p.free_settle_speed
-            calm = calm + 1 if speed < tol else 0
-            if calm >= p.settle_steps:
+        window = max(1, p.settle_steps)
+        rest = self._carrier_state(self._commanded, np.zeros(3), np.zeros(3))
+        history = [self._pins_px]
+        band = np.inf
+        for k in range(1, p.max_settle_steps + 1):
+            self._set_carrier(rest)
+            self._advance(still=True)
+            self._set_carrier(rest)
+            self._after_step(self._commanded)
+            history.append(self._pins_px)
+            if len(history) > window + 1:
+                history.pop(0)
+            if len(history) <= window:
+                continue
+            band = max(float(np.max(np.abs(self._pins_px - past))) for past in history[:-1])
+            # out of contact there is no friction to hold a sheared skin, and the no-contact
+            # frame is the tracker's reference: hold it to a tighter bound
+            tol = p.settle_px if self.data.ncon else p.free_settle_px
+            if k >= p.cycle_after and self.data.ncon:
+                tol = max(tol, p.cycle_px)  # a stationary contact-switching cycle (DomeParams)
+            if band < tol:
                 force_world = self.contact_force_world()  # scene frame
                 frame = Frame(
                     pins_tool=self._pins.copy(),
@@ -172,17 +281,26 @@ class SensorPhysics:
                     n_steps=self._since_frame,
                     settled=True,
                     tool2world=self._commanded.copy(),
+                    settle_steps=k,
+                    last_motion_px=band,
                 )
                 self._since_frame = 0
                 return frame
         self._fail(
-            f"pins did not settle within {p.max_settle_steps} steps "
-            f"(last max pin speed {speed * 1e3:.4g} mm/s > {p.settle_speed * 1e3:.4g} mm/s)"
+            f"pins did not settle within {p.max_settle_steps} steps (over the last {window} steps a pin "
+            f"moved {band:.4g} px; tolerance {p.settle_px:.4g} px in contact, {p.free_settle_px:.4g} px free)"
         )
 
     # ------------------------------------------------------------------ internals
-    def _carrier_pose_velocity(self, pose: np.ndarray, v_tool: np.ndarray, w_tool: np.ndarray):
-        """Carrier pose in the scene and its free-joint velocity for a sensor moving at (v, ω).
+    def _carrier_state(self, pose: np.ndarray, v_tool: np.ndarray, w_tool: np.ndarray):
+        """Carrier (qpos (7,), qvel (6,)) for a sensor at `pose` (4×4) moving at (v, ω)."""
+        qpos, qvel = self._carrier_states(pose[None, :3, :3], pose[None, :3, 3], v_tool, w_tool)
+        return qpos[0], qvel[0]
+
+    def _carrier_states(self, rotations: np.ndarray, positions: np.ndarray, v_tool: np.ndarray,
+                        w_tool: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Carrier qpos (n, 7) and qvel (n, 6) for sensor poses (rotations (n,3,3), positions
+        (n,3) m, lab frame) moving at linear velocity v and angular velocity ω (lab frame).
 
         carrier2scene = tool2scene · inv(tool2world) · stimulus2world. A point fixed in the
         lab, seen from a tool frame moving with linear velocity v (of the tool origin) and
@@ -190,69 +308,86 @@ class SensorPhysics:
         ṗ_tool = −Rᵀ(v + ω × (p − o)). Free joint: linear velocity of the body origin in
         the scene frame, angular velocity in the body's local frame.
         """
-        carrier2world = self.stimulus2world
-        world2tool = invert_transform(pose)
-        carrier2scene = self._tool2scene @ world2tool @ carrier2world
-        r_scene = self._tool2scene[:3, :3] @ pose[:3, :3].T  # lab → scene rotation
-        origin_world = carrier2world[:3, 3]
-        v_lab = -(v_tool + np.cross(w_tool, origin_world - pose[:3, 3]))
-        v_scene = r_scene @ v_lab
+        c2w_r, c2w_p = self.stimulus2world[:3, :3], self.stimulus2world[:3, 3]
+        t2s_r, t2s_p = self._tool2scene[:3, :3], self._tool2scene[:3, 3]
+        r_scene = np.einsum("ij,nkj->nik", t2s_r, rotations)  # lab → scene rotations: T2S·Rᵀ
+        c2s_r = r_scene @ c2w_r
+        c2s_p = np.einsum("nij,nj->ni", r_scene, c2w_p - positions) + t2s_p
+        v_lab = -(v_tool + np.cross(w_tool, c2w_p - positions))
+        v_scene = np.einsum("nij,nj->ni", r_scene, v_lab)
         w_scene = -(r_scene @ w_tool)
-        w_local = carrier2scene[:3, :3].T @ w_scene
-        return carrier2scene, v_scene, w_local
+        w_local = np.einsum("nji,nj->ni", c2s_r, w_scene)
+        quat = Rotation.from_matrix(c2s_r).as_quat()  # x, y, z, w
+        qpos = np.column_stack([c2s_p, quat[:, 3], quat[:, :3]])
+        return qpos, np.column_stack([v_scene, w_local])
 
-    def _place_carrier(self, pose: np.ndarray, v_tool: np.ndarray, w_tool: np.ndarray) -> None:
-        d = self.data
-        carrier2scene, v, w = self._carrier_pose_velocity(pose, v_tool, w_tool)
-        d.qpos[self._qadr: self._qadr + 3] = carrier2scene[:3, 3]
-        quat = np.zeros(4)
-        mujoco.mju_mat2Quat(quat, np.ascontiguousarray(carrier2scene[:3, :3]).ravel())
-        d.qpos[self._qadr + 3: self._qadr + 7] = quat
-        d.qvel[self._vadr: self._vadr + 3] = v
-        d.qvel[self._vadr + 3: self._vadr + 6] = w
+    def _set_carrier(self, state) -> None:
+        self.data.qpos[self._qadr: self._qadr + 7] = state[0]
+        self.data.qvel[self._vadr: self._vadr + 6] = state[1]
 
-    def _step(self, pose: np.ndarray, v_tool: np.ndarray, w_tool: np.ndarray) -> None:
-        """One physics step that ends with the sensor at `pose` (tool2world), moving at (v, ω).
+    def _set_carrier_velocity(self, qvel: np.ndarray) -> None:
+        self.data.qvel[self._vadr: self._vadr + 6] = qvel
 
-        The carrier's velocity is prescribed before the step (so the contacts see the
-        sliding velocity) and its pose is snapped onto the commanded one after it
-        (removing the ≤ nm drift contact forces impart on the heavy carrier).
-        """
-        m, d = self.model, self.data
-        self._place_carrier(self._previous_pose(), v_tool, w_tool)
-        mujoco.mj_step(m, d)
-        self._place_carrier(pose, v_tool, w_tool)
-        mujoco.mj_kinematics(m, d)
-        mujoco.mj_flex(m, d)
-        self._last_pose = pose
+    def _advance(self, still: bool = False) -> None:
+        """One mj_step; `still` (sensor at rest): zero the dome's velocities first when
+        settling quasi-statically (DomeParams.quasi_static_settle)."""
+        t0 = time.perf_counter()
+        if still and self.params.quasi_static_settle:
+            self.data.qvel[self._dome_dofs] = 0.0
+        mujoco.mj_step(self.model, self.data)
+        self.step_seconds += time.perf_counter() - t0
+
+    def _read_pins(self) -> np.ndarray:
+        if self._pin_map.exact:
+            return self._pin_map(self.data.qpos)
+        mujoco.mj_kinematics(self.model, self.data)
+        mujoco.mj_flex(self.model, self.data)
+        return pin_tips_tool(self.model, self.data, self.handles)
+
+    def _after_step(self, pose: np.ndarray) -> None:
         self._steps += 1
         self._since_frame += 1
-        self._pins = pin_tips_tool(m, d, self.handles)
+        self._pins = self._read_pins()
+        self._pins_px = self._project(self._pins)
         self._check(pose)
 
-    def _previous_pose(self) -> np.ndarray:
-        return getattr(self, "_last_pose", self._commanded)
+    def _project(self, pins_tool: np.ndarray) -> np.ndarray:
+        """CameraModel.project_tool_points with the intrinsics unpacked once (px)."""
+        fx, fy, cx, cy, z0 = self._projection
+        z = pins_tool[:, 2] + z0
+        return np.column_stack([fx * pins_tool[:, 0] / z + cx, fy * pins_tool[:, 1] / z + cy])
 
-    def _check(self, pose: np.ndarray) -> None:
+    def _after_step_at(self, rotation: np.ndarray, position: np.ndarray) -> None:
+        self._steps += 1
+        self._since_frame += 1
+        self._pins = self._read_pins()
+        self._pins_px = self._project(self._pins)
+        self._check(None, (rotation, position))
+
+    def _check(self, pose: np.ndarray | None, at: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        """Per-step sanity checks (module docstring); `pose` (4×4) or `at` (R, p) names the
+        commanded pose in an error."""
         d, p = self.data, self.params
-        counts = self._warning_counts()
+        where = (lambda: pose) if pose is not None else (lambda: make_transform(*at))
+        counts = d.warning.number
         if np.any(counts > self._warnings):
             names = [mujoco.mjtWarning(i).name for i in np.flatnonzero(counts > self._warnings)]
-            self._warnings = counts
-            self._fail(f"MuJoCo warning {', '.join(names)}", pose)
-        if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel)) and np.all(np.isfinite(self._pins))):
-            self._fail("NaN/Inf in the state (qpos, qvel or pin tips)", pose)
+            self._warnings = counts.copy()
+            self._fail(f"MuJoCo warning {', '.join(names)}", where())
+        if not (np.isfinite(d.qpos).all() and np.isfinite(d.qvel).all() and np.isfinite(self._pins).all()):
+            self._fail("NaN/Inf in the state (qpos, qvel or pin tips)", where())
         if d.ncon:
             depth = -float(np.min(d.contact.dist[: d.ncon]))
             if depth > p.max_penetration:
-                self._fail(f"penetration {depth * 1e3:.3f} mm > {p.max_penetration * 1e3:.3f} mm", pose)
-            force = float(np.linalg.norm(self.contact_force_world()))
+                self._fail(f"penetration {depth * 1e3:.3f} mm > {p.max_penetration * 1e3:.3f} mm", where())
+            # net contact force on the object = constraint force on the carrier's free joint
+            force = float(np.linalg.norm(d.qfrc_constraint[self._vadr: self._vadr + 3]))
             if force > p.max_force:
-                self._fail(f"contact force {force:.3g} N > {p.max_force:.3g} N", pose)
-        excursion = float(np.max(np.linalg.norm(self._pins - self.rest_pins, axis=1)))
+                self._fail(f"contact force {force:.3g} N > {p.max_force:.3g} N", where())
+        excursion = float(np.sqrt(np.max(np.sum((self._pins - self.rest_pins) ** 2, axis=1))))
         if excursion > p.max_pin_excursion:
             self._fail(
-                f"a pin moved {excursion * 1e3:.3f} mm from rest (> {p.max_pin_excursion * 1e3:.3f} mm)", pose
+                f"a pin moved {excursion * 1e3:.3f} mm from rest (> {p.max_pin_excursion * 1e3:.3f} mm)", where()
             )
 
     def contact_force_world(self) -> np.ndarray:
@@ -278,9 +413,6 @@ class SensorPhysics:
             sign = np.where(con.flex[sel, 1] == flex, 1.0, -1.0)
             total += (sign[:, None] * f).sum(axis=0)
         return total
-
-    def _warning_counts(self) -> np.ndarray:
-        return np.array([w.number for w in self.data.warning], dtype=np.int64)
 
     def _fail(self, what: str, pose: np.ndarray | None = None) -> None:
         pose = self._commanded if pose is None else pose
@@ -331,11 +463,10 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 3, speed_m
 
     Contour-following-like sequence on the edge scene: press to 3 mm at the edge, then
     five 3 mm slide steps along the edge (frames every e = 3 mm) at `speed_mm_s`, then
-    lift off. Each frame = move + settle. Returns one dict per level: level, ms_per_frame
-    (best), steps_per_frame (mean), ms_per_step.
+    lift off. Each frame = move + settle, timed as wall time of the whole SensorPhysics
+    calls (stepping, pin read-out, checks). Returns one dict per level: level,
+    ms_per_frame (best), steps_per_frame (mean), ms_per_step.
     """
-    import time
-
     from twin.dome import FIDELITY_LEVELS
 
     rows = []
