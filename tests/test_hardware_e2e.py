@@ -36,7 +36,7 @@ def video(tmp_path_factory) -> Path:
         frames = [env.reset().frame]
         for pose in POSES[1:]:
             frames.append(env.step(Pose.from_array(pose)).frame)
-    for frame in frames[:1] * 3 + frames[1:] * 4:  # enough frames for the reads below
+    for frame in frames[:1] + frames[1:] * 5:  # rest once (the reference), then presses
         writer.write(frame[..., ::-1])
     writer.release()
     return path

@@ -82,20 +82,23 @@ def chunk_moves(moves: list[Move]) -> list[list[Move]]:
     return chunks
 
 
-def run_chunk(scenario: Scenario, seed: int, moves: list[Move], keep_frames: bool = True) -> list[Sample]:
-    """Run one chunk in a fresh environment state (reset), returning its recorded samples."""
+def run_chunk(scenario: Scenario, seed: int, moves: list[Move], sink=None) -> list[Sample]:
+    """Run one chunk in a fresh environment state (reset). Each sample goes to `sink` as
+    soon as it is observed (serial runs record as they go); the samples not sunk are
+    returned (parallel workers send their chunk back when it is done)."""
     env = _worker_env(scenario, seed)
-    reference = env.reset()
-    reader = PinReader(reference)
+    reader = PinReader(env.reset())
     samples = []
     for move in moves:
         env.move_to(move.pose, move.speed_mm_s)
         if move.record:
             obs = env.observe()
             pins, found, ms = reader.read(obs)
-            if not keep_frames:
-                obs.frame = None
-            samples.append(Sample(move, obs, pins, found, ms))
+            sample = Sample(move, obs, pins, found, ms)
+            if sink is None:
+                samples.append(sample)
+            else:
+                sink(sample)
     return samples
 
 
@@ -116,7 +119,7 @@ def _worker_env(scenario: Scenario, seed: int) -> Environment:
 def run_scenario(scenario: Scenario, out: Path, seed: int | None = None, workers: int | None = None,
                  cluster: str | None = None, progress: bool = True) -> Path:
     """Run and record a scenario; returns the run directory."""
-    from twin.parallel import map_ordered
+    from twin.parallel import default_workers, map_ordered
 
     seed = scenario.seed if seed is None else seed
     if scenario.protocol.kind == "contour":
@@ -131,12 +134,26 @@ def run_scenario(scenario: Scenario, out: Path, seed: int | None = None, workers
     wall = time.perf_counter()
     with RunRecorder(out, scenario, seed, scenario.backend, camera_model(scenario)) as recorder:
         bar = tqdm(total=n_samples, desc=scenario.name, unit="frame", disable=not progress)
-        parallel = scenario.backend == "sim"
-        for chunk_samples in map_ordered(run_chunk, [(scenario, seed, c) for c in chunks],
-                                         workers=workers if parallel else 1, cluster=cluster if parallel else None):
-            for s in chunk_samples:
-                recorder.add(s.observation, s.move.pose, s.move.labels, s.pins_px, s.found)
-            bar.update(len(chunk_samples))
-        bar.close()
+
+        def record(s: Sample) -> None:
+            recorder.add(s.observation, s.move.pose, s.move.labels, s.pins_px, s.found)
+            bar.update(1)
+
+        serial = scenario.backend != "sim" or (cluster is None and (workers or default_workers()) <= 1)
+        try:
+            if serial:  # record each sample as it is observed
+                for chunk in chunks:
+                    run_chunk(scenario, seed, chunk, sink=record)
+            else:  # record each chunk as its worker finishes it, in protocol order
+                for chunk_samples in map_ordered(run_chunk, [(scenario, seed, c) for c in chunks],
+                                                 workers=workers, cluster=cluster):
+                    for s in chunk_samples:
+                        record(s)
+        finally:
+            bar.close()
+            if serial:
+                for env in _ENV_CACHE.values():
+                    env.close()
+                _ENV_CACHE.clear()
         recorder.meta["wall_time_s"] = time.perf_counter() - wall
     return Path(out)
