@@ -89,6 +89,16 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_figure(args: argparse.Namespace) -> int:
+    from twin.shear_figure import write_shear_figure
+
+    numbers = write_shear_figure(Path(args.out), fidelity=args.fidelity, friction=not args.no_friction)
+    print(f"wrote {args.out}")
+    for key, value in numbers.items():
+        print(f"  {key}: {value}")
+    return 0
+
+
 def _cmd_demo(args: argparse.Namespace) -> int:
     from twin.demo import run_demo
 
@@ -98,7 +108,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 def _cmd_bench(args: argparse.Namespace) -> int:
     from twin.bench import run_bench
 
-    return run_bench(args.what, quick=args.quick, out=Path(args.out) if args.out else None)
+    return run_bench(args.what, quick=args.quick, out=Path(args.out) if args.out else None, workers=args.workers,
+                     cluster=args.cluster)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -146,15 +157,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True)
     p.set_defaults(func=_cmd_compare)
 
+    p = sub.add_parser("figure", help="the paper's Fig. 2: pin traces tapping vs sliding across the edge in 8 directions")
+    p.add_argument("which", choices=("shear",))
+    p.add_argument("--out", default="out/fig2_shear.png")
+    p.add_argument("--fidelity", choices=("fast", "default", "reference"), default="default")
+    p.add_argument("--no-friction", action="store_true", help="frictionless contact: slides should match taps")
+    p.set_defaults(func=_cmd_figure)
+
     p = sub.add_parser("demo", help="the main job: the six-object contour-following demo")
     p.add_argument("--out", default="out/demo")
     p.add_argument("--seed", type=int, default=0)
     p.set_defaults(func=_cmd_demo)
 
-    p = sub.add_parser("bench", help="print speed (and accuracy) figures")
-    p.add_argument("what", nargs="?", default="all", choices=("all", "render", "physics", "perception"))
-    p.add_argument("--quick", action="store_true")
-    p.add_argument("--out", default=None)
+    p = sub.add_parser("bench", help="print speed figures and sweep what accuracy costs in time")
+    p.add_argument("what", nargs="?", default="all", choices=("all", "render", "physics", "perception", "sweep"),
+                   help="one section (default: all; 'sweep' = the fidelity sweep: CSV, Pareto plot, markdown table)")
+    p.add_argument("--quick", action="store_true", help="small sections and the quick sweep (< 2 min on 2 cores)")
+    p.add_argument("--out", default=None, help="directory for the CSVs and the sweep's files (sweep default: out/bench)")
+    p.add_argument("--workers", type=int, default=None, help="sweep: local processes (default: all cores)")
+    p.add_argument("--cluster", default=None, help="sweep: Ray address ('local' starts one); needs the ray extra")
     p.set_defaults(func=_cmd_bench)
     return parser
 
