@@ -12,7 +12,8 @@ import pytest
 import yaml
 
 from hardware.protocol import Command
-from twin.errors import HardwareError
+from twin.compare import compare_runs
+from twin.errors import HardwareError, LostPinsError
 from twin.kinematics import Irb120Kinematics
 from twin.poses import Pose
 from twin.record import load_run
@@ -23,6 +24,25 @@ from twin.training import train_from_run
 from twin.virtual_robot import KinematicArm, VirtualRobotServer
 
 POSES = [[0, 0, -5, 0, 0, 0], [60, 0, 2, 0, 0, 0], [62, 0, 3, 0, 0, 40], [58, 5, 4, 0, 0, -60]]
+
+
+ONE_CHUNK = [[60, 0, 2, 0, 0, 0], [62, 0, 3, 0, 0, 0], [58, 5, 4, 0, 0, 0]]  # one orientation: no reset between
+
+
+def _rendered_frames(poses: list[list[float]]) -> list[np.ndarray]:
+    """RGB frames the sim renders at rest and then at each pose in turn (fast, no friction)."""
+    scenario = scenario_from_dict({"name": "video", "object": {"name": "rectangle"}, "fidelity": "fast",
+                                   "effects": ["contact", "render"]})
+    with SimEnvironment(scenario) as env:
+        return [env.reset().frame] + [env.step(Pose.from_array(p)).frame for p in poses]
+
+
+def _write_video(path: Path, frames: list[np.ndarray]) -> Path:
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 30, (640, 480))
+    for frame in frames:
+        writer.write(frame[..., ::-1])
+    writer.release()
+    return path
 
 
 @pytest.fixture(scope="module")
@@ -106,3 +126,34 @@ def test_camera_running_dry_stops_safely_and_keeps_records(tmp_path, server, vid
     run = load_run(tmp_path / "dry")
     assert run.meta["status"] == "failed" and "end of video" in run.meta["error"]
     assert 0 < len(run.samples) < 40
+
+
+def test_lost_pins_stop_the_run_and_keep_records(tmp_path, server, video) -> None:
+    """A frame where the skin is covered (half the pins gone) stops the run safely."""
+    rest, first, second, third = _rendered_frames(ONE_CHUNK)
+    covered = third.copy()
+    covered[:, : covered.shape[1] // 2] = 0
+    bad_video = _write_video(tmp_path / "covered.avi", [rest, first, second, covered, covered])
+    scenario = scenario_from_dict({"name": "hw_lost", "backend": "hardware", "object": {"name": "rectangle"},
+                                   "hardware_config": str(_config(tmp_path, server.port, bad_video)),
+                                   "protocol": {"kind": "render", "poses": ONE_CHUNK}})
+    with pytest.raises(LostPinsError, match=r"lost \d+/127 pins"):
+        run_scenario(scenario, tmp_path / "lost", progress=False)
+    run = load_run(tmp_path / "lost")
+    assert run.meta["status"] == "failed" and "LostPinsError" in run.meta["error"]
+    assert len(run.samples) == 2
+
+
+def test_compare_sim_and_hardware_runs(tmp_path, server, video) -> None:
+    """sim-to-real: the same scenario on both backends, paired by target pose."""
+    base = {"name": "s2r", "object": {"name": "rectangle"}, "fidelity": "fast", "effects": ["contact", "render"],
+            "protocol": {"kind": "render", "poses": ONE_CHUNK}}
+    replay = _write_video(tmp_path / "replay.avi", _rendered_frames(ONE_CHUNK))
+    sim = run_scenario(scenario_from_dict(base), tmp_path / "sim", workers=1, progress=False)
+    real = run_scenario(scenario_from_dict({**base, "backend": "hardware",
+                                            "hardware_config": str(_config(tmp_path, server.port, replay))}),
+                        tmp_path / "real", progress=False)
+    result = compare_runs(sim, real, tmp_path / "cmp")
+    assert result["backend_a"] == "sim" and result["backend_b"] == "hardware" and result["n_pairs"] == 3
+    # the "real" camera replays frames rendered by the same sim: close, not equal (MJPG)
+    assert result["pin_rms_difference_px"] < 1.0 and result["ssim"]["mean"] > 0.8
