@@ -11,7 +11,7 @@ import numpy as np
 
 from twin.errors import UserError
 from twin.perception import angle_error_deg, pca_fit, pins_to_vectors
-from twin.record import Run, load_run
+from twin.record import Run, jsonable, load_run
 from twin.training import train_from_run
 
 DIRECTIONS = (0, 45, 90, 135, 180, 225, 270, 315)
@@ -82,7 +82,7 @@ def evaluate(train_dir: Path, test_dir: Path, out: Path, seed: int = 0) -> dict:
         "training": {n: m.training_summary for n, m in models.items()},
     }
     out.mkdir(parents=True, exist_ok=True)
-    (out / "table_i.json").write_text(json.dumps(result, indent=1, default=float))
+    (out / "table_i.json").write_text(json.dumps(jsonable(result), indent=1))
     with open(out / "table_i.csv", "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["model", "direction_deg", "group", "rms_orientation_error_deg", "paper_deg"])

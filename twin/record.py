@@ -43,7 +43,7 @@ def package_versions() -> dict[str, str]:
     return versions
 
 
-def _jsonable(value):
+def jsonable(value):
     if isinstance(value, np.ndarray):
         return (np.round(value, 6) if value.dtype.kind == "f" else value).tolist()
     if isinstance(value, (np.floating, np.integer, np.bool_)):
@@ -51,9 +51,9 @@ def _jsonable(value):
     if isinstance(value, Pose):
         return [round(float(v), 6) for v in value.as_array()]
     if isinstance(value, dict):
-        return {k: _jsonable(v) for k, v in value.items()}
+        return {k: jsonable(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
+        return [jsonable(v) for v in value]
     return value
 
 
@@ -88,7 +88,7 @@ class RunRecorder:
 
     def _write_meta(self) -> None:
         tmp = self.out_dir / "run.json.tmp"
-        tmp.write_text(json.dumps(_jsonable(self.meta), indent=1))
+        tmp.write_text(json.dumps(jsonable(self.meta), indent=1))
         tmp.replace(self.out_dir / "run.json")
 
     def add(self, observation: Observation, target: Pose, labels: dict, pins_px: np.ndarray | None = None,
@@ -114,7 +114,7 @@ class RunRecorder:
             "frame": frame_name,
             "truth": observation.truth,
         }
-        self._samples.write(json.dumps(_jsonable(row)) + "\n")
+        self._samples.write(json.dumps(jsonable(row)) + "\n")
         self._samples.flush()
         self.count += 1
         return index
