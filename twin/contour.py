@@ -12,7 +12,7 @@ import numpy as np
 from tqdm import tqdm
 
 from twin.control import Percept, load_controller, normal_from_theta
-from twin.errors import UserError
+from twin.errors import UnreachablePoseError, UserError
 from twin.poses import Pose
 from twin.record import RunRecorder, load_run
 from twin.scenario import Scenario
@@ -22,6 +22,7 @@ from twin.scenario import Scenario
 CLOSE_RADIUS_MM = 4.0
 CLOSE_MIN_TRAVEL_MM = 40.0
 COVERAGE_RADIUS_MM = 5.0  # a contour point is covered when the path passes this close
+LOST_DISTANCE_MM = 30.0  # farther than this from the contour, the run stops: contour lost
 
 
 def object_to_work_xy(points_mm: np.ndarray) -> np.ndarray:
@@ -94,8 +95,15 @@ def run_contour(scenario: Scenario, out: Path, seed: int | None = None, progress
             if end_xy is not None and travelled > CLOSE_MIN_TRAVEL_MM and np.linalg.norm(xy - end_xy) < CLOSE_RADIUS_MM:
                 stop_reason = "end of contour"
                 break
+            if abs(labels["true_lateral_mm"]) > LOST_DISTANCE_MM:
+                stop_reason = f"lost the contour ({labels['true_lateral_mm']:.1f} mm from it)"
+                break
             target = controller.next_pose(percept)
-            env.move_to(target, p.speed_mm_s)
+            try:
+                env.move_to(target, p.speed_mm_s)
+            except UnreachablePoseError as err:
+                stop_reason = f"controller asked for an unreachable pose: {err}"
+                break
             travelled += float(np.hypot(target.x - obs.pose.x, target.y - obs.pose.y))
             path.append(np.array([target.x, target.y]))
         env.move_to(Pose(obs.pose.x, obs.pose.y, -5.0, 0.0, 0.0, p.orientation_deg), p.speed_mm_s)

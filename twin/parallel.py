@@ -29,8 +29,11 @@ def map_ordered(fn: Callable, jobs: list[tuple], workers: int | None = None, clu
         for job in jobs:
             yield fn(*job)
         return
-    # fork: workers inherit the imported modules; the parent holds no GL context.
-    with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=get_context("fork")) as pool:
+    # forkserver, not fork: the parent may hold a GL context or BLAS/OpenMP threads (GP
+    # training), which a forked child inherits half-initialised and can deadlock on.
+    context = get_context("forkserver")
+    context.set_forkserver_preload(["twin.sim_env", "twin.runner", "twin.contour"])
+    with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=context) as pool:
         futures = [pool.submit(fn, *job) for job in jobs]
         for future in futures:
             yield future.result()
