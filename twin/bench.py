@@ -65,11 +65,25 @@ def bench_perception(quick: bool = False) -> list[dict]:
     return [{"section": "perception", **{k: v for k, v in r.items() if not isinstance(v, (list, dict))}}]
 
 
-SECTIONS: dict[str, Callable[[bool], list[dict]]] = {
+def bench_sweep(quick: bool = False, out: Path | None = None, workers: int | None = None,
+                cluster: str | None = None) -> list[dict]:
+    """The fidelity sweep (twin.sweep): per setting, ms per frame split into physics,
+    render, tracking and perception, against pin error (px), perception error (deg, mm)
+    and contour error (mm); writes sweep.csv, sweep.md, sweep.json and pareto.png to
+    `out` (default out/bench). Prints its own table."""
+    from twin.sweep import run_sweep
+
+    return run_sweep(out if out is not None else Path("out") / "bench", quick=quick, workers=workers, cluster=cluster)
+
+
+SECTIONS: dict[str, Callable[..., list[dict]]] = {
     "render": bench_render,
     "physics": bench_physics,
     "perception": bench_perception,
+    "sweep": bench_sweep,
 }
+#: Sections that take out/workers/cluster and write and print their own outputs.
+_SELF_REPORTING = {"sweep"}
 
 
 def _print_rows(title: str, rows: list[dict]) -> None:
@@ -84,14 +98,28 @@ def _print_rows(title: str, rows: list[dict]) -> None:
         print("  ".join(fmt(r.get(k, "")).ljust(w) for k, w in zip(keys, widths)))
 
 
-def run_bench(what: str = "all", quick: bool = False, out: Path | None = None) -> int:
-    """Run one section or all of them, print tables, optionally write CSVs to `out`."""
+def run_bench(what: str = "all", quick: bool = False, out: Path | None = None, workers: int | None = None,
+              cluster: str | None = None) -> int:
+    """Run one section or all of them, print tables, optionally write CSVs to `out`.
+
+    The sweep section always writes its files (to `out`, default out/bench) and runs its
+    settings in parallel (`workers` local processes, default all cores, or a Ray
+    `cluster`). Returns the exit code: 1 when a sweep setting failed (reported, not hidden).
+    """
     names = list(SECTIONS) if what == "all" else [what]
+    status = 0
     for name in names:
         if name not in SECTIONS:
             from twin.errors import UserError
 
             raise UserError(f"unknown bench section {name!r}; choose from {', '.join(SECTIONS)}")
+        if name in _SELF_REPORTING:
+            rows = SECTIONS[name](quick, out=out, workers=workers, cluster=cluster)
+            failed = [r["setting"] for r in rows if r.get("status") != "ok"]
+            if failed:
+                print(f"{len(failed)} sweep setting(s) failed: {', '.join(failed)}")
+                status = 1
+            continue
         rows = SECTIONS[name](quick)
         _print_rows(name, rows)
         if out is not None:
@@ -102,4 +130,4 @@ def run_bench(what: str = "all", quick: bool = False, out: Path | None = None) -
                 writer = csv.DictWriter(fh, fieldnames=list(rows[0].keys()))
                 writer.writeheader()
                 writer.writerows(rows)
-    return 0
+    return status
