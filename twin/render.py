@@ -32,6 +32,12 @@ def _pin_scene_xml(camera: CameraModel, lighting: bool, msaa: int) -> str:
         pin_material = '<material name="pin" rgba="1 1 1 1" emission="1" specular="0"/>'
         lights = ""
         skin_rgba = "0.08 0.08 0.08 1"
+    # The skin is a many-sided thin prism (a round aperture) so the spheres can use few slices.
+    n = 192
+    angles = np.arange(n) * 2 * np.pi / n
+    ring = np.column_stack([skin_radius * np.cos(angles), skin_radius * np.sin(angles)])
+    disc = np.vstack([np.column_stack([ring, np.zeros(n)]), np.column_stack([ring, np.full(n, 1e-4)])])
+    disc_vertices = " ".join(f"{v:.7g}" for v in disc.ravel())
     pins = "\n".join(
         f'<body name="pin{i}" mocap="true"><geom type="sphere" size="{g.pin_radius}" material="pin"/></body>'
         for i in range(N_PINS)
@@ -40,18 +46,19 @@ def _pin_scene_xml(camera: CameraModel, lighting: bool, msaa: int) -> str:
 <mujoco model="tactip_inside_view">
   <visual>
     <global offwidth="{camera.width}" offheight="{camera.height}" fovy="{camera.fov_y_deg}"/>
-    <quality offsamples="{msaa}" numslices="96"/>
+    <quality offsamples="{msaa}" numslices="16" numstacks="8"/>
     <headlight active="0" ambient="0 0 0" diffuse="0 0 0" specular="0 0 0"/>
   </visual>
   <default><geom contype="0" conaffinity="0"/></default>
   <asset>
     {pin_material}
     <material name="skin" rgba="{skin_rgba}" emission="1" specular="0"/>
+    <mesh name="skin" vertex="{disc_vertices}"/>
   </asset>
   <worldbody>
     {lights}
     <camera name="inside" pos="0 0 0" quat="{_OPENCV_TO_MUJOCO_CAMERA_QUAT}" fovy="{camera.fov_y_deg}"/>
-    <geom name="skin" type="cylinder" size="{skin_radius} 0.0001" pos="0 0 {skin_depth}" material="skin"/>
+    <geom name="skin" type="mesh" mesh="skin" pos="0 0 {skin_depth}" material="skin"/>
     {pins}
   </worldbody>
 </mujoco>"""
