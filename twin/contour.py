@@ -6,10 +6,15 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Iterator
+from contextlib import nullcontext
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
+
+from twin.env import Environment, Observation
 
 from twin.control import Percept, load_controller, normal_from_theta
 from twin.errors import UnreachablePoseError, UserError
@@ -38,44 +43,60 @@ def object_to_work_deg(angle_deg):
     return -np.asarray(angle_deg, float)
 
 
-def run_contour(scenario: Scenario, out: Path, seed: int | None = None, progress: bool = True, model=None) -> Path:
-    """Trace the scenario's object and record the run in `out` (with metrics.json and
-    contour.png). `model` is a fitted PerceptionModel; default: scenario's `model` file,
-    else the cached model trained on the tap set (twin.training)."""
-    from twin.runner import PinReader, make_environment
-    from twin.scene import camera_model, load_scenario_stimulus
+@dataclass
+class ContourStep:
+    """One step of contour following: the observation, its pins and the percept labels."""
 
-    p = scenario.protocol
-    seed = scenario.seed if seed is None else seed
-    if model is None:
-        from twin.training import model_for_scenario
+    observation: Observation
+    target: Pose
+    pins_px: np.ndarray
+    found: np.ndarray | None
+    labels: dict
 
-        model = model_for_scenario(scenario)
-    stimulus = load_scenario_stimulus(scenario)
-    if scenario.work_frame != "object":
-        raise UserError(f"{scenario.source}: contour following needs work_frame: object")
-    controller = load_controller(p.controller, p, scenario.source_dir)
-    start_xy = object_to_work_xy(stimulus.start_point_mm)[0]
-    end_xy = None if stimulus.end_point_mm is None else object_to_work_xy(stimulus.end_point_mm)[0]
 
-    wall0 = time.perf_counter()
-    env = make_environment(scenario, seed)
-    recorder = RunRecorder(out, scenario, seed, scenario.backend, camera_model(scenario),
-                           extra={"model": model.info.get("path", "in memory")})
-    status = "failed"
-    try:
+def _no_clock(stage: str):
+    return nullcontext()
+
+
+class ContourFollower:
+    """The closed loop of §III-D on any Environment: observe → track → perceive → step.
+
+    Iterate it to get one `ContourStep` per step; afterwards `stop_reason` says why it
+    stopped: loop closed, end of contour (spiral), lost the contour (farther than
+    LOST_DISTANCE_MM), a target out of the arm's reach, or the step limit. `clock(stage)`
+    is a context manager charged with the time of "render" (observe), "track",
+    "perception" and "physics" (moves), for benchmarks.
+    """
+
+    def __init__(self, env: Environment, scenario: Scenario, model, stimulus, clock=_no_clock) -> None:
+        if scenario.work_frame != "object":
+            raise UserError(f"{scenario.source}: contour following needs work_frame: object")
+        self.env, self.scenario, self.model, self.stimulus, self.clock = env, scenario, model, stimulus, clock
+        self.controller = load_controller(scenario.protocol.controller, scenario.protocol, scenario.source_dir)
+        self.stop_reason = "not started"
+
+    def __iter__(self) -> Iterator[ContourStep]:
+        from twin.runner import PinReader
+
+        env, p, stimulus, clock = self.env, self.scenario.protocol, self.stimulus, self.clock
+        start_xy = object_to_work_xy(stimulus.start_point_mm)[0]
+        end_xy = None if stimulus.end_point_mm is None else object_to_work_xy(stimulus.end_point_mm)[0]
+        resolution = (env.camera.width, env.camera.height)
         reader = PinReader(env.reset())
         start = Pose(start_xy[0], start_xy[1], p.depth_mm, 0.0, 0.0, p.orientation_deg)
         env.move_to(Pose(start.x, start.y, -5.0, 0.0, 0.0, p.orientation_deg), p.speed_mm_s)
-        env.move_to(start, p.speed_mm_s)
-        controller.reset(start)
-        travelled = 0.0
-        path = [start_xy]
-        stop_reason = "step limit"
-        for step in tqdm(range(p.max_steps), desc=scenario.name, unit="step", disable=not progress):
-            obs = env.observe()
-            pins, found, _ = reader.read(obs)
-            pred = model.predict(pins, found, resolution=(env.camera.width, env.camera.height))
+        with clock("physics"):
+            env.move_to(start, p.speed_mm_s)
+        self.controller.reset(start)
+        travelled, target = 0.0, start
+        self.stop_reason = "step limit"
+        for step in range(p.max_steps):
+            with clock("render"):
+                obs = env.observe()
+            with clock("track"):
+                pins, found, _ = reader.read(obs)
+            with clock("perception"):
+                pred = self.model.predict(pins, found, resolution=resolution)
             percept = Percept(float(pred.theta_deg[0]), float(pred.lateral_mm[0]), bool(pred.ok[0]), obs.pose)
             xy = np.array([obs.pose.x, obs.pose.y])
             labels = {
@@ -88,34 +109,53 @@ def run_contour(scenario: Scenario, out: Path, seed: int | None = None, progress
                 "true_normal_deg": float(object_to_work_deg(stimulus.outward_normal_deg(work_to_object_xy(xy)))[0]),
                 "true_lateral_mm": float(stimulus.signed_distance_mm(work_to_object_xy(xy))[0]),
             }
-            recorder.add(obs, obs.pose if step else start, labels, pins, found)
+            yield ContourStep(obs, target, pins, found, labels)
             if step and travelled > CLOSE_MIN_TRAVEL_MM and np.linalg.norm(xy - start_xy) < CLOSE_RADIUS_MM:
-                stop_reason = "loop closed"
+                self.stop_reason = "loop closed"
                 break
             if end_xy is not None and travelled > CLOSE_MIN_TRAVEL_MM and np.linalg.norm(xy - end_xy) < CLOSE_RADIUS_MM:
-                stop_reason = "end of contour"
+                self.stop_reason = "end of contour"
                 break
             if abs(labels["true_lateral_mm"]) > LOST_DISTANCE_MM:
-                stop_reason = f"lost the contour ({labels['true_lateral_mm']:.1f} mm from it)"
+                self.stop_reason = f"lost the contour ({labels['true_lateral_mm']:.1f} mm from it)"
                 break
-            target = controller.next_pose(percept)
+            target = self.controller.next_pose(percept)
             try:
-                env.move_to(target, p.speed_mm_s)
+                with clock("physics"):
+                    env.move_to(target, p.speed_mm_s)
             except UnreachablePoseError as err:
-                stop_reason = f"controller asked for an unreachable pose: {err}"
+                self.stop_reason = f"controller asked for an unreachable pose: {err}"
                 break
             travelled += float(np.hypot(target.x - obs.pose.x, target.y - obs.pose.y))
-            path.append(np.array([target.x, target.y]))
         env.move_to(Pose(obs.pose.x, obs.pose.y, -5.0, 0.0, 0.0, p.orientation_deg), p.speed_mm_s)
-        status = "completed"
-    except KeyboardInterrupt:
-        status = "interrupted"
-        raise
+
+
+def run_contour(scenario: Scenario, out: Path, seed: int | None = None, progress: bool = True, model=None) -> Path:
+    """Trace the scenario's object and record the run in `out` (with metrics.json and
+    contour.png). `model` is a fitted PerceptionModel; default: scenario's `model` file,
+    else the cached model trained on the tap set (twin.training)."""
+    from twin.runner import make_environment
+    from twin.scene import camera_model, load_scenario_stimulus
+
+    seed = scenario.seed if seed is None else seed
+    if model is None:
+        from twin.training import model_for_scenario
+
+        model = model_for_scenario(scenario)
+    stimulus = load_scenario_stimulus(scenario)
+    wall0 = time.perf_counter()
+    env = make_environment(scenario, seed)
+    follower = ContourFollower(env, scenario, model, stimulus)
+    recorder = RunRecorder(out, scenario, seed, scenario.backend, camera_model(scenario),
+                           extra={"model": model.info.get("path", "in memory")})
+    try:
+        with recorder:
+            for step in tqdm(follower, desc=scenario.name, unit="step", total=scenario.protocol.max_steps,
+                             disable=not progress):
+                recorder.add(step.observation, step.target, step.labels, step.pins_px, step.found)
+            recorder.meta["stop_reason"] = follower.stop_reason
+            recorder.meta["wall_time_s"] = time.perf_counter() - wall0
     finally:
-        sim_time = getattr(env, "physics", None)
-        recorder.meta["stop_reason"] = locals().get("stop_reason", status)
-        recorder.meta["wall_time_s"] = time.perf_counter() - wall0
-        recorder.close(status if status != "failed" else "failed", None if status != "failed" else "see traceback")
         env.close()
     metrics = contour_metrics(load_run(out), stimulus)
     (Path(out) / "metrics.json").write_text(json.dumps(metrics, indent=1))

@@ -310,66 +310,17 @@ def _open_loop(env, moves, stages: _Stages) -> dict:
 
 
 def _contour(env, scenario, model, stages: _Stages) -> dict:
-    """Contour following of the scenario's object, as twin.contour.run_contour without the
-    recorder; returns twin.contour.contour_metrics of the steps. Same stop rules: loop
-    closed, end of contour, lost (farther than LOST_DISTANCE_MM from the contour), a
-    target out of the arm's reach, step limit."""
-    from twin.contour import (CLOSE_MIN_TRAVEL_MM, CLOSE_RADIUS_MM, LOST_DISTANCE_MM, contour_metrics,
-                              object_to_work_deg, object_to_work_xy, work_to_object_xy)
-    from twin.control import Percept, load_controller, normal_from_theta
-    from twin.errors import UnreachablePoseError
-    from twin.poses import Pose
-    from twin.runner import PinReader
+    """Contour following of the scenario's object with twin.contour.ContourFollower (the
+    same loop and stop rules as `twin run`, without the recorder); returns
+    twin.contour.contour_metrics of the steps."""
+    from twin.contour import ContourFollower, contour_metrics
     from twin.scene import load_scenario_stimulus
 
-    p = scenario.protocol
     stimulus = load_scenario_stimulus(scenario)
-    controller = load_controller(p.controller, p, scenario.source_dir)
-    start_xy = object_to_work_xy(stimulus.start_point_mm)[0]
-    end_xy = None if stimulus.end_point_mm is None else object_to_work_xy(stimulus.end_point_mm)[0]
-    resolution = (env.camera.width, env.camera.height)
-    reader = PinReader(env.reset())
-    start = Pose(start_xy[0], start_xy[1], p.depth_mm, 0.0, 0.0, p.orientation_deg)
-    env.move_to(Pose(start.x, start.y, -5.0, 0.0, 0.0, p.orientation_deg), p.speed_mm_s)
-    with stages.clock("physics"):
-        env.move_to(start, p.speed_mm_s)
-    controller.reset(start)
-    samples: list[dict] = []
-    travelled = 0.0
-    stop_reason = "step limit"
-    for step in range(p.max_steps):
-        with stages.clock("render"):
-            obs = env.observe()
-        with stages.clock("track"):
-            pins, found, _ = reader.read(obs)
-        with stages.clock("perception"):
-            pred = model.predict(pins, found, resolution=resolution)
-        percept = Percept(float(pred.theta_deg[0]), float(pred.lateral_mm[0]), bool(pred.ok[0]), obs.pose)
-        xy = np.array([obs.pose.x, obs.pose.y])
-        samples.append({"pose": [float(v) for v in obs.pose.as_array()], "time": float(obs.time), "labels": {
-            "perceived_normal_deg": normal_from_theta(obs.pose.gamma, percept.theta_deg),
-            "true_normal_deg": float(object_to_work_deg(stimulus.outward_normal_deg(work_to_object_xy(xy)))[0]),
-            "lateral_hat_mm": percept.lateral_mm,
-            "true_lateral_mm": float(stimulus.signed_distance_mm(work_to_object_xy(xy))[0]),
-            "ok": percept.ok}})
-        if step and travelled > CLOSE_MIN_TRAVEL_MM and np.linalg.norm(xy - start_xy) < CLOSE_RADIUS_MM:
-            stop_reason = "loop closed"
-            break
-        if end_xy is not None and travelled > CLOSE_MIN_TRAVEL_MM and np.linalg.norm(xy - end_xy) < CLOSE_RADIUS_MM:
-            stop_reason = "end of contour"
-            break
-        if abs(samples[-1]["labels"]["true_lateral_mm"]) > LOST_DISTANCE_MM:
-            stop_reason = "lost the contour"
-            break
-        target = controller.next_pose(percept)
-        try:
-            with stages.clock("physics"):
-                env.move_to(target, p.speed_mm_s)
-        except UnreachablePoseError:
-            stop_reason = "out of reach"
-            break
-        travelled += float(np.hypot(target.x - obs.pose.x, target.y - obs.pose.y))
-    run = SimpleNamespace(samples=samples, meta={"status": "completed", "stop_reason": stop_reason})
+    follower = ContourFollower(env, scenario, model, stimulus, clock=stages.clock)
+    samples = [{"pose": [float(v) for v in step.observation.pose.as_array()], "time": float(step.observation.time),
+                "labels": step.labels} for step in follower]
+    run = SimpleNamespace(samples=samples, meta={"status": "completed", "stop_reason": follower.stop_reason})
     return contour_metrics(run, stimulus)
 
 

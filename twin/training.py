@@ -48,10 +48,19 @@ def tap_scenario_like(scenario: Scenario) -> Scenario:
                              sensor=scenario.sensor.model_dump(), seed=scenario.seed)
 
 
+def code_fingerprint() -> str:
+    """Hash of the twin's source: a cached model is retrained when the code changes."""
+    digest = hashlib.sha256()
+    for path in sorted((ROOT / "twin").glob("*.py")):
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
 def _cache_key(taps: Scenario) -> str:
     from twin.record import package_versions
 
-    payload = json.dumps({"scenario": taps.model_dump(), "versions": package_versions()}, sort_keys=True)
+    payload = json.dumps({"scenario": taps.model_dump(), "versions": package_versions(), "code": code_fingerprint()},
+                         sort_keys=True)
     return hashlib.sha256(payload.encode()).hexdigest()[:16]
 
 
