@@ -46,7 +46,8 @@ if ! { [ -x "$UV" ] && "$UV" --version | grep -q "$UV_VERSION"; }; then
 fi
 
 # 4. The locked environment (pyrender's PyOpenGL pin is overridden in pyproject.toml)
-"$UV" sync --locked --all-extras --group dev --python "$PY" -q || die "uv sync failed (see above)"
+# --compile-bytecode: imports stay fast where PYTHONDONTWRITEBYTECODE is set (CI, containers)
+"$UV" sync --locked --all-extras --group dev --compile-bytecode --python "$PY" -q || die "uv sync failed (see above)"
 
 export MUJOCO_GL=${MUJOCO_GL:-egl} PYOPENGL_PLATFORM=${PYOPENGL_PLATFORM:-${MUJOCO_GL:-egl}}
 case "$job" in

@@ -75,7 +75,8 @@ def _cmd_serve_robot(args: argparse.Namespace) -> int:
 def _cmd_compare(args: argparse.Namespace) -> int:
     from twin.compare import compare_runs
 
-    r = compare_runs(Path(args.run_a), Path(args.run_b), Path(args.out))
+    r = compare_runs(Path(args.run_a), Path(args.run_b), Path(args.out),
+                     model_path=Path(args.model) if args.model else None)
     print(f"{r['n_pairs']} paired samples ({r['pairing']})")
     print(f"pin RMS difference: {r['pin_rms_difference_px']:.3f} px")
     c = r["pin_displacement_correlation"]
@@ -83,6 +84,10 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         print(f"per-pin displacement correlation: mean {c['mean']:.3f}, min {c['min']:.3f} over {c['pins']} pins")
     if r["ssim"]:
         print(f"image SSIM: mean {r['ssim']['mean']:.3f}, min {r['ssim']['min']:.3f} over {r['ssim']['frames']} frames")
+    for tag in ("a", "b"):
+        perc = r.get(f"perception_{tag}") or (r.get(f"metrics_{tag}") or None)
+        if perc:
+            print(f"run {tag.upper()} perception: θ RMS {perc['orientation_rms_deg']:.1f}°, l RMS {perc['lateral_rms_mm']:.2f} mm")
     if "path_distance" in r:
         print(f"path distance: mean {r['path_distance']['mean_mm']:.2f} mm, Hausdorff {r['path_distance']['hausdorff_mm']:.2f} mm")
     print(f"wrote {args.out}/comparison.json and plots")
@@ -155,6 +160,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("run_a")
     p.add_argument("run_b")
     p.add_argument("--out", required=True)
+    p.add_argument("--model", default=None, help="perception model file to score labelled runs (taps, slides)")
     p.set_defaults(func=_cmd_compare)
 
     p = sub.add_parser("figure", help="the paper's Fig. 2: pin traces tapping vs sliding across the edge in 8 directions")

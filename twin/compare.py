@@ -49,8 +49,26 @@ def _path_distance(a: Run, b: Run) -> dict:
     return {"mean_mm": float(np.mean(np.concatenate([ab, ba]))), "hausdorff_mm": float(max(ab.max(), ba.max()))}
 
 
-def compare_runs(dir_a: Path, dir_b: Path, out: Path, max_ssim_frames: int = 200) -> dict:
-    """Pair the runs' samples by target pose and write comparison.json and plots to `out`."""
+def perception_error(run: Run, model) -> dict | None:
+    """RMS θ (deg) and l (mm) error of `model` on a run whose samples carry theta_deg and
+    lateral_mm labels (taps, slides); None for runs without them."""
+    from twin.perception import angle_error_deg
+
+    theta, lateral = run.label("theta_deg"), run.label("lateral_mm")
+    if not (np.all(np.isfinite(theta)) and np.all(np.isfinite(lateral))) or not len(theta):
+        return None
+    camera = run.meta.get("camera") or {"width": 640, "height": 480}
+    pred = model.predict(run.pins_px, resolution=(camera["width"], camera["height"]))
+    return {"orientation_rms_deg": float(np.sqrt(np.mean(angle_error_deg(pred.theta_deg, theta) ** 2))),
+            "lateral_rms_mm": float(np.sqrt(np.mean((pred.lateral_mm - lateral) ** 2))),
+            "ok_fraction": float(np.mean(pred.ok))}
+
+
+def compare_runs(dir_a: Path, dir_b: Path, out: Path, max_ssim_frames: int = 200, model_path: Path | None = None) -> dict:
+    """Pair the runs' samples by target pose and write comparison.json and plots to `out`.
+
+    Each run's perception error: contour runs report their metrics.json; labelled runs
+    (taps, slides) are scored with the model file `model_path` when given."""
     a, b = load_run(dir_a), load_run(dir_b)
     name_a, name_b = a.meta["scenario"]["name"], b.meta["scenario"]["name"]
     kind = a.meta["scenario"]["protocol"]["kind"]
@@ -70,6 +88,11 @@ def compare_runs(dir_a: Path, dir_b: Path, out: Path, max_ssim_frames: int = 200
     else:
         pairs = pair_samples(a, b)
         result["pairing"] = "by target pose"
+        if model_path is not None:
+            from twin.perception import PerceptionModel
+
+            model = PerceptionModel.load(model_path)
+            result["perception_a"], result["perception_b"] = perception_error(a, model), perception_error(b, model)
     if not pairs:
         raise UserError(f"{dir_a} and {dir_b} share no target poses: are they runs of the same scenario?")
     ia, ib = (np.array(x) for x in zip(*pairs))

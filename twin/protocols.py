@@ -47,7 +47,7 @@ def tap_moves(p: TapProtocol) -> list[Move]:
         for lateral in p.lateral_mm:
             x, y = origin + lateral * n
             above = Pose(x, y, -p.approach_mm, 0.0, 0.0, theta)
-            moves.append(Move(above, p.speed_mm_s))
+            moves.append(Move(above, p.free_speed_mm_s))  # lateral move out of contact
             for depth in p.depths_mm:
                 labels = {"theta_deg": theta, "lateral_mm": lateral, "depth_mm": depth}
                 moves.append(Move(Pose(x, y, depth, 0.0, 0.0, theta), p.speed_mm_s, True, labels))
@@ -81,7 +81,7 @@ def slide_moves(p: SlideProtocol) -> list[Move]:
             start_lateral = on_start if 90.0 <= (direction % 360.0) <= 270.0 else off_start
             start = origin + start_lateral * n
             x0, y0 = start
-            moves.append(Move(Pose(x0, y0, -p.approach_mm, 0.0, 0.0, theta), p.speed_mm_s))
+            moves.append(Move(Pose(x0, y0, -p.approach_mm, 0.0, 0.0, theta), p.free_speed_mm_s))  # out of contact
             for i, s in enumerate(offsets):
                 x, y = start + s * unit
                 lateral = float(np.dot(np.array([x, y]) - origin, n))

@@ -97,6 +97,7 @@ class TapProtocol(_Strict):
     edge_normal_deg: float = 0.0
     approach_mm: float = Field(default=5.0, gt=0, le=50)
     speed_mm_s: float = Field(default=20.0, gt=0, le=250)
+    free_speed_mm_s: float = Field(default=50.0, gt=0, le=250, description="moves above the object, out of contact")
 
 
 class SlideProtocol(_Strict):
@@ -111,6 +112,7 @@ class SlideProtocol(_Strict):
     edge_normal_deg: float = 0.0
     approach_mm: float = Field(default=5.0, gt=0, le=50)
     speed_mm_s: float = Field(default=20.0, gt=0, le=250)
+    free_speed_mm_s: float = Field(default=50.0, gt=0, le=250, description="moves above the object, out of contact")
 
 
 class ContourProtocol(_Strict):
