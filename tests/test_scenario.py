@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 import pytest
 
 from twin.cli import main
@@ -46,3 +48,34 @@ def test_bad_scenario_names_file_field_value(case: str, tmp_path: Path, capsys) 
 
 def test_missing_file_is_user_error(tmp_path: Path) -> None:
     assert main(["check", str(tmp_path / "nope.yaml")]) == 2
+
+
+def test_user_outline_object_named_in_a_scenario(tmp_path: Path) -> None:
+    """A user's own object: a 2D outline CSV extruded to a thickness, path relative to the scenario."""
+    from twin.poses import Pose
+    from twin.sim_env import SimEnvironment
+
+    (tmp_path / "triangle.csv").write_text("x,y\n-30,-20\n30,-20\n0,30\n")
+    path = tmp_path / "triangle.yaml"
+    path.write_text("name: triangle\nobject: {outline: triangle.csv, thickness_mm: 8}\nfidelity: fast\n"
+                    "effects: [contact, friction]\n")
+    assert main(["check", str(path)]) == 0
+    with SimEnvironment(load_scenario(path)) as env:
+        rest = env.reset().pins_px
+        pressed = env.step(Pose(0, 20, 3, 0, 0, 0)).pins_px   # the edge at y = −20 (object) = +20 (work)
+    assert np.abs(pressed - rest).max() > 1.0
+
+
+def test_broken_user_stl_is_a_user_error(tmp_path: Path, capsys) -> None:
+    (tmp_path / "broken.stl").write_text("solid broken\nendsolid broken\n")
+    path = tmp_path / "broken.yaml"
+    path.write_text("name: broken\nobject: {stl: broken.stl}\n")
+    assert main(["check", str(path)]) == 2
+    assert "broken.stl" in capsys.readouterr().err
+
+
+def test_unreachable_pose_is_a_user_error(tmp_path: Path, capsys) -> None:
+    path = tmp_path / "far.yaml"
+    path.write_text("name: far\nobject: {name: rectangle}\nprotocol: {kind: render, poses: [[900, 0, -5, 0, 0, 0]]}\n")
+    assert main(["render", str(path), "--out", str(tmp_path / "f.png")]) == 2
+    assert "out of reach" in capsys.readouterr().err
