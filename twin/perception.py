@@ -83,6 +83,7 @@ from sklearn.gaussian_process import GaussianProcessRegressor
 from sklearn.gaussian_process.kernels import ConstantKernel, Kernel, Matern, WhiteKernel
 
 from twin.errors import UserError
+from twin.poses import wrap_deg
 from twin.tactip import N_PINS, CameraModel
 
 FORMAT = "tactip-twin/perception-model"
@@ -104,11 +105,6 @@ def pins_to_vectors(pins_px: np.ndarray) -> np.ndarray:
     if pins_px.shape[1:] != (N_PINS, 2):
         raise UserError(f"perception: pins must be (N, {N_PINS}, 2) px, got shape {pins_px.shape}")
     return pins_px.reshape(len(pins_px), N_DIMS)
-
-
-def wrap_deg(angle_deg: np.ndarray | float) -> np.ndarray:
-    """Wrap angles (deg) to [−180, 180)."""
-    return (np.asarray(angle_deg, float) + 180.0) % 360.0 - 180.0
 
 
 def angle_error_deg(predicted_deg: np.ndarray, true_deg: np.ndarray) -> np.ndarray:

@@ -96,6 +96,6 @@ def angle_between_rotations_deg(r_a: np.ndarray, r_b: np.ndarray) -> float:
     return float(np.degrees(Rotation.from_matrix(r_a.T @ r_b).magnitude()))
 
 
-def wrap_deg(angle):
+def wrap_deg(angle) -> np.ndarray:
     """Wrap angles (deg) into [-180, 180)."""
-    return (np.asarray(angle) + 180.0) % 360.0 - 180.0
+    return (np.asarray(angle, float) + 180.0) % 360.0 - 180.0

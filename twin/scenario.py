@@ -9,7 +9,6 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from twin.errors import UserError
-from twin.poses import Pose
 
 EFFECTS = ("contact", "friction", "arm_dynamics", "render", "camera_noise", "lighting")
 FIDELITIES = ("fast", "default", "reference")
@@ -222,6 +221,3 @@ def load_scenario(path: str | Path) -> Scenario:
         raise UserError(f"{path}:{where} not valid YAML: {getattr(err, 'problem', err)}") from None
     return scenario_from_dict(data, str(path))
 
-
-def pose_from_list(values: list[float]) -> Pose:
-    return Pose.from_array(values)
