@@ -9,10 +9,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Literal
 
-import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from hardware.safety import SafetyLimits
+from twin.config_files import read_yaml, validation_error
 from twin.errors import UserError
 from twin.poses import Pose
 
@@ -82,16 +82,6 @@ class HardwareConfig(_Strict):
     safety: SafetyLimits = SafetyLimits()
 
 
-def _format_validation_error(source: str, err: ValidationError) -> str:
-    lines = [f"{source}: invalid hardware config"]
-    for e in err.errors():
-        loc = ".".join(str(p) for p in e["loc"]) or "(top level)"
-        value = e.get("input")
-        shown = repr(value) if not isinstance(value, dict) else "{…}"
-        lines.append(f"  {loc} = {shown}: {e['msg']}")
-    return "\n".join(lines)
-
-
 def hardware_config_from_dict(data, source: str = "<dict>", base_dir: Path | None = None) -> HardwareConfig:
     """Validate a mapping; relative video paths are resolved against `base_dir`."""
     if data is None:
@@ -101,7 +91,7 @@ def hardware_config_from_dict(data, source: str = "<dict>", base_dir: Path | Non
     try:
         config = HardwareConfig.model_validate(data)
     except ValidationError as err:
-        raise UserError(_format_validation_error(source, err)) from None
+        raise validation_error(source, "hardware config", err) from None
     src = config.camera.source
     if base_dir is not None and isinstance(src, str) and "://" not in src and not Path(src).is_absolute():
         camera = config.camera.model_copy(update={"source": str((base_dir / src).resolve())})
@@ -111,13 +101,4 @@ def hardware_config_from_dict(data, source: str = "<dict>", base_dir: Path | Non
 
 def load_hardware_config(path: str | Path) -> HardwareConfig:
     """Read and validate a hardware config YAML file."""
-    path = Path(path)
-    if not path.is_file():
-        raise UserError(f"{path}: no such hardware config file")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as err:
-        mark = getattr(err, "problem_mark", None)
-        where = f" line {mark.line + 1}:" if mark is not None else ""
-        raise UserError(f"{path}:{where} not valid YAML: {getattr(err, 'problem', err)}") from None
-    return hardware_config_from_dict(data, str(path), path.parent)
+    return hardware_config_from_dict(read_yaml(path, "hardware config"), str(path), Path(path).parent)

@@ -45,7 +45,7 @@ import numpy as np
 from scipy.spatial import Delaunay
 
 from twin.errors import PhysicsError
-from twin.poses import invert_transform, make_transform, transform_points
+from twin.poses import invert_transform, make_transform, matrix_to_quat_wxyz, transform_points
 from twin.tactip import N_PINS, TacTipGeometry
 
 #: Real mass of the dome's gel + skin (kg): a 20 mm-radius hemisphere of ≈1.0 g/cm³ gel.
@@ -396,7 +396,7 @@ def add_tactip(
     for body in child.bodies:
         if body.name.startswith("flex"):
             body.gravcomp = 1.0  # the mass-scaled gel must not sag under gravity
-    frame = parent.add_frame(pos=tool_in_parent[:3, 3], quat=_quat(tool_in_parent[:3, :3]))
+    frame = parent.add_frame(pos=tool_in_parent[:3, 3], quat=matrix_to_quat_wxyz(tool_in_parent[:3, :3]))
     frame.attach_body(child.body("dome"), f"{name}_", "")
     configure_options(spec, params)
     _, _, pin_vertices = dome_mesh(geometry, params.surface_spacing, params.margin)
@@ -409,12 +409,6 @@ def add_tactip(
         tool_in_mount=tool_in_parent,
         pin_vertices=pin_vertices,
     )
-
-
-def _quat(rotation: np.ndarray) -> np.ndarray:
-    q = np.zeros(4)
-    mujoco.mju_mat2Quat(q, np.ascontiguousarray(rotation, dtype=float).ravel())
-    return q
 
 
 def tool2world(model: mujoco.MjModel, data: mujoco.MjData, handles: TacTipHandles) -> np.ndarray:

@@ -58,7 +58,7 @@ class Pose:
 
     def quat_wxyz(self) -> np.ndarray:
         """Orientation as a w-first unit quaternion (MuJoCo and ABB RAPID order)."""
-        return quat_xyzw_to_wxyz(Rotation.from_matrix(self.rotation).as_quat())
+        return matrix_to_quat_wxyz(self.rotation)
 
     def __add__(self, other: "Pose") -> "Pose":
         return Pose.from_array(self.as_array() + other.as_array())
@@ -85,6 +85,11 @@ def transform_points(a2b: np.ndarray, points: np.ndarray) -> np.ndarray:
 
 def quat_xyzw_to_wxyz(q: np.ndarray) -> np.ndarray:
     return np.array([q[3], q[0], q[1], q[2]])
+
+
+def matrix_to_quat_wxyz(rotation: np.ndarray) -> np.ndarray:
+    """w-first unit quaternion of a 3×3 rotation matrix."""
+    return quat_xyzw_to_wxyz(Rotation.from_matrix(rotation).as_quat())
 
 
 def quat_wxyz_to_matrix(q: np.ndarray) -> np.ndarray:

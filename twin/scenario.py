@@ -5,9 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Literal, Union
 
-import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from twin.config_files import read_yaml, validation_error
 from twin.errors import UserError
 
 EFFECTS = ("contact", "friction", "arm_dynamics", "render", "camera_noise", "lighting")
@@ -85,13 +85,11 @@ class RenderProtocol(_Strict):
     speed_mm_s: float = Field(default=20.0, gt=0, le=250)
 
 
-class TapProtocol(_Strict):
-    """The paper's tap training set on a straight edge (§III-A2)."""
+class _StraightEdgeProtocol(_Strict):
+    """Fields shared by the paper's two data sets on the rectangle's straight edge."""
 
-    kind: Literal["taps"] = "taps"
     orientations_deg: list[float] = [float(a) for a in range(-160, 181, 20)]
     lateral_mm: list[float] = [9.9, 6, 4, 2, 0, -2, -4, -6]
-    depths_mm: list[float] = [2.0, 4.0]
     edge_point_mm: Annotated[list[float], Field(min_length=2, max_length=2)] = [60.0, 0.0]
     edge_normal_deg: float = 0.0
     approach_mm: float = Field(default=5.0, gt=0, le=50)
@@ -99,19 +97,19 @@ class TapProtocol(_Strict):
     free_speed_mm_s: float = Field(default=50.0, gt=0, le=250, description="moves above the object, out of contact")
 
 
-class SlideProtocol(_Strict):
+class TapProtocol(_StraightEdgeProtocol):
+    """The paper's tap training set (§III-A2)."""
+
+    kind: Literal["taps"] = "taps"
+    depths_mm: list[float] = [2.0, 4.0]
+
+
+class SlideProtocol(_StraightEdgeProtocol):
     """The paper's multi-directional sliding set (§III-C)."""
 
     kind: Literal["slides"] = "slides"
-    orientations_deg: list[float] = [float(a) for a in range(-160, 181, 20)]
     directions_deg: list[float] = [float(a) for a in range(0, 360, 45)]
-    lateral_mm: list[float] = [9.9, 6, 4, 2, 0, -2, -4, -6]
     depth_mm: float = Field(default=3.0, ge=0, le=6)
-    edge_point_mm: Annotated[list[float], Field(min_length=2, max_length=2)] = [60.0, 0.0]
-    edge_normal_deg: float = 0.0
-    approach_mm: float = Field(default=5.0, gt=0, le=50)
-    speed_mm_s: float = Field(default=20.0, gt=0, le=250)
-    free_speed_mm_s: float = Field(default=50.0, gt=0, le=250, description="moves above the object, out of contact")
 
 
 class ContourProtocol(_Strict):
@@ -184,18 +182,6 @@ class Scenario(_Strict):
         return scenario_from_dict(data, self.source)
 
 
-def _format_validation_error(source: str, err: ValidationError) -> str:
-    lines = [f"{source}: invalid scenario"]
-    for e in err.errors():
-        loc = ".".join(str(p) for p in e["loc"])
-        value = e.get("input")
-        shown = repr(value) if not isinstance(value, dict) else "{…}"
-        if len(shown) > 80:
-            shown = shown[:77] + "…"
-        lines.append(f"  field '{loc or '<root>'}': {e['msg']} (value: {shown})")
-    return "\n".join(lines)
-
-
 def scenario_from_dict(data: dict, source: str = "<inline>") -> Scenario:
     """Validate a scenario given as a dict; `source` names it in errors."""
     if not isinstance(data, dict):
@@ -203,21 +189,11 @@ def scenario_from_dict(data: dict, source: str = "<inline>") -> Scenario:
     try:
         scenario = Scenario.model_validate(data)
     except ValidationError as err:
-        raise UserError(_format_validation_error(source, err)) from None
+        raise validation_error(source, "scenario", err) from None
     object.__setattr__(scenario, "_source", source)
     return scenario
 
 
 def load_scenario(path: str | Path) -> Scenario:
     """Read and validate a scenario YAML file."""
-    path = Path(path)
-    if not path.is_file():
-        raise UserError(f"{path}: no such scenario file")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as err:
-        mark = getattr(err, "problem_mark", None)
-        where = f" line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        raise UserError(f"{path}:{where} not valid YAML: {getattr(err, 'problem', err)}") from None
-    return scenario_from_dict(data, str(path))
-
+    return scenario_from_dict(read_yaml(path, "scenario"), str(path))

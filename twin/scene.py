@@ -28,7 +28,7 @@ import mujoco
 from twin.dome import FIDELITY_LEVELS, DomeParams, TacTipHandles, add_stimulus_carrier, add_tactip
 from twin.errors import UserError
 from twin.kinematics import IRB120_XML, Irb120Kinematics
-from twin.poses import Pose, make_transform
+from twin.poses import Pose, make_transform, matrix_to_quat_wxyz
 from twin.scenario import Scenario
 from twin.stimuli import Stimulus, load_stimulus
 from twin.tactip import CameraModel, TacTipGeometry
@@ -89,12 +89,6 @@ def camera_model(scenario: Scenario) -> CameraModel:
     return CameraModel(width=c.width, height=c.height, fov_y_deg=c.fov_y_deg)
 
 
-def _quat(rotation: np.ndarray) -> np.ndarray:
-    q = np.zeros(4)
-    mujoco.mju_mat2Quat(q, np.ascontiguousarray(rotation, dtype=float).ravel())
-    return q
-
-
 @lru_cache(maxsize=1)
 def kinematics() -> Irb120Kinematics:
     return Irb120Kinematics()
@@ -146,17 +140,19 @@ def _add_tactip_visual(body: mujoco.MjsBody, geometry: TacTipGeometry) -> None:
                   rgba=[0.05, 0.05, 0.05, 1], contype=0, conaffinity=0, mass=0)
 
 
-def build_overview(scenario: Scenario, tool2world: np.ndarray) -> tuple[mujoco.MjModel, mujoco.MjData]:
-    """The lab for pictures: table, IRB120 posed by IK at `tool2world`, TacTip, object."""
+def build_overview(scenario: Scenario, pose: Pose) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    """The lab for pictures: table, IRB120 posed by IK with the sensor at `pose` (work
+    frame, mm/deg), TacTip, object."""
     stimulus = load_scenario_stimulus(scenario)
-    object2world, _ = object_and_work_frames(scenario, stimulus)
+    object2world, work2world = object_and_work_frames(scenario, stimulus)
+    tool2world = work2world @ pose.to_matrix()
     spec = mujoco.MjSpec()
     spec.modelname = f"overview_{scenario.name}"
     spec.visual.global_.offwidth, spec.visual.global_.offheight = 1280, 960
     spec.worldbody.add_light(pos=[0.3, -0.3, 1.5], dir=[-0.2, 0.2, -1], diffuse=[0.7, 0.7, 0.7])
     spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=list(TABLE_HALF_SIZE), pos=[0.35, 0, -TABLE_HALF_SIZE[2]],
                             rgba=[0.55, 0.45, 0.35, 1], contype=0, conaffinity=0)
-    obj = spec.worldbody.add_body(name="object", pos=object2world[:3, 3], quat=_quat(object2world[:3, :3]))
+    obj = spec.worldbody.add_body(name="object", pos=object2world[:3, 3], quat=matrix_to_quat_wxyz(object2world[:3, :3]))
     _add_object(spec, obj, stimulus, collide=False, friction=False)
     arm = mujoco.MjSpec.from_file(str(IRB120_XML))
     _add_tactip_visual(arm.body("flange"), TacTipGeometry())

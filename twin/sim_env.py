@@ -107,13 +107,6 @@ class SimEnvironment(Environment):
             self._renderer = None
 
 
-def build_scene_frames(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
-    """(object2world, work2world) of a scenario without building its physics."""
-    from twin.scene import load_scenario_stimulus, object_and_work_frames
-
-    return object_and_work_frames(scenario, load_scenario_stimulus(scenario))
-
-
 def first_pose(scenario: Scenario) -> Pose:
     """The first recorded pose of a scenario's protocol (for single images)."""
     from twin.protocols import protocol_moves
@@ -133,7 +126,7 @@ def render_scenario_view(scenario: Scenario, out: Path, view: str = "sensor") ->
             env.move_to(pose)
             image = env.observe().frame
     else:
-        model, data = build_overview(scenario, build_scene_frames(scenario)[1] @ pose.to_matrix())
+        model, data = build_overview(scenario, pose)
         image = render_overview(model, data, lookat=np.array([0.3, 0.0, 0.15]), distance=1.3)
     if not cv2.imwrite(str(out), image[..., ::-1]):
         raise UserError(f"could not write {out}")
