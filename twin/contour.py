@@ -22,10 +22,13 @@ from twin.poses import Pose
 from twin.record import RunRecorder, load_run
 from twin.scenario import Scenario
 
-#: The loop is closed when the sensor comes back within this distance (mm) of the first
-#: contact point after having travelled at least CLOSE_MIN_TRAVEL_MM.
+#: The loop is closed (or the spiral's end reached) when the sensor comes within this
+#: distance (mm) of the first contact point (the end point) after having travelled at
+#: least CLOSE_MIN_TRAVEL_MM and passed within COVERAGE_RADIUS_MM of CLOSE_MIN_COVERAGE of
+#: the contour (without that, a path that turns back to the start read as a closed loop).
 CLOSE_RADIUS_MM = 4.0
 CLOSE_MIN_TRAVEL_MM = 40.0
+CLOSE_MIN_COVERAGE = 0.9
 COVERAGE_RADIUS_MM = 5.0  # a contour point is covered when the path passes this close
 LOST_DISTANCE_MM = 30.0  # farther than this from the contour, the run stops: contour lost
 
@@ -89,6 +92,8 @@ class ContourFollower:
             env.move_to(start, p.speed_mm_s)
         self.controller.reset(start)
         travelled, target = 0.0, start
+        trace = object_to_work_xy(stimulus.trace_path(1.0))
+        covered = np.zeros(len(trace), bool)
         self.stop_reason = "step limit"
         for step in range(p.max_steps):
             with clock("render"):
@@ -110,10 +115,12 @@ class ContourFollower:
                 "true_lateral_mm": float(stimulus.signed_distance_mm(work_to_object_xy(xy))[0]),
             }
             yield ContourStep(obs, target, pins, found, labels)
-            if step and travelled > CLOSE_MIN_TRAVEL_MM and np.linalg.norm(xy - start_xy) < CLOSE_RADIUS_MM:
+            covered |= np.linalg.norm(trace - xy, axis=1) <= COVERAGE_RADIUS_MM
+            around = travelled > CLOSE_MIN_TRAVEL_MM and covered.mean() >= CLOSE_MIN_COVERAGE
+            if step and around and np.linalg.norm(xy - start_xy) < CLOSE_RADIUS_MM:
                 self.stop_reason = "loop closed"
                 break
-            if end_xy is not None and travelled > CLOSE_MIN_TRAVEL_MM and np.linalg.norm(xy - end_xy) < CLOSE_RADIUS_MM:
+            if end_xy is not None and around and np.linalg.norm(xy - end_xy) < CLOSE_RADIUS_MM:
                 self.stop_reason = "end of contour"
                 break
             if abs(labels["true_lateral_mm"]) > LOST_DISTANCE_MM:
