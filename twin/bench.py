@@ -65,6 +65,62 @@ def bench_perception(quick: bool = False) -> list[dict]:
     return [{"section": "perception", **{k: v for k, v in r.items() if not isinstance(v, (list, dict))}}]
 
 
+def _timed_chunk(scenario, seed: int, moves) -> tuple[int, float, float]:
+    """Run one protocol chunk in this process's environment (built on first use).
+
+    Returns (recorded frames, seconds running the chunk, seconds building the
+    environment — 0 when this process had already built it)."""
+    from twin.runner import _ENV_CACHE, _worker_env, run_chunk
+
+    t0 = time.perf_counter()
+    fresh = not _ENV_CACHE
+    _worker_env(scenario, seed)
+    startup = time.perf_counter() - t0 if fresh else 0.0
+    t1 = time.perf_counter()
+    samples = run_chunk(scenario, seed, moves)
+    return len(samples), time.perf_counter() - t1, startup
+
+
+def bench_throughput(quick: bool = False) -> list[dict]:
+    """End-to-end frames per second on the multi-directional slide protocol (§III-C),
+    pins only and rendered + tracked, in one process and over all local cores.
+
+    A frame is one recorded sample: the move into it (≈ 2–4 mm, sliding in contact),
+    settling, the observation (projected pins, or a rendered 640×480 frame tracked by
+    twin.tracker); the protocol's unrecorded approach and lift moves count against it.
+    Columns: fps_1_process (frames / time running the chunks, one process);
+    fps_all_cores (frames / wall time of the parallel run, worker start-up included);
+    fps_all_cores_steady (the same without the start-up: frames / (wall − the slowest
+    worker's scene build)); speedup = fps_all_cores_steady / fps_1_process, same run.
+    """
+    from twin.parallel import default_workers, map_ordered
+    from twin.protocols import protocol_moves
+    from twin.runner import chunk_moves
+    from twin.scenario import load_scenario
+
+    base = load_scenario(Path(__file__).resolve().parent.parent / "scenarios" / "slides_rectangle.yaml")
+    orientations = [-160.0, 0.0] if quick else [-160.0, -80.0, 0.0, 80.0]
+    rows = []
+    workers = default_workers()
+    for label, effects in (("pins only", ["contact", "friction"]), ("rendered + tracked", ["contact", "friction", "render"])):
+        scenario = base.model_copy(update={
+            "effects": effects,
+            "protocol": base.protocol.model_copy(update={"orientations_deg": orientations})})
+        jobs = [(scenario, 0, chunk) for chunk in chunk_moves(protocol_moves(scenario.protocol))]
+        serial = [_timed_chunk(*job) for job in jobs]
+        frames = sum(f for f, _, _ in serial)
+        fps_1 = frames / sum(s for _, s, _ in serial)
+        t0 = time.perf_counter()
+        parallel = list(map_ordered(_timed_chunk, jobs, workers=workers))
+        wall = time.perf_counter() - t0
+        startup = max(s for _, _, s in parallel)
+        rows.append({"section": "throughput", "output": label, "frames": frames, "workers": workers,
+                     "fps_1_process": fps_1, "ms_per_frame_1_process": 1e3 / fps_1,
+                     "fps_all_cores": frames / wall, "fps_all_cores_steady": frames / (wall - startup),
+                     "speedup": frames / (wall - startup) / fps_1})
+    return rows
+
+
 def bench_sweep(quick: bool = False, out: Path | None = None, workers: int | None = None,
                 cluster: str | None = None) -> list[dict]:
     """The fidelity sweep (twin.sweep): per setting, ms per frame split into physics,
@@ -80,6 +136,7 @@ SECTIONS: dict[str, Callable[..., list[dict]]] = {
     "render": bench_render,
     "physics": bench_physics,
     "perception": bench_perception,
+    "throughput": bench_throughput,
     "sweep": bench_sweep,
 }
 #: Sections that take out/workers/cluster and write and print their own outputs.

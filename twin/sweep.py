@@ -39,13 +39,18 @@ Figures per setting (units in the column names; the CSV's columns are `CSV_COLUM
 
 The reference setting is the `reference` fidelity level with projected pins (no render:
 exact pins, so its pin error is 0 by construction). **Pareto front**: a setting is on it
-when no other setting of the same output kind is faster *and* at least as accurate, with
-a noise margin (`dominates`). Output kinds are compared separately: settings that render
-camera frames (and so exercise the tracker, as the real sensor does) against each other,
-and settings with projected pins against each other. Projected pins skip the tracker and
-so always look "more accurate" than rendered ones, but rendering is there to exercise the
-tracker on camera frames (as on the real sensor), not to be accurate; `on_front_all`
-ignores that split.
+when no *peer* setting is faster *and* at least as accurate, with a noise margin
+(`dominates`). Peers (`peers`) produce the same output from the same sensor:
+* settings that render camera frames (and so exercise the tracker, as the real sensor
+  does) are compared with each other, and settings with projected pins with each other.
+  Projected pins skip the tracker and so always look "more accurate" than rendered ones,
+  but rendering is there to exercise the tracker on camera frames, not to be accurate;
+* rendered settings are compared only at the same camera resolution. The resolution is the
+  simulated camera's spec (the real TacTip's is 640×480, and sim-vs-real comparisons and
+  models trained on one run on the other need the same one), not a fidelity choice: a
+  320×240 twin is faster because it simulates a different camera. The sweep still
+  measures it, to show what a cheaper camera would cost in tracking error.
+`on_front_all` ignores both splits.
 
 A setting that fails (PhysicsError, LostPinsError, …) is reported with its error and
 stage, counted in every output, and makes the command exit 1; the others still run.
@@ -456,21 +461,27 @@ def pareto_flags(rows: list[dict], metric: str, by_output: bool = True) -> list[
     """Per row: on the front of (total_ms, metric) (None: a failed row, or no such figures;
     failed settings are no alternative, so they neither sit on a front nor push others off).
 
-    by_output: compare only rows of the same output kind ('frames' vs 'pins')."""
+    by_output: compare only peer rows (`peers`: same output kind and camera)."""
     flags: list[bool | None] = []
     ok = [r for r in rows if r.get("status") == "ok"]
     for b in rows:
         if b.get("status") != "ok" or not (_finite(b.get("total_ms")) and _finite(b.get(metric))):
             flags.append(None)
             continue
-        rivals = [a for a in ok if a is not b and (not by_output or a["output"] == b["output"])]
+        rivals = [a for a in ok if a is not b and (not by_output or peers(a, b))]
         flags.append(not any(dominates(a, b, metric) for a in rivals))
     return flags
 
 
+def peers(a: dict, b: dict) -> bool:
+    """Whether two rows compete on the same front: same output kind ('frames' or 'pins')
+    and, for frames, the same camera resolution (module docstring)."""
+    return a["output"] == b["output"] and a.get("camera") == b.get("camera")
+
+
 def dominators(rows: list[dict], row: dict, metric: str = "pin_rms_px") -> list[str]:
-    """Names of the ok settings of the same output kind that dominate `row` in (total_ms, metric)."""
-    return [a["setting"] for a in rows if a is not row and a.get("status") == "ok" and a["output"] == row["output"]
+    """Names of the ok peer settings (`peers`) that dominate `row` in (total_ms, metric)."""
+    return [a["setting"] for a in rows if a is not row and a.get("status") == "ok" and peers(a, row)
             and dominates(a, row, metric)]
 
 
@@ -636,9 +647,9 @@ def markdown_table(rows: list[dict], meta: dict) -> str:
     if on is None:
         verdict = "The default was not measured (or failed), so its place on the front is unknown."
     elif on:
-        verdict = "The default lies on the Pareto front (time vs pin error, frame-producing settings)."
+        verdict = "The default lies on the Pareto front (time vs pin error, frame-producing settings at 640×480)."
     else:
-        verdict = ("**The default is NOT on the Pareto front** (time vs pin error, frame-producing settings): "
+        verdict = ("**The default is NOT on the Pareto front** (time vs pin error, frame-producing settings at 640×480): "
                    f"dominated by {_dominator_text(rows)}.")
     p = meta["probe"]
     failures = meta["failures"]
@@ -658,7 +669,8 @@ def markdown_table(rows: list[dict], meta: dict) -> str:
         "at the same poses (physics part: the setting's true pins; tracking part: tracked vs its own true pins). "
         "θ/l error: RMS on the slide probe. Contour error: mean distance of the path from the contour. "
         "● = on the Pareto front of time vs pin error among settings of the same output (rendered frames vs projected "
-        f"pins), with noise margins ({TIME_MARGIN:.0%} time, {ERROR_MARGIN_REL:.0%} or "
+        "pins) and, for frames, the same camera (the resolution is the simulated camera's spec, not a fidelity knob; "
+        f"other resolutions show what a different camera would cost), with noise margins ({TIME_MARGIN:.0%} time, {ERROR_MARGIN_REL:.0%} or "
         f"{ERROR_MARGIN_ABS['pin_rms_px']} px error). Full figures: sweep.csv; plot: pareto.png.",
     ]
     return "\n".join(lines + notes) + "\n"
