@@ -54,7 +54,7 @@ case "$job" in
   demo) exec .venv/bin/twin demo "$@" ;;
   test)
     set +e
-    .venv/bin/python -m pytest -n 2 "$@"
+    .venv/bin/python -m pytest -n 2 --dist loadgroup "$@"
     rc=$?
     [ $rc -eq 5 ] && { echo "no tests were collected" >&2; exit 1; }
     exit $rc ;;
