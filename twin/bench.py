@@ -95,7 +95,7 @@ def bench_throughput(quick: bool = False) -> list[dict]:
     """
     from twin.parallel import default_workers, map_ordered
     from twin.protocols import protocol_moves
-    from twin.runner import chunk_moves
+    from twin.runner import chunk_moves, close_worker_envs
     from twin.scenario import load_scenario
 
     base = load_scenario(Path(__file__).resolve().parent.parent / "scenarios" / "slides_rectangle.yaml")
@@ -108,6 +108,7 @@ def bench_throughput(quick: bool = False) -> list[dict]:
             "protocol": base.protocol.model_copy(update={"orientations_deg": orientations})})
         jobs = [(scenario, 0, chunk) for chunk in chunk_moves(protocol_moves(scenario.protocol))]
         serial = [_timed_chunk(*job) for job in jobs]
+        close_worker_envs()  # this process's environment (and GL context) is not needed any more
         frames = sum(f for f, _, _ in serial)
         fps_1 = frames / sum(s for _, s, _ in serial)
         t0 = time.perf_counter()

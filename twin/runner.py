@@ -109,11 +109,16 @@ def _worker_env(scenario: Scenario, seed: int) -> Environment:
     """One environment per process and scenario, reused across chunks (reset in between)."""
     key = (scenario.model_dump_json(), seed)
     if key not in _ENV_CACHE:
-        for env in _ENV_CACHE.values():
-            env.close()
-        _ENV_CACHE.clear()
+        close_worker_envs()
         _ENV_CACHE[key] = make_environment(scenario, seed)
     return _ENV_CACHE[key]
+
+
+def close_worker_envs() -> None:
+    """Close and forget this process's cached environments (see _worker_env)."""
+    for env in _ENV_CACHE.values():
+        env.close()
+    _ENV_CACHE.clear()
 
 
 def run_scenario(scenario: Scenario, out: Path, seed: int | None = None, workers: int | None = None,
@@ -152,8 +157,6 @@ def run_scenario(scenario: Scenario, out: Path, seed: int | None = None, workers
         finally:
             bar.close()
             if serial:
-                for env in _ENV_CACHE.values():
-                    env.close()
-                _ENV_CACHE.clear()
+                close_worker_envs()
         recorder.meta["wall_time_s"] = time.perf_counter() - wall
     return Path(out)
