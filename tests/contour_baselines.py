@@ -14,7 +14,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from twin.demo import OBJECTS, SCENARIO_DIR, _trace
+from twin.demo import OBJECTS, SCENARIO_DIR, trace_contour
 from twin.scenario import load_scenario
 from twin.training import cached_tap_model
 
@@ -28,7 +28,7 @@ def trace_all(out: Path) -> dict[str, dict]:
     """metrics.json of each of the six objects' contour runs (default fidelity, seed 0)."""
     scenarios = {name: load_scenario(SCENARIO_DIR / f"contour_{name}.yaml") for name in OBJECTS}
     model = cached_tap_model(scenarios["rectangle"], progress=False)
-    return {name: _trace(s, out / s.name, model) for name, s in scenarios.items()}
+    return {name: trace_contour(s, out / s.name, model) for name, s in scenarios.items()}
 
 
 def main() -> int:

@@ -68,14 +68,13 @@ def bench_perception(quick: bool = False) -> list[dict]:
 def _timed_chunk(scenario, seed: int, moves) -> tuple[int, float, float]:
     """Run one protocol chunk in this process's environment (built on first use).
 
-    Returns (recorded frames, seconds running the chunk, seconds building the
-    environment — 0 when this process had already built it)."""
-    from twin.runner import _ENV_CACHE, _worker_env, run_chunk
+    Returns (recorded frames, seconds running the chunk, seconds getting the
+    environment — ≈ 0 when this process had already built it)."""
+    from twin.runner import _worker_env, run_chunk
 
     t0 = time.perf_counter()
-    fresh = not _ENV_CACHE
     _worker_env(scenario, seed)
-    startup = time.perf_counter() - t0 if fresh else 0.0
+    startup = time.perf_counter() - t0
     t1 = time.perf_counter()
     samples = run_chunk(scenario, seed, moves)
     return len(samples), time.perf_counter() - t1, startup
@@ -102,7 +101,8 @@ def bench_throughput(quick: bool = False) -> list[dict]:
     orientations = [-160.0, 0.0] if quick else [-160.0, -80.0, 0.0, 80.0]
     rows = []
     workers = default_workers()
-    for label, effects in (("pins only", ["contact", "friction"]), ("rendered + tracked", ["contact", "friction", "render"])):
+    outputs = (("pins only", ["contact", "friction"]), ("rendered + tracked", ["contact", "friction", "render"]))
+    for label, effects in outputs:
         scenario = base.model_copy(update={
             "effects": effects,
             "protocol": base.protocol.model_copy(update={"orientations_deg": orientations})})

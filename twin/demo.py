@@ -16,7 +16,8 @@ COLUMNS = (("object", "{}"), ("completed", "{}"), ("steps", "{}"), ("orientation
            ("coverage", "{:.2f}"), ("sim_time_s", "{:.1f}"), ("wall_time_s", "{:.1f}"))
 
 
-def _trace(scenario, out: Path, model) -> dict:
+def trace_contour(scenario, out: Path, model) -> dict:
+    """Trace one contour scenario into `out` with `model`; returns its metrics.json."""
     from twin.contour import run_contour
 
     run_contour(scenario, out, model=model, progress=False)
@@ -49,7 +50,7 @@ def run_demo(out: Path, seed: int = 0, objects: tuple[str, ...] = OBJECTS, worke
 
             shutil.rmtree(run_dir)
         jobs.append((s, run_dir, model))
-    rows = list(map_ordered(_trace, jobs, workers=workers))
+    rows = list(map_ordered(trace_contour, jobs, workers=workers))
     wall = time.perf_counter() - t1
     print(format_metrics(rows))
     done = sum(r["completed"] for r in rows)

@@ -644,13 +644,15 @@ def markdown_table(rows: list[dict], meta: dict) -> str:
                      f"{pin} | {_fmt(r.get('theta_rms_deg'))} | {_fmt(r.get('lateral_rms_mm'), 2)} | "
                      f"{_contour_cell(r)} | {front} |")
     on = default_on_front(rows)
+    default_camera = next((r.get("camera") for r in rows if r["setting"] == DEFAULT), "—")
     if on is None:
         verdict = "The default was not measured (or failed), so its place on the front is unknown."
     elif on:
-        verdict = "The default lies on the Pareto front (time vs pin error, frame-producing settings at 640×480)."
+        verdict = ("The default lies on the Pareto front (time vs pin error, frame-producing settings at "
+                   f"{default_camera}).")
     else:
-        verdict = ("**The default is NOT on the Pareto front** (time vs pin error, frame-producing settings at 640×480): "
-                   f"dominated by {_dominator_text(rows)}.")
+        verdict = ("**The default is NOT on the Pareto front** (time vs pin error, frame-producing settings at "
+                   f"{default_camera}): dominated by {_dominator_text(rows)}.")
     p = meta["probe"]
     failures = meta["failures"]
     notes = [
