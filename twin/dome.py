@@ -22,8 +22,9 @@ and printed edges are), not from the penetration direction, which jumps between 
 two faces (measured: horizontal normals fighting at 150 N at the rectangle's edge, and
 contacts lost and regained every step).
 
-Pin tips move with the gel around them (they are interpolated vertices); what the
-camera sees is ``pin_tips_tool`` — the vertex positions expressed in the tool frame.
+Pin tips move with the gel around them (they are interpolated vertices, read by
+``pin_tips_tool`` in the tool frame); the grid is too coarse for the skin's local bending
+at the border of a contact, which twin.skin adds to every settled frame (SensorPhysics).
 
 Frames and units: README "Conventions". Tool frame: origin at the undeformed dome apex
 (the TCP), +z along the sensor axis out of the tip. All lengths in m, forces in N.
@@ -113,6 +114,9 @@ class DomeParams:
         nodes is refused by the compiler); damps moves, doesn't change equilibria.
       solver_iterations, solver_tolerance: Newton solver limits (converges in 1–7
         iterations here).
+      skin_spacing (m), skin_extent_deg (deg): the sub-grid skin layer (twin.skin): node
+        spacing on the outer skin and half-angle of the cap it covers; 0 spacing = off.
+        55° holds a 7 mm press (a contact reaching the cap's outer ring raises PhysicsError).
 
     Stepping (used by twin.physics.SensorPhysics)
       timestep (s): physics step. Moves advance the sensor by speed × timestep per step.
@@ -168,6 +172,8 @@ class DomeParams:
     cellcount: tuple[int, int, int] = (4, 4, 2)
     solver_iterations: int = 100
     solver_tolerance: float = 1e-8
+    skin_spacing: float = 0.0015
+    skin_extent_deg: float = 55.0
     timestep: float = 0.02
     quasi_static_settle: bool = True
     settle_px: float = 0.05
@@ -196,17 +202,17 @@ class DomeParams:
 #: (median over 31 edge frames; the coarser grid), far more than its settling tolerance.
 FIDELITY_LEVELS: dict[str, DomeParams] = {
     # coarser: a 3×3×2 grid (10 free nodes instead of 26: ≈ 0.23 ms/step instead of 0.46),
-    # 3 mm collision surface, 0.1 px settling; young recalibrated for the stiffer grid
-    # (4.2 N at 4 mm). Pins are the smoothest and least accurate.
+    # 3 mm collision surface, 2 mm skin nodes, 0.1 px settling; young recalibrated for the
+    # stiffer grid (4.2 N at 4 mm). Pins are the smoothest and least accurate.
     "fast": DomeParams(cellcount=(3, 3, 2), young=2.8e4, surface_spacing=0.003, settle_px=0.1,
-                       free_settle_px=0.01, cycle_after=20, cycle_px=0.3),
+                       free_settle_px=0.01, cycle_after=20, cycle_px=0.3, skin_spacing=0.002),
     "default": DomeParams(),
-    # the accuracy reference: a 6×6×3 grid (6.7 mm cells), 1.5 mm collision surface, 10 ms
-    # steps (contact time constant 20 ms), settled to 0.02 px over 3 steps; young
+    # the accuracy reference: a 6×6×3 grid (6.7 mm cells), 1.5 mm collision surface, 1 mm
+    # skin nodes, 10 ms steps (contact time constant 20 ms), settled to 0.02 px over 3 steps; young
     # recalibrated for the softer grid (4.3 N at 4 mm). (An 8×8×4 grid costs 8 ms per step.)
     "reference": DomeParams(
         cellcount=(6, 6, 3), young=6.5e4, surface_spacing=0.0015, timestep=0.01, settle_px=0.02, settle_steps=3,
-        free_settle_px=0.001, max_settle_steps=1000, cycle_after=200, cycle_px=0.1,
+        free_settle_px=0.001, max_settle_steps=1000, cycle_after=200, cycle_px=0.1, skin_spacing=0.001,
     ),
 }
 
@@ -265,8 +271,8 @@ def dome_mesh(geometry: TacTipGeometry, spacing: float, inset: float = 0.0) -> t
     r = geometry.dome_outer_radius - inset
     zc = geometry.sphere_centre_z
     pins = geometry.pin_tip_points()
-    outer = _hemisphere_rings(r, zc, spacing)
-    inner = _hemisphere_rings(0.5 * r, zc, 2.5 * spacing)
+    outer = hemisphere_rings(r, zc, spacing)
+    inner = hemisphere_rings(0.5 * r, zc, 2.5 * spacing)
     points = np.vstack([pins, outer, inner])
     tets = Delaunay(points, qhull_options="Qbb Qc Qz Q12").simplices
     a, b, c, d = (points[tets[:, k]] for k in range(4))
@@ -275,8 +281,9 @@ def dome_mesh(geometry: TacTipGeometry, spacing: float, inset: float = 0.0) -> t
     return points, tets.astype(int), np.arange(N_PINS)
 
 
-def _hemisphere_rings(radius: float, zc: float, spacing: float) -> np.ndarray:
-    """Points on the upper hemisphere (apex at zc + radius) in rings `spacing` apart."""
+def hemisphere_rings(radius: float, zc: float, spacing: float) -> np.ndarray:
+    """Points on the upper hemisphere (apex at zc + radius, m) in rings `spacing` apart (m);
+    the apex first, then ring by ring down to the equator."""
     points = [[0.0, 0.0, zc + radius]]
     n_rings = int(np.ceil(radius * np.pi / 2 / spacing))
     for i in range(1, n_rings + 1):
@@ -445,16 +452,21 @@ def apply_contact_law(model: mujoco.MjModel, handles: TacTipHandles, params: Dom
     every geom that can collide with the flex (and into the flex), leaving their
     friction and condim alone. Idempotent; call after compiling (SensorPhysics does).
     """
+    model.flex_solref[handles.flex] = params.solref
+    model.flex_solimp[handles.flex] = params.solimp
+    for g in flex_contact_geoms(model, handles):
+        model.geom_solref[g] = params.solref
+        model.geom_solimp[g] = params.solimp
+
+
+def flex_contact_geoms(model: mujoco.MjModel, handles: TacTipHandles) -> np.ndarray:
+    """Ids of the geoms that can collide with the dome (MuJoCo's contype/conaffinity rule),
+    the TacTip's own rigid base excluded."""
     f = handles.flex
-    model.flex_solref[f] = params.solref
-    model.flex_solimp[f] = params.solimp
     ftype, faff = model.flex_contype[f], model.flex_conaffinity[f]
-    for g in range(model.ngeom):
-        if g == handles.base_geom:
-            continue
-        if (model.geom_contype[g] & faff) or (model.geom_conaffinity[g] & ftype):
-            model.geom_solref[g] = params.solref
-            model.geom_solimp[g] = params.solimp
+    hits = (model.geom_contype & faff) | (model.geom_conaffinity & ftype)
+    hits[handles.base_geom] = 0
+    return np.flatnonzero(hits)
 
 
 #: Mass (kg) and rotational inertia (kg·m²) of the kinematic stimulus carrier. It is driven

@@ -54,9 +54,10 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from twin.dome import DomeParams, TacTipHandles, apply_contact_law, pin_tips_tool, tool2world
+from twin.dome import DomeParams, TacTipHandles, apply_contact_law, flex_contact_geoms, pin_tips_tool, tool2world
 from twin.errors import PhysicsError
 from twin.poses import Pose, invert_transform, make_transform
+from twin.skin import SkinLayer, skin_layer
 from twin.tactip import CameraModel
 
 
@@ -196,6 +197,11 @@ class SensorPhysics:
         self._warnings = data.warning.number.copy()
         self._commanded = np.asarray(start_tool2world, float)
         self._pin_map = PinMap(model, data, handles)
+        #: the sub-grid skin (twin.skin); None when it is off or nothing can touch the dome
+        self.skin: SkinLayer | None = None
+        if params.skin_spacing > 0 and len(flex_contact_geoms(model, handles)):
+            self.skin = skin_layer(self.camera.geometry, params.skin_spacing, params.skin_extent_deg)
+        self.skin_seconds = 0.0  # wall time spent in the skin layer (s), for benchmarks
         self._set_carrier(self._carrier_state(self._commanded, np.zeros(3), np.zeros(3)))
         mujoco.mj_forward(model, data)
         self.rest_pins = pin_tips_tool(model, data, handles).copy()
@@ -274,7 +280,7 @@ class SensorPhysics:
             if band < tol:
                 force_world = self.contact_force_world()  # scene frame
                 frame = Frame(
-                    pins_tool=self._pins.copy(),
+                    pins_tool=self._pins + self._skin_offsets(),
                     time=float(self.data.time),
                     contact_force=float(np.linalg.norm(force_world)),
                     contact_force_tool=self._tool2scene[:3, :3].T @ force_world,
@@ -292,6 +298,24 @@ class SensorPhysics:
         )
 
     # ------------------------------------------------------------------ internals
+    def _skin_offsets(self) -> np.ndarray:
+        """(127, 3) pin-tip offsets (m, tool frame) from the skin layer at the commanded pose.
+
+        Rays see the geoms where the last step left them: at rest, the commanded pose."""
+        if self.skin is None:
+            return np.zeros_like(self._pins)
+        t0 = time.perf_counter()
+        delta = self.skin.penetration(self.model, self.data, self._tool2scene, self.handles.dome_body)
+        if self.skin.rim_in_contact(delta):
+            self._fail(f"the contact reaches the rim of the skin layer's {self.skin.extent_deg:g}° cap "
+                       "(DomeParams.skin_extent_deg)")
+        try:
+            offsets = self.skin.pin_offsets(delta)
+        except PhysicsError as err:
+            self._fail(str(err))
+        self.skin_seconds += time.perf_counter() - t0
+        return offsets
+
     def _carrier_state(self, pose: np.ndarray, v_tool: np.ndarray, w_tool: np.ndarray):
         """Carrier (qpos (7,), qvel (6,)) for a sensor at `pose` (4×4) moving at (v, ω)."""
         qpos, qvel = self._carrier_states(pose[None, :3, :3], pose[None, :3, 3], v_tool, w_tool)
