@@ -47,6 +47,7 @@ single-threaded here and nothing random is used).
 """
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 
@@ -398,7 +399,7 @@ class SensorPhysics:
             names = [mujoco.mjtWarning(i).name for i in np.flatnonzero(counts > self._warnings)]
             self._warnings = counts.copy()
             self._fail(f"MuJoCo warning {', '.join(names)}", where())
-        if not (np.isfinite(d.qpos).all() and np.isfinite(d.qvel).all() and np.isfinite(self._pins).all()):
+        if not math.isfinite(d.qpos.sum() + d.qvel.sum() + self._pins.sum()):  # a NaN/Inf anywhere propagates
             self._fail("NaN/Inf in the state (qpos, qvel or pin tips)", where())
         if d.ncon:
             depth = -float(np.min(d.contact.dist[: d.ncon]))
@@ -451,6 +452,39 @@ class SensorPhysics:
     def steps(self) -> int:
         """Total physics steps taken."""
         return self._steps
+
+    def converged_pins(self, settle_px: float | None = None, max_steps: int = 400) -> np.ndarray:
+        """(127, 3) pin tips in the tool frame (m), the kind `settle` returns, of the state
+        the current frame was settling towards; the simulation is left exactly as it was.
+        "How far is this frame from its equilibrium?" (twin.sweep's settling error).
+
+        Call right after `settle`: settles on at the commanded pose with `settle` itself
+        (same stepping and checks, the stationary-cycle rule included) until a step moves
+        no pin's image more than `settle_px` (px per step). Default: params.settle_px / 20,
+        at least params.free_settle_px and 0.5 px/s × timestep. Friction contacts creep
+        on for as long as one steps (≈ 0.1–0.3 px/s of pin motion on the sweep's slide
+        frames at every time step, measured), so a tighter band is never met. Then all of
+        mjData and the bookkeeping (step counters, pins, warnings, step_seconds,
+        skin_seconds) are restored: what follows is bit-identical to a run without this
+        call. Raises PhysicsError if not settled within `max_steps` steps.
+        """
+        p = self.params
+        creep_px = 0.5 * self.model.opt.timestep
+        band = max(p.settle_px / 20.0, p.free_settle_px, creep_px) if settle_px is None else float(settle_px)
+        saved_data = mujoco.MjData(self.model)
+        mujoco.mj_copyData(saved_data, self.model, self.data)
+        saved = (self._steps, self._since_frame, self._pins, self._pins_px, self._warnings.copy(), self.step_seconds,
+                 self.skin_seconds)
+        self.params = p.with_(settle_px=band, free_settle_px=min(p.free_settle_px, band), settle_steps=1,
+                              max_settle_steps=max_steps)
+        try:
+            pins = self.settle().pins_tool
+        finally:
+            self.params = p
+            mujoco.mj_copyData(self.data, self.model, saved_data)
+            (self._steps, self._since_frame, self._pins, self._pins_px, self._warnings, self.step_seconds,
+             self.skin_seconds) = saved
+        return pins
 
 
 def edge_scene(params: DomeParams, friction: bool = True, object_friction: float = 1.0, scenario: str = "edge",

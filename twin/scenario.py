@@ -65,11 +65,20 @@ class PhysicsOverrides(_Strict):
     timestep_s: float | None = Field(default=None, gt=0, le=0.05)
     settle_px: float | None = Field(default=None, gt=0, le=5)
     surface_spacing_mm: float | None = Field(default=None, ge=0.5, le=10)
+    skin_spacing_mm: float | None = Field(default=None, description="skin layer node spacing (twin.skin); 0 = off")
+
+    @field_validator("skin_spacing_mm")
+    @classmethod
+    def _skin_spacing(cls, v: float | None) -> float | None:
+        if v is not None and v != 0 and not 0.5 <= v <= 5:
+            raise ValueError(f"skin_spacing_mm must be 0 (off) or in [0.5, 5] mm, got {v}")
+        return v
 
     def as_dome_changes(self) -> dict:
         changes = {"cellcount": None if self.cellcount is None else tuple(self.cellcount), "timestep": self.timestep_s,
                    "settle_px": self.settle_px,
-                   "surface_spacing": None if self.surface_spacing_mm is None else self.surface_spacing_mm * 1e-3}
+                   "surface_spacing": None if self.surface_spacing_mm is None else self.surface_spacing_mm * 1e-3,
+                   "skin_spacing": None if self.skin_spacing_mm is None else self.skin_spacing_mm * 1e-3}
         return {k: v for k, v in changes.items() if v is not None}
 
 

@@ -31,6 +31,12 @@ Figures per setting (units in the column names; the CSV's columns are `CSV_COLUM
   the **reference setting's true pins** at the same commanded poses. Split into the
   physics part (the setting's true pins vs the reference's) and the tracking part (the
   setting's tracked pins vs its own true pins).
+* settling error (px RMS over all pins and slide frames, at 640×480): the setting's true
+  pins against the pins it was settling towards, settled on to convergence at the same
+  frame (`SensorPhysics.converged_pins`; not timed, and the simulation then continues as
+  if it had not happened). The pin error cannot see what a settle tolerance costs: ≈ 4 px
+  of it is the coarse grid's discretisation, which hides the tenths of a px a settle
+  tolerance leaves (README). Not measured (None) without contact.
 * perception error on the slide probe: orientation RMS (deg, wrapped) and lateral RMS
   (mm) of the PCA + GP model trained on the setting's own tap probe.
 * contour error on the rectangle: mean distance of the sensor path from the contour
@@ -38,9 +44,12 @@ Figures per setting (units in the column names; the CSV's columns are `CSV_COLUM
   step limit, lost the contour, or out of the arm's reach: run_contour's stop rules).
 
 The reference setting is the `reference` fidelity level with projected pins (no render:
-exact pins, so its pin error is 0 by construction). **Pareto front**: a setting is on it
-when no *peer* setting is faster *and* at least as accurate, with a noise margin
-(`dominates`). Peers (`peers`) produce the same output from the same sensor:
+exact pins, so its pin error is 0 by construction). **Pareto front** (primary): a setting
+is on it when no *peer* setting dominates it, i.e. is no slower and no worse in every
+physics-accuracy figure (pin error *and* settling error, `PRIMARY`) and better beyond the
+noise margins in time or in one of them (`dominates`); the θ and contour fronts weigh one
+figure each against time.
+Peers (`peers`) produce the same output from the same sensor:
 * settings that render camera frames (and so exercise the tracker, as the real sensor
   does) are compared with each other, and settings with projected pins with each other.
   Projected pins skip the tracker and so always look "more accurate" than rendered ones,
@@ -86,7 +95,11 @@ REFERENCE_RESOLUTION = (640, 480)
 #: Noise margins of the Pareto dominance test: relative time, relative and absolute error.
 TIME_MARGIN = 0.05
 ERROR_MARGIN_REL = 0.02
-ERROR_MARGIN_ABS = {"pin_rms_px": 0.02, "theta_rms_deg": 0.5, "contour_path_mean_mm": 0.1}
+#: pin_settling_rms_px: halving converged_pins' band moved it by 0.003–0.010 px on the quick
+#: probe (default 0.091 → 0.099, settle ×2 0.241 → 0.251, ×0.5, fast, reference), so
+#: differences below 0.01 px are the measure's own resolution (the simulation is deterministic).
+ERROR_MARGIN_ABS = {"pin_rms_px": 0.02, "pin_settling_rms_px": 0.01, "theta_rms_deg": 0.5,
+                    "contour_path_mean_mm": 0.1}
 
 
 # ----------------------------------------------------------------------------- settings
@@ -98,7 +111,7 @@ class Setting:
 
     name: short id (CSV `setting`); knob: which knob it turns (groups the table).
     fidelity: twin.dome.FIDELITY_LEVELS key. physics: scenario `physics` overrides
-    (cellcount [i, j, k], timestep_s s, settle_px px, surface_spacing_mm mm).
+    (cellcount [i, j, k], timestep_s s, settle_px px, surface_spacing_mm mm, skin_spacing_mm mm).
     effects: scenario effects. camera: scenario `sensor.camera` overrides (width px,
     height px, msaa samples, noise_std grey levels). note: what the setting shows.
     """
@@ -156,6 +169,8 @@ def full_settings() -> list[Setting]:
         Setting("settle_x2", "settle tolerance", physics={"settle_px": s0 * 2.0}),
         Setting("grid_3x3x2", "dome resolution", physics={"cellcount": [3, 3, 2]}),
         Setting("grid_5x5x2", "dome resolution", physics={"cellcount": [5, 5, 2]}),
+        Setting("skin_off", "skin layer", physics={"skin_spacing_mm": 0}, note="no sub-grid skin (twin.skin)"),
+        Setting("skin_1mm", "skin layer", physics={"skin_spacing_mm": 1.0}),
         Setting("render_off", "render", effects=no_render, note="pins projected, no frames"),
         Setting("fast_render_off", "render", "fast", effects=no_render, note="fast physics, pins projected"),
         Setting("cam_320x240", "render resolution", camera={"width": 320, "height": 240}),
@@ -284,17 +299,21 @@ class _NoClock(_Stages):
         yield
 
 
-def _open_loop(env, moves, stages: _Stages) -> dict:
+def _open_loop(env, moves, stages: _Stages, settling: bool = False) -> dict:
     """Run protocol moves chunk by chunk (a reset per orientation, as twin.runner does).
 
     Timed per recorded frame: the move into it (physics: move + settle), observe (render;
     with projected pins the projection), the tracker (track). Lifts and traverses out of
     contact between slides are not charged to any frame. Returns pins (N, 127, 2) px as
     the pipeline sees them, truth (N, 127, 2) px exact, found (N, 127) bool (all True when
-    projected) and labels (list of dicts)."""
+    projected), labels (list of dicts) and converged: with `settling` on a simulated
+    environment, the pins each frame was settling towards ((N, 127, 2) px, projected as
+    truth; `SensorPhysics.converged_pins`, untimed), else None."""
     from twin.runner import PinReader, chunk_moves
+    from twin.sim_env import SimEnvironment
 
-    pins, truth, found, labels = [], [], [], []
+    settling = settling and isinstance(env, SimEnvironment)
+    pins, truth, found, labels, converged = [], [], [], [], []
     for chunk in chunk_moves(moves):
         reader = PinReader(env.reset())
         for move in chunk:
@@ -311,7 +330,10 @@ def _open_loop(env, moves, stages: _Stages) -> dict:
             truth.append(np.asarray(obs.truth["pins_px"], float))
             found.append(np.ones(len(p), bool) if f is None else np.asarray(f, bool))
             labels.append(move.labels)
-    return {"pins": np.array(pins), "truth": np.array(truth), "found": np.array(found), "labels": labels}
+            if settling:
+                converged.append(env.camera.project_tool_points(env.physics.converged_pins()))
+    return {"pins": np.array(pins), "truth": np.array(truth), "found": np.array(found), "labels": labels,
+            "converged": np.array(converged) if settling else None}
 
 
 def _contour(env, scenario, model, stages: _Stages) -> dict:
@@ -369,11 +391,14 @@ def probe_setting(setting: Setting, probe: Probe, seed: int = 0) -> dict:
                   resolution=(cam.width, cam.height))
         row["train_s"] = time.perf_counter() - t0
         stage = "slides"
-        slides = _open_loop(env, protocol_moves(setting.scenario(probe.slides(), seed).protocol), stages)
+        slides = _open_loop(env, protocol_moves(setting.scenario(probe.slides(), seed).protocol), stages,
+                            settling=scenario.has("contact"))
         row["n_slide_frames"] = len(slides["labels"])
         out["slide_pins_px"] = _rescale_pins(slides["pins"], cam.width)
         out["slide_truth_px"] = _rescale_pins(slides["truth"], cam.width)
         row["pin_tracking_rms_px"] = _rms_px(out["slide_pins_px"], out["slide_truth_px"])
+        if slides["converged"] is not None:
+            row["pin_settling_rms_px"] = _rms_px(out["slide_truth_px"], _rescale_pins(slides["converged"], cam.width))
         stage = "perception"
         theta_hat, lat_hat = [], []
         resolution = (cam.width, cam.height)
@@ -418,12 +443,21 @@ def _rms_px(a: np.ndarray, b: np.ndarray) -> float:
 # ----------------------------------------------------------------------------- the sweep
 
 
-#: Accuracy metrics a Pareto front is drawn for (column, label); the first is the primary.
-FRONT_METRICS: tuple[tuple[str, str], ...] = (
-    ("pin_rms_px", "pin error (px RMS)"),
-    ("theta_rms_deg", "orientation error on the slides (deg RMS)"),
-    ("contour_path_mean_mm", "contour error on the rectangle (mm, mean)"),
+#: The Pareto fronts: (row flag, accuracy columns weighed together against time). The first
+#: is the primary front; its columns (`PRIMARY`) are every physics-accuracy figure.
+FRONTS: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("on_front", ("pin_rms_px", "pin_settling_rms_px")),
+    ("on_front_theta", ("theta_rms_deg",)),
+    ("on_front_contour", ("contour_path_mean_mm",)),
 )
+PRIMARY: tuple[str, ...] = FRONTS[0][1]
+#: Axis labels of the accuracy columns (pareto.png: one panel per column of FRONTS).
+METRIC_LABELS: dict[str, str] = {
+    "pin_rms_px": "pin error (px RMS)",
+    "pin_settling_rms_px": "settling error (px RMS)",
+    "theta_rms_deg": "orientation error on the slides (deg RMS)",
+    "contour_path_mean_mm": "contour error on the rectangle (mm, mean)",
+}
 
 #: Column order of the CSV (everything a row can hold; missing values are blank).
 CSV_COLUMNS: tuple[str, ...] = (
@@ -431,7 +465,8 @@ CSV_COLUMNS: tuple[str, ...] = (
     "status", "stage", "error",
     "physics_ms", "render_ms", "track_ms", "perception_ms", "total_ms",
     "physics_wall_ms", "render_wall_ms", "track_wall_ms", "perception_wall_ms", "total_wall_ms",
-    "pin_rms_px", "pin_physics_rms_px", "pin_tracking_rms_px", "theta_rms_deg", "lateral_rms_mm",
+    "pin_rms_px", "pin_physics_rms_px", "pin_tracking_rms_px", "pin_settling_rms_px", "theta_rms_deg",
+    "lateral_rms_mm",
     "contour_path_mean_mm", "contour_path_max_mm", "contour_orientation_rms_deg", "contour_steps", "contour_stop",
     "contour_coverage", "on_front", "dominated_by", "on_front_theta", "on_front_contour", "on_front_all",
     "n_taps", "n_slide_frames", "n_timed_frames", "train_s", "wall_s", "note",
@@ -442,34 +477,48 @@ def _finite(v) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
-def dominates(a: dict, b: dict, metric: str) -> bool:
-    """True when setting `a` is clearly better than `b` in (total_ms, metric): no slower
-    and no less accurate within the noise margins, and better beyond them in at least one.
+def dominates(a: dict, b: dict, metrics: str | tuple[str, ...] = PRIMARY) -> bool:
+    """True when setting `a` is clearly better than `b` in total_ms and the error column(s)
+    `metrics`: no slower and no less accurate in *every* one within the noise margins, and
+    better beyond them in at least one.
 
-    Margins: TIME_MARGIN (relative) on time; on the error the larger of ERROR_MARGIN_REL
-    (relative) and ERROR_MARGIN_ABS[metric] (absolute, the metric's unit)."""
-    ta, tb, ea, eb = a.get("total_ms"), b.get("total_ms"), a.get(metric), b.get(metric)
-    if not all(_finite(v) for v in (ta, tb, ea, eb)):
+    Margins: TIME_MARGIN (relative) on time; on an error the larger of ERROR_MARGIN_REL
+    (relative) and ERROR_MARGIN_ABS[column] (absolute, the column's unit). A column
+    neither row has (a sweep.json from before it existed) is left out; one that only one
+    row has makes them incomparable (False)."""
+    ta, tb = a.get("total_ms"), b.get("total_ms")
+    if not (_finite(ta) and _finite(tb)):
         return False
-    e_tol = max(ERROR_MARGIN_REL * abs(eb), ERROR_MARGIN_ABS.get(metric, 0.0))
-    no_worse = ta <= tb * (1 + TIME_MARGIN) and ea <= eb + e_tol
-    better = ta < tb * (1 - TIME_MARGIN) or ea < eb - e_tol
-    return no_worse and better
+    no_worse, better, compared = ta <= tb * (1 + TIME_MARGIN), ta < tb * (1 - TIME_MARGIN), False
+    for metric in (metrics,) if isinstance(metrics, str) else metrics:
+        ea, eb = a.get(metric), b.get(metric)
+        if ea is None and eb is None:
+            continue
+        if not (_finite(ea) and _finite(eb)):
+            return False
+        e_tol = max(ERROR_MARGIN_REL * abs(eb), ERROR_MARGIN_ABS.get(metric, 0.0))
+        no_worse = no_worse and ea <= eb + e_tol
+        better = better or ea < eb - e_tol
+        compared = True
+    return compared and no_worse and better
 
 
-def pareto_flags(rows: list[dict], metric: str, by_output: bool = True) -> list[bool | None]:
-    """Per row: on the front of (total_ms, metric) (None: a failed row, or no such figures;
-    failed settings are no alternative, so they neither sit on a front nor push others off).
+def pareto_flags(rows: list[dict], metrics: str | tuple[str, ...] = PRIMARY,
+                 by_output: bool = True) -> list[bool | None]:
+    """Per row: on the front of total_ms against the error column(s) `metrics` (`dominates`)
+    (None: a failed row, or no time or first-column figure; failed settings are no
+    alternative, so they neither sit on a front nor push others off).
 
     by_output: compare only peer rows (`peers`: same output kind and camera)."""
+    first = metrics if isinstance(metrics, str) else metrics[0]
     flags: list[bool | None] = []
     ok = [r for r in rows if r.get("status") == "ok"]
     for b in rows:
-        if b.get("status") != "ok" or not (_finite(b.get("total_ms")) and _finite(b.get(metric))):
+        if b.get("status") != "ok" or not (_finite(b.get("total_ms")) and _finite(b.get(first))):
             flags.append(None)
             continue
         rivals = [a for a in ok if a is not b and (not by_output or peers(a, b))]
-        flags.append(not any(dominates(a, b, metric) for a in rivals))
+        flags.append(not any(dominates(a, b, metrics) for a in rivals))
     return flags
 
 
@@ -479,10 +528,10 @@ def peers(a: dict, b: dict) -> bool:
     return a["output"] == b["output"] and a.get("camera") == b.get("camera")
 
 
-def dominators(rows: list[dict], row: dict, metric: str = "pin_rms_px") -> list[str]:
-    """Names of the ok peer settings (`peers`) that dominate `row` in (total_ms, metric)."""
+def dominators(rows: list[dict], row: dict, metrics: str | tuple[str, ...] = PRIMARY) -> list[str]:
+    """Names of the ok peer settings (`peers`) that dominate `row` in total_ms and `metrics`."""
     return [a["setting"] for a in rows if a is not row and a.get("status") == "ok" and peers(a, row)
-            and dominates(a, row, metric)]
+            and dominates(a, row, metrics)]
 
 
 def run_sweep(out: Path, quick: bool = False, workers: int | None = None, cluster: str | None = None,
@@ -540,12 +589,12 @@ def run_sweep(out: Path, quick: bool = False, workers: int | None = None, cluste
 
 
 def annotate_fronts(rows: list[dict]) -> list[dict]:
-    """Set on_front / on_front_theta / on_front_contour (per output kind), on_front_all
-    (pin error, all kinds together) and dominated_by (primary front) on every row."""
-    for (metric, _), key in zip(FRONT_METRICS, ("on_front", "on_front_theta", "on_front_contour")):
-        for row, flag in zip(rows, pareto_flags(rows, metric)):
+    """Set on_front / on_front_theta / on_front_contour (FRONTS, per output kind),
+    on_front_all (PRIMARY, all kinds together) and dominated_by (primary front) on every row."""
+    for key, metrics in FRONTS:
+        for row, flag in zip(rows, pareto_flags(rows, metrics)):
             row[key] = flag
-    for row, flag in zip(rows, pareto_flags(rows, FRONT_METRICS[0][0], by_output=False)):
+    for row, flag in zip(rows, pareto_flags(rows, PRIMARY, by_output=False)):
         row["on_front_all"] = flag
     for row in rows:
         row["dominated_by"] = " ".join(dominators(rows, row)) if row.get("on_front") is False else ""
@@ -609,14 +658,17 @@ def _fmt(v, digits: int = 1) -> str:
 
 
 def _dominator_text(rows: list[dict]) -> str:
-    """'name (Δ ms/frame, Δ px)' for each setting that dominates the default."""
+    """'name (Δ ms/frame, Δ px pin error, Δ px settling error)' for each setting that
+    dominates the default (no settling term when either row lacks the figure)."""
     by = {r["setting"]: r for r in rows}
     d = by[DEFAULT]
     parts = []
     for name in (d.get("dominated_by") or "").split():
         r = by[name]
+        settling = ("" if not (_finite(r.get("pin_settling_rms_px")) and _finite(d.get("pin_settling_rms_px"))) else
+                    f", {r['pin_settling_rms_px'] - d['pin_settling_rms_px']:+.2f} px settling error")
         parts.append(f"{name} ({r['total_ms'] - d['total_ms']:+.1f} ms/frame, "
-                     f"{r['pin_rms_px'] - d['pin_rms_px']:+.2f} px)")
+                     f"{r['pin_rms_px'] - d['pin_rms_px']:+.2f} px pin error{settling})")
     return ", ".join(parts) or "another setting"
 
 
@@ -630,7 +682,7 @@ def _contour_cell(r: dict) -> str:
 def markdown_table(rows: list[dict], meta: dict) -> str:
     """The README's table: one line per setting, then the verdict and how it was measured."""
     head = ("| setting | knob | physics | render | tracking | perception | **total ms/frame** | "
-            "pin err px (phys / track) | θ err ° | l err mm | contour err mm (steps, end) | front |")
+            "pin err px (phys / track) | settling err px | θ err ° | l err mm | contour err mm (steps, end) | front |")
     lines = [head, "|" + "|".join(["---"] * (head.count("|") - 1)) + "|"]
     for r in rows:
         name = f"**{r['setting']}**" if r["setting"] in (DEFAULT, REFERENCE) else r["setting"]
@@ -641,18 +693,19 @@ def markdown_table(rows: list[dict], meta: dict) -> str:
         front = {True: "●", False: "", None: "—"}[r.get("on_front")]
         lines.append(f"| {name} | {r['knob']} | {_fmt(r.get('physics_ms'))} | {_fmt(r.get('render_ms'))} | "
                      f"{_fmt(r.get('track_ms'))} | {_fmt(r.get('perception_ms'))} | **{_fmt(r.get('total_ms'))}** | "
-                     f"{pin} | {_fmt(r.get('theta_rms_deg'))} | {_fmt(r.get('lateral_rms_mm'), 2)} | "
+                     f"{pin} | {_fmt(r.get('pin_settling_rms_px'), 2)} | {_fmt(r.get('theta_rms_deg'))} | "
+                     f"{_fmt(r.get('lateral_rms_mm'), 2)} | "
                      f"{_contour_cell(r)} | {front} |")
     on = default_on_front(rows)
     default_camera = next((r.get("camera") for r in rows if r["setting"] == DEFAULT), "—")
     if on is None:
         verdict = "The default was not measured (or failed), so its place on the front is unknown."
     elif on:
-        verdict = ("The default lies on the Pareto front (time vs pin error, frame-producing settings at "
-                   f"{default_camera}).")
+        verdict = ("The default lies on the Pareto front (time vs pin and settling error, frame-producing "
+                   f"settings at {default_camera}).")
     else:
-        verdict = ("**The default is NOT on the Pareto front** (time vs pin error, frame-producing settings at "
-                   f"{default_camera}): dominated by {_dominator_text(rows)}.")
+        verdict = ("**The default is NOT on the Pareto front** (time vs pin and settling error, frame-producing "
+                   f"settings at {default_camera}): dominated by {_dominator_text(rows)}.")
     p = meta["probe"]
     failures = meta["failures"]
     notes = [
@@ -669,28 +722,40 @@ def markdown_table(rows: list[dict], meta: dict) -> str:
         f"of the rectangle (≤ {p['contour_max_steps']} steps). Times: CPU ms per frame of the job's process over the "
         "slide and contour frames (physics = move into the frame + settle; wall-clock figures in sweep.csv). Pin error: px RMS at 640×480 against the reference's true pins "
         "at the same poses (physics part: the setting's true pins; tracking part: tracked vs its own true pins). "
+        "Settling error: px RMS at 640×480 of the setting's true pins against the same frames settled on to "
+        "convergence (untimed): what the settle tolerance leaves, which the pin error (mostly the grid's "
+        "discretisation) cannot see. "
         "θ/l error: RMS on the slide probe. Contour error: mean distance of the path from the contour. "
-        "● = on the Pareto front of time vs pin error among settings of the same output (rendered frames vs projected "
-        "pins) and, for frames, the same camera (the resolution is the simulated camera's spec, not a fidelity knob; "
-        f"other resolutions show what a different camera would cost), with noise margins ({TIME_MARGIN:.0%} time, {ERROR_MARGIN_REL:.0%} or "
-        f"{ERROR_MARGIN_ABS['pin_rms_px']} px error). Full figures: sweep.csv; plot: pareto.png.",
+        "● = on the Pareto front of time vs pin error and settling error together (dominated only by a setting no "
+        "slower and no worse in both, and better in one) among settings of the same output (rendered frames vs "
+        "projected pins) and, for frames, the same camera (the resolution is the simulated camera's spec, not a "
+        "fidelity knob; other resolutions show what a different camera would cost), with noise margins "
+        f"({TIME_MARGIN:.0%} time; {ERROR_MARGIN_REL:.0%} or {ERROR_MARGIN_ABS['pin_rms_px']} px pin error, "
+        f"{ERROR_MARGIN_ABS['pin_settling_rms_px']} px settling error). Full figures: sweep.csv; plot: pareto.png.",
     ]
     return "\n".join(lines + notes) + "\n"
 
 
 def plot_pareto(rows: list[dict], path: Path) -> Path:
-    """Accuracy against time per frame, one panel per FRONT_METRICS entry; fronts drawn per
-    output kind, the default starred and the reference squared (matplotlib, Agg)."""
+    """Accuracy against time per frame, one panel per accuracy column of FRONTS; fronts drawn
+    per output kind (a line for a one-column front; the members of a several-column front,
+    which no single panel can show as a line, ringed), the default starred and the
+    reference squared (matplotlib, Agg)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     import matplotlib.ticker
 
-    keys = ("on_front", "on_front_theta", "on_front_contour")
-    fig, axes = plt.subplots(1, len(FRONT_METRICS), figsize=(6.4 * len(FRONT_METRICS), 5.6), dpi=110)
+    panels = [(metric, key, len(metrics) > 1) for key, metrics in FRONTS for metric in metrics]
+    ncols = 2
+    nrows = -(-len(panels) // ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(6.4 * ncols, 5.2 * nrows), dpi=110, squeeze=False)
+    for ax in axes.ravel()[len(panels):]:
+        ax.set_visible(False)
     colours = {"frames": "tab:blue", "pins": "tab:orange"}
-    for ax, (metric, label), key in zip(np.atleast_1d(axes), FRONT_METRICS, keys):
+    for ax, (metric, key, ringed) in zip(axes.ravel(), panels):
+        label = METRIC_LABELS[metric]
         for output, colour in colours.items():
             pts = [r for r in rows if r["output"] == output and _finite(r.get("total_ms")) and _finite(r.get(metric))]
             bad = [r for r in pts if r["status"] != "ok"]
@@ -706,7 +771,10 @@ def plot_pareto(rows: list[dict], path: Path) -> Path:
             ax.scatter([r["total_ms"] for r in pts], [r[metric] for r in pts], c=colour, s=22, zorder=3,
                        label="rendered + tracked" if output == "frames" else "projected pins")
             front = sorted((r for r in pts if r.get(key)), key=lambda r: r["total_ms"])
-            if front:
+            if front and ringed:
+                ax.scatter([r["total_ms"] for r in front], [r[metric] for r in front], s=90, facecolor="none",
+                           edgecolor=colour, lw=1.0, zorder=2, label="on the pin + settling error front")
+            elif front:
                 ax.step([r["total_ms"] for r in front], [r[metric] for r in front], where="post", color=colour,
                         lw=1.0, alpha=0.7, zorder=2)
             for r in pts:
@@ -725,16 +793,16 @@ def plot_pareto(rows: list[dict], path: Path) -> Path:
         ax.set_ylabel(label)
         ax.grid(alpha=0.3, which="both")
     failed = [r["setting"] for r in rows if r["status"] != "ok"]
-    title = "What accuracy costs in time (lines: Pareto fronts)"
+    title = "What accuracy costs in time (lines and rings: Pareto fronts)"
     if failed:
         title += f" — {len(failed)} failed: {', '.join(failed)}"
     fig.suptitle(title, fontsize=10)
     uniq: dict = {}
-    for ax in np.atleast_1d(axes):
+    for ax in axes.ravel():
         handles, labels = ax.get_legend_handles_labels()
         uniq.update(zip(labels, handles))
     fig.legend(uniq.values(), uniq.keys(), fontsize=8, loc="lower center", ncol=len(uniq), frameon=False)
-    fig.tight_layout(rect=(0, 0.05, 1, 1))
+    fig.tight_layout(rect=(0, 0.03, 1, 1))
     fig.savefig(path)
     plt.close(fig)
     return path
