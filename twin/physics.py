@@ -36,6 +36,9 @@ what made "pins did not settle" go away at poses like x = 64, z = 4, γ = −40 
 rectangle: the apex pin kept moving ±10 µm *in depth* (a contact-switching cycle), which
 no camera sees.
 
+A settled frame's pins are the flex's plus the sub-grid skin layer's offsets at the
+commanded pose (twin.skin; `Frame.pins_tool`).
+
 Pins are read from the state without recomputing MuJoCo's kinematics: with
 ``dof="trilinear"`` every flex vertex is a fixed linear combination of the grid nodes'
 slide joints, so ``pins_tool = rest + J · (q_nodes − q_nodes_rest)`` with J measured once
