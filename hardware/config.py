@@ -9,11 +9,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from hardware.safety import SafetyLimits
-from twin.config_files import read_yaml, validation_error
-from twin.errors import UserError
+from twin.config_files import read_yaml, validate_mapping
 from twin.poses import Pose
 
 PoseList = Annotated[list[float], Field(min_length=6, max_length=6)]
@@ -86,12 +85,7 @@ def hardware_config_from_dict(data, source: str = "<dict>", base_dir: Path | Non
     """Validate a mapping; relative video paths are resolved against `base_dir`."""
     if data is None:
         data = {}
-    if not isinstance(data, dict):
-        raise UserError(f"{source}: a hardware config is a mapping of fields, got {type(data).__name__}")
-    try:
-        config = HardwareConfig.model_validate(data)
-    except ValidationError as err:
-        raise validation_error(source, "hardware config", err) from None
+    config = validate_mapping(HardwareConfig, data, source, "hardware config")
     src = config.camera.source
     if base_dir is not None and isinstance(src, str) and "://" not in src and not Path(src).is_absolute():
         camera = config.camera.model_copy(update={"source": str((base_dir / src).resolve())})

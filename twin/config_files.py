@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import yaml
-from pydantic import ValidationError
+from pydantic import BaseModel, ValidationError
 
 from twin.errors import UserError
 
@@ -21,6 +21,16 @@ def read_yaml(path: str | Path, what: str):
         mark = getattr(err, "problem_mark", None)
         where = f" line {mark.line + 1}, column {mark.column + 1}:" if mark is not None else ""
         raise UserError(f"{path}:{where} not valid YAML: {getattr(err, 'problem', err)}") from None
+
+
+def validate_mapping(model: type[BaseModel], data, source: str, what: str):
+    """`data` validated as a `model`; UserError naming `source` and every invalid field."""
+    if not isinstance(data, dict):
+        raise UserError(f"{source}: a {what} is a mapping of fields, got {type(data).__name__}")
+    try:
+        return model.model_validate(data)
+    except ValidationError as err:
+        raise validation_error(source, what, err) from None
 
 
 def validation_error(source: str, what: str, err: ValidationError) -> UserError:

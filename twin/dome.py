@@ -205,13 +205,13 @@ class DomeParams:
 #: (median over 31 edge frames; the coarser grid), far more than its settling tolerance.
 FIDELITY_LEVELS: dict[str, DomeParams] = {
     # coarser: a 3×3×2 grid (10 free nodes instead of 26: ≈ 0.23 ms/step instead of 0.46),
-    # 3 mm collision surface, 0.1 px settling; young recalibrated for the
-    # stiffer grid (4.2 N at 4 mm). Pins are the smoothest and least accurate.
+    # 3 mm collision surface, 0.1 px settling; young recalibrated for the stiffer grid
+    # (4.2 N at 4 mm). Pins are the smoothest and least accurate.
     "fast": DomeParams(cellcount=(3, 3, 2), young=2.8e4, surface_spacing=0.003, settle_px=0.1,
                        free_settle_px=0.01, cycle_after=20, cycle_px=0.3),
     "default": DomeParams(),
-    # the accuracy reference: a 6×6×3 grid (6.7 mm cells), 1.5 mm collision surface,
-    # 10 ms steps (contact time constant 20 ms), settled to 0.02 px over 3 steps; young
+    # the accuracy reference: a 6×6×3 grid (6.7 mm cells), 1.5 mm collision surface, 10 ms
+    # steps (contact time constant 20 ms), settled to 0.02 px over 3 steps; young
     # recalibrated for the softer grid (4.3 N at 4 mm). (An 8×8×4 grid costs 8 ms per step.)
     "reference": DomeParams(
         cellcount=(6, 6, 3), young=6.5e4, surface_spacing=0.0015, timestep=0.01, settle_px=0.02, settle_steps=3,

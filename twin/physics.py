@@ -206,6 +206,7 @@ class SensorPhysics:
         if params.skin_spacing > 0 and len(flex_contact_geoms(model, handles)):
             self.skin = skin_layer(self.camera.geometry, params.skin_spacing, params.skin_extent_deg)
         self.skin_seconds = 0.0  # wall time spent in the skin layer (s), for benchmarks
+        self._saved_data: mujoco.MjData | None = None  # converged_pins' snapshot, allocated once
         self._set_carrier(self._carrier_state(self._commanded, np.zeros(3), np.zeros(3)))
         mujoco.mj_forward(model, data)
         self.rest_pins = pin_tips_tool(model, data, handles).copy()
@@ -474,7 +475,9 @@ class SensorPhysics:
         p = self.params
         creep_px = 0.5 * self.model.opt.timestep
         band = max(p.settle_px / 20.0, p.free_settle_px, creep_px) if settle_px is None else float(settle_px)
-        saved_data = mujoco.MjData(self.model)
+        if self._saved_data is None:
+            self._saved_data = mujoco.MjData(self.model)
+        saved_data = self._saved_data
         mujoco.mj_copyData(saved_data, self.model, self.data)
         saved = (self._steps, self._since_frame, self._pins, self._pins_px, self._warnings.copy(), self.step_seconds,
                  self.skin_seconds)

@@ -5,10 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Literal, Union
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-from twin.config_files import read_yaml, validation_error
-from twin.errors import UserError
+from twin.config_files import read_yaml, validate_mapping
 
 EFFECTS = ("contact", "friction", "arm_dynamics", "render", "camera_noise", "lighting")
 FIDELITIES = ("fast", "default", "reference")
@@ -193,12 +192,7 @@ class Scenario(_Strict):
 
 def scenario_from_dict(data: dict, source: str = "<inline>") -> Scenario:
     """Validate a scenario given as a dict; `source` names it in errors."""
-    if not isinstance(data, dict):
-        raise UserError(f"{source}: a scenario is a mapping of fields, got {type(data).__name__}")
-    try:
-        scenario = Scenario.model_validate(data)
-    except ValidationError as err:
-        raise validation_error(source, "scenario", err) from None
+    scenario = validate_mapping(Scenario, data, source, "scenario")
     object.__setattr__(scenario, "_source", source)
     return scenario
 

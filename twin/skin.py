@@ -29,7 +29,7 @@ The layer is geometric: it depends on the commanded pose only, so it adds no pat
 dependence (shear comes from the flex's friction) and vanishes out of contact.
 
 Measured on the edge scene (paper's 288 taps to train, held-out taps at θ + 10°, odd
-lateral positions, 3 mm): orientation error 59° → 35° RMS; a uniform 2 px image shift
+lateral positions, 3 mm): orientation error 59° → 19° RMS; a uniform 2 px image shift
 of the held-out taps (the form shear takes) raises it from 11° to 57° without the layer
 and from 7° to 9° with it (README "Reproducing the paper").
 
@@ -81,7 +81,6 @@ class SkinLayer:
         self.pin_normals = pin_dirs
         #: (127·3, nodes): pressures → surface gradient ∇w of the inward deflection at the pin roots
         self.gradient_matrix = grad.transpose(0, 2, 1).reshape(-1, len(self.nodes))
-        self._dirs = np.ascontiguousarray(self.normals)
         self._geomid = np.zeros(len(self.nodes), np.int32)
         self._dist = np.zeros(len(self.nodes))
 
@@ -93,7 +92,7 @@ class SkinLayer:
         whose geoms the rays ignore (the TacTip's own rigid base). Flexes are not hit.
         """
         centre = tool2scene[:3, :3] @ self.centre_tool + tool2scene[:3, 3]
-        dirs = (self._dirs @ tool2scene[:3, :3].T).ravel()
+        dirs = (self.normals @ tool2scene[:3, :3].T).ravel()
         mujoco.mj_multiRay(model, data, centre, dirs, None, 1, exclude_body, self._geomid, self._dist, None,
                            len(self.nodes), 2 * self.radius)
         dist = np.where(self._geomid >= 0, self._dist, np.inf)
