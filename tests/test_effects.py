@@ -49,13 +49,13 @@ def test_friction_off_gives_no_shear(fidelity):
     static = env.observe().pins_px
     assert np.max(np.linalg.norm(slid - static, axis=1)) < 0.3  # px
 
-    # with friction the same slide leaves the skin sheared by many px
+    # with friction the same slide leaves the skin sheared: ≫ the frictionless 0.3 px
     env = _env(["contact", "friction"], fidelity)
     env.reset()
     env.move_to(Pose(54, -6, 3, 0, 0, 0))
     for y in (-3.0, 0.0, 3.0, 6.0):
         env.move_to(Pose(54, y, 3, 0, 0, 0))
-    assert np.mean(np.linalg.norm(env.observe().pins_px - static, axis=1)) > 3.0
+    assert np.mean(np.linalg.norm(env.observe().pins_px - static, axis=1)) > 1.5
 
 
 def test_friction_off_builds_no_friction_rows():

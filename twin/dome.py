@@ -68,6 +68,17 @@ class DomeParams:
         the "a few N at 4 mm" the real sensor shows.
       poisson (–): gel is nearly incompressible, but ν → 0.5 locks a trilinear grid
         (it stiffens and stops bulging); 0.40 keeps the lateral bulge without locking.
+      membrane_young (Pa): the skin as a membrane (``membrane_mjcf``): a 2-D flex of
+        thickness ``TacTipGeometry.skin_thickness`` stretched over the grid's top node
+        layer and clamped where that layer is pinned. The gel alone gives the dome a
+        tangential stiffness of the order of its normal one, so friction dragged the
+        whole cap along (along-edge slides on PLA, μ 0.7, 3 mm: pins 17–20 px common-mode,
+        tap-trained orientation error 48–68° RMS); the real skin is a rubber membrane
+        that carries tangential load to the clamped rim. 3e5 Pa (a soft Agilus/Tango
+        skin is 0.3–1 MPa): 5–6.5 px, 9–19° (measured, README "Reproducing the
+        paper"); 1e6 Pa made a slide's pins oscillate unsettled. The membrane has no
+        bending stiffness and lies flat, so it barely stiffens a press (4.3 → 4.7 N at
+        4 mm). 0 = gel only.
       damping (s): Rayleigh stiffness-proportional damping β (damping matrix = β·K). It
         damps the dynamics *during moves*: without it the flower's contour blew up (a pin
         13 mm from rest) and, at mass ×10, a slide along an edge tunnelled 2.5 mm into the
@@ -162,6 +173,7 @@ class DomeParams:
 
     young: float = 5.0e4
     poisson: float = 0.40
+    membrane_young: float = 3.0e5
     damping: float = 0.01
     pin_ghost_nodes: bool = True
     viscosity: float = 3.0
@@ -175,7 +187,7 @@ class DomeParams:
     cellcount: tuple[int, int, int] = (4, 4, 2)
     solver_iterations: int = 100
     solver_tolerance: float = 1e-8
-    skin_spacing: float = 0.0
+    skin_spacing: float = 0.0015
     skin_extent_deg: float = 55.0
     timestep: float = 0.02
     quasi_static_settle: bool = True
@@ -343,8 +355,61 @@ def tactip_mjcf(geometry: TacTipGeometry, params: DomeParams, friction: bool, na
     <pin gridrange="0 0 0 {cx} {cy} 0"/>{_ghost_pins(geometry, params)}
    </flexcomp>
   </body>
- </worldbody>
+ </worldbody>{membrane_mjcf(geometry, params, name)}
 </mujoco>"""
+
+
+def membrane_mjcf(geometry: TacTipGeometry, params: DomeParams, name: str) -> str:
+    """``<deformable>`` block of the skin membrane (DomeParams.membrane_young), or "" if off.
+
+    A stretch-only 2-D flex whose vertices are the grid's top node layer: the free nodes
+    (bodies ``{name}flex_{ix}_{iy}_{cz}``, created by the flexcomp) and, where a node is
+    pinned (ghost columns), a vertex fixed on the dome body. Triangulated on the grid;
+    collision-free (the dome's collision surface is the 3-D flex's); Rayleigh damping as
+    the gel's (1e-4 s instead let a slide at 3× speed shear 2× more, not 1.45×). Each grid cell is
+    split along both diagonals at half the modulus: one diagonal alone made the membrane
+    anisotropic (a slide along y dragged the pins sideways as much as along y).
+    """
+    if params.membrane_young <= 0:
+        return ""
+    cx, cy, cz = params.cellcount
+    half = geometry.dome_outer_radius - params.margin  # the grid spans the collision surface's box
+    top_z = geometry.sphere_centre_z + half
+    pinned = _ghost_columns(geometry, params)
+    bodies, offsets = [], []
+    for ix in range(cx + 1):
+        for iy in range(cy + 1):
+            if (ix, iy) in pinned:
+                bodies.append(f"{name}dome")
+                offsets.append((-half + 2 * half * ix / cx, -half + 2 * half * iy / cy, top_z))
+            else:
+                bodies.append(f"{name}flex_{ix}_{iy}_{cz}")
+                offsets.append((0.0, 0.0, 0.0))
+    triangles = []
+    for ix in range(cx):
+        for iy in range(cy):
+            a, b, c, d = (i * (cy + 1) + j for i, j in ((ix, iy), (ix + 1, iy), (ix + 1, iy + 1), (ix, iy + 1)))
+            triangles += [t for t in ((a, b, c), (a, c, d), (a, b, d), (b, c, d))
+                          if any(bodies[k] != f"{name}dome" for k in t)]  # not all clamped
+    return f"""
+ <deformable>
+  <flex name="{name}membrane" dim="2" body="{' '.join(bodies)}" vertex="{_fmt(offsets)}"
+    element="{_fmt(np.ravel(triangles).astype(int))}" radius="0">
+   <contact contype="0" conaffinity="0"/>
+   <elasticity young="{params.membrane_young / 2:.9g}" poisson="0.45" thickness="{geometry.skin_thickness:.9g}" elastic2d="stretch"
+     damping="{params.damping:.9g}"/>
+  </flex>
+ </deformable>"""
+
+
+def _ghost_columns(geometry: TacTipGeometry, params: DomeParams) -> set[tuple[int, int]]:
+    """(ix, iy) of the grid columns outside the dome's footprint (pinned, see _ghost_pins)."""
+    if not params.pin_ghost_nodes:
+        return set()
+    cx, cy, _ = params.cellcount
+    r = geometry.dome_outer_radius
+    return {(ix, iy) for ix in range(cx + 1) for iy in range(cy + 1)
+            if np.hypot(-r + 2 * r * ix / cx, -r + 2 * r * iy / cy) > r * (1 + 1e-9)}
 
 
 def _ghost_pins(geometry: TacTipGeometry, params: DomeParams) -> str:
@@ -356,17 +421,9 @@ def _ghost_pins(geometry: TacTipGeometry, params: DomeParams) -> str:
     kick the pins (measured: 0.2 mm jumps 2 s after lift-off). Pinning them removes
     those spurious modes; they only touch the thin flank regions of their cells.
     """
-    if not params.pin_ghost_nodes:
-        return ""
     cx, cy, cz = params.cellcount
-    r = geometry.dome_outer_radius
-    ids = []
-    for ix in range(cx + 1):
-        for iy in range(cy + 1):
-            x = -r + 2 * r * ix / cx
-            y = -r + 2 * r * iy / cy
-            if np.hypot(x, y) > r * (1 + 1e-9):
-                ids.extend((ix * (cy + 1) + iy) * (cz + 1) + iz for iz in range(1, cz + 1))
+    ids = [(ix * (cy + 1) + iy) * (cz + 1) + iz for ix, iy in sorted(_ghost_columns(geometry, params))
+           for iz in range(1, cz + 1)]
     return f'\n    <pin id="{" ".join(map(str, ids))}"/>' if ids else ""
 
 

@@ -65,6 +65,8 @@ class PhysicsOverrides(_Strict):
     settle_px: float | None = Field(default=None, gt=0, le=5)
     surface_spacing_mm: float | None = Field(default=None, ge=0.5, le=10)
     skin_spacing_mm: float | None = Field(default=None, description="skin layer node spacing (twin.skin); 0 = off")
+    membrane_young_mpa: float | None = Field(default=None, ge=0, le=10,
+                                             description="skin membrane's Young's modulus (twin.dome); 0 = off")
 
     @field_validator("skin_spacing_mm")
     @classmethod
@@ -77,7 +79,8 @@ class PhysicsOverrides(_Strict):
         changes = {"cellcount": None if self.cellcount is None else tuple(self.cellcount), "timestep": self.timestep_s,
                    "settle_px": self.settle_px,
                    "surface_spacing": None if self.surface_spacing_mm is None else self.surface_spacing_mm * 1e-3,
-                   "skin_spacing": None if self.skin_spacing_mm is None else self.skin_spacing_mm * 1e-3}
+                   "skin_spacing": None if self.skin_spacing_mm is None else self.skin_spacing_mm * 1e-3,
+                   "membrane_young": None if self.membrane_young_mpa is None else self.membrane_young_mpa * 1e6}
         return {k: v for k, v in changes.items() if v is not None}
 
 
