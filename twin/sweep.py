@@ -169,7 +169,7 @@ def full_settings() -> list[Setting]:
         Setting("settle_x2", "settle tolerance", physics={"settle_px": s0 * 2.0}),
         Setting("grid_3x3x2", "dome resolution", physics={"cellcount": [3, 3, 2]}),
         Setting("grid_5x5x2", "dome resolution", physics={"cellcount": [5, 5, 2]}),
-        Setting("skin_1.5mm", "skin layer", physics={"skin_spacing_mm": 1.5}, note="sub-grid skin layer (twin.skin)"),
+        Setting("skin_off", "skin layer", physics={"skin_spacing_mm": 0}, note="no sub-grid skin (twin.skin)"),
         Setting("skin_1mm", "skin layer", physics={"skin_spacing_mm": 1.0}),
         Setting("render_off", "render", effects=no_render, note="pins projected, no frames"),
         Setting("fast_render_off", "render", "fast", effects=no_render, note="fast physics, pins projected"),
