@@ -46,20 +46,28 @@ def _write_video(path: Path, frames: list[np.ndarray]) -> Path:
 
 
 @pytest.fixture(scope="module")
-def video(tmp_path_factory) -> Path:
-    """A real MJPG video of rendered TacTip frames: rest, then presses on the edge."""
+def filmed(tmp_path_factory) -> tuple[Path, list[np.ndarray]]:
+    """A real MJPG video of rendered TacTip frames as the camera films the render run of
+    POSES[1:], and each press's projected pins (px). The runner starts every chunk (one per
+    sensor orientation) with a reset that films the no-contact start pose, its tracker's
+    reference; so does the sim backend, which renders each press after a reset (fast, no
+    friction)."""
     path = tmp_path_factory.mktemp("video") / "tactip.avi"
     scenario = scenario_from_dict({"name": "video", "object": {"name": "rectangle"}, "fidelity": "fast",
                                    "effects": ["contact", "render"]})
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 30, (640, 480))
+    frames, pins = [], []
     with SimEnvironment(scenario) as env:
-        frames = [env.reset().frame]
         for pose in POSES[1:]:
-            frames.append(env.step(Pose.from_array(pose)).frame)
-    for frame in frames[:1] + frames[1:] * 5:  # rest once (the reference), then presses
-        writer.write(frame[..., ::-1])
-    writer.release()
-    return path
+            frames.append(env.reset().frame)
+            press = env.step(Pose.from_array(pose))
+            frames.append(press.frame)
+            pins.append(press.truth["pins_px"])
+    return _write_video(path, frames), pins
+
+
+@pytest.fixture(scope="module")
+def video(filmed) -> Path:
+    return filmed[0]
 
 
 @pytest.fixture
@@ -78,17 +86,20 @@ def _config(tmp_path: Path, port: int, video: Path) -> Path:
     return path
 
 
-def test_runner_records_a_hardware_run(tmp_path, server, video) -> None:
+def test_runner_records_a_hardware_run(tmp_path, server, filmed) -> None:
+    video, truth = filmed
     scenario = scenario_from_dict({"name": "hw_render", "backend": "hardware", "object": {"name": "rectangle"},
                                    "hardware_config": str(_config(tmp_path, server.port, video)),
                                    "protocol": {"kind": "render", "poses": POSES[1:]}})
     run = load_run(run_scenario(scenario, tmp_path / "run", progress=False))
     assert run.meta["backend"] == "hardware" and run.meta["status"] == "completed"
     assert len(run.samples) == 3
-    for sample, target in zip(run.samples, POSES[1:]):
+    for sample, target, pins in zip(run.samples, POSES[1:], truth):
         assert np.allclose(sample["pose"][:3], target[:3], atol=0.01)   # measured by the controller
         assert sample["truth"] == {} and sample["frame"] is not None
         assert sum(sample["found"]) == 127                               # tracked from MJPG video frames
+        # the frame filmed at this pose, tracked from its chunk's no-contact reference
+        assert np.sqrt(np.mean(np.sum((np.asarray(sample["pins_px"]) - pins) ** 2, axis=1))) < 1.0
     assert run.frame(0).shape == (480, 640, 3)
 
 

@@ -11,7 +11,7 @@ from twin.physics import edge_scene, sensor_down
 from twin.skin import SkinLayer
 from twin.tactip import TacTipGeometry
 
-DEFAULT = FIDELITY_LEVELS["default"].with_(skin_spacing=0.0015)  # the layer as README "Reproducing the paper" runs it
+DEFAULT = FIDELITY_LEVELS["default"]
 
 
 def _skin_offsets(x_mm: float, depth_mm: float, gamma_deg: float = 0.0, params=DEFAULT) -> np.ndarray:
@@ -85,7 +85,8 @@ def test_active_set_matches_complementarity():
     np.testing.assert_allclose(w[p > 0], delta[p > 0], atol=1e-12)
 
 
-def test_off_means_no_layer_and_no_offsets():
+def test_on_by_default_and_zero_spacing_is_off():
+    assert edge_scene(DEFAULT)[3].skin is not None
     _, _, _, physics = edge_scene(DEFAULT.with_(skin_spacing=0.0))
     assert physics.skin is None
     assert not np.any(physics._skin_offsets())

@@ -166,10 +166,26 @@ def test_shear_jump_beyond_one_spacing(tracker: PinTracker) -> None:
     assert np.max(np.linalg.norm(res.pins_px[~inside] - pins[~inside], axis=1)) < 0.25 * SPACING
 
 
+def test_pair_swung_off_the_field_keeps_identity(tracker: PinTracker) -> None:
+    # Where the skin bends at a contact's border, posts tilt and their tips swing off their
+    # neighbours' motion (on the twin up to 0.7 spacing off the smooth field, pins down to
+    # 0.52 spacing apart). Here two neighbouring pins swing 0.55 spacing further than the
+    # rest, which all moved 0.3 spacing (closest pins 0.58 spacing apart): neither pin's
+    # prediction has its blob within half a spacing, and each blob is nearly as close to the
+    # other pin, so only the one-to-one assignment of the leftover blobs resolves them.
+    direction = np.array([np.cos(np.radians(30.0)), np.sin(np.radians(30.0))])
+    pins = TEMPLATE + 0.3 * SPACING * direction
+    pins[[15, 16]] += 0.55 * SPACING * direction
+    res = tracker.track(render_pins_frame(pins))
+    assert res.n_found == N_PINS and all(r == "" for r in res.reasons)
+    assert np.max(np.linalg.norm(res.pins_px - pins, axis=1)) < 0.5
+
+
 # --------------------------------------------------------------------------- twin frames
 
-# Independent taps at θ = −120°, 4 mm deep (the sensor lifts between them): from l = 6 to
-# l = −4 mm the pins near the contact jump by ≈ 21 px, more than half a pin spacing.
+# Independent taps at θ = −120°, 4 mm deep (the sensor lifts between them): from one tap to
+# the next the pins near the contact jump by 35–38 px, more than a pin spacing, and where the
+# skin bends at the contact's border pins swing up to 0.55 spacing off their neighbours' motion.
 TWIN_TAPS = {"orientations_deg": [-120.0], "lateral_mm": [6.0, -4.0, 4.0], "depths_mm": [4.0]}
 
 

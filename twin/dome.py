@@ -126,11 +126,11 @@ class DomeParams:
       solver_iterations, solver_tolerance: Newton solver limits (converges in 1–7
         iterations here).
       skin_spacing (m), skin_extent_deg (deg): the sub-grid skin layer (twin.skin): node
-        spacing on the outer skin and half-angle of the cap it covers; 0 spacing = off, the
-        shipped value for now: at 1.5 mm (scenario `physics: {skin_spacing_mm: 1.5}`) the
-        layer makes taps readable (README "Reproducing the paper") but swings border pins
-        far enough that the tracker loses a pin on some twin taps (tests/test_tracker.py)
-        and the hardware end-to-end test's reference frame no longer fits the template.
+        spacing on the outer skin and half-angle of the cap it covers; 0 spacing = off
+        (scenario `physics: {skin_spacing_mm: 0}`). At 1.5 mm the layer makes taps readable
+        (README "Reproducing the paper") for ≈ 0.5 ms of physics per frame. It swings the
+        pins at a contact's border up to 0.7 spacing off their neighbours' motion (measured
+        on twin taps and slides); the tracker follows them (twin.tracker.PinTracker, step 5).
         55° holds a 7 mm press (a contact reaching the cap's outer ring raises PhysicsError).
 
     Stepping (used by twin.physics.SensorPhysics)

@@ -8,12 +8,13 @@ The same code runs on rendered (sim) and filmed (real) frames: it only sees pixe
 * `PinTracker` keeps every pin's identity (the fixed 127-pin order of README
   "Conventions") from a no-contact reference frame onwards. Pins can move by more than
   half a pin spacing between two frames — independent taps (the sensor lifts between
-  them: ≈ 21 px on the twin) or the shear when a slide starts (up to 1.2 spacings) — so
-  detections are not matched to the previous positions directly but through a smooth
-  displacement field over the pin lattice, grown from the pins that match unambiguously
-  (see `PinTracker`), then assigned one-to-one with the Hungarian method. A pin that
-  cannot be assigned is reported where its neighbours' motion puts it and flagged with a
-  reason; pins are never reordered or dropped.
+  them: up to 1.6 spacings on the twin) or the shear when a slide starts (up to 1.2
+  spacings) — so detections are not matched to the previous positions directly but
+  through a smooth displacement field over the pin lattice, grown from the pins that
+  match unambiguously, and one-to-one (Hungarian) for the pins that the skin's bending at
+  a contact's border swings off that field (see `PinTracker`). A pin that cannot be
+  assigned is reported where its neighbours' motion puts it and flagged with a reason;
+  pins are never reordered or dropped.
 * `reference_pins_from_frame` orders the detections of a no-contact frame into the
   canonical order by fitting the projected pin template (`CameraModel`) with a
   similarity transform, so it also works for a real camera whose centre, scale and
@@ -30,6 +31,8 @@ from functools import lru_cache
 import cv2
 import numpy as np
 from scipy.optimize import linear_sum_assignment
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from twin.errors import UserError
@@ -282,21 +285,55 @@ def reference_pins_from_frame(frame: np.ndarray, camera: CameraModel | None = No
     return ordered, det.areas_px[idx]
 
 
+def _unambiguous_pairs(dist: np.ndarray, reach: float, ratio: float) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs (rows, cols) of the one-to-one assignment of rows to columns on `dist` (px) that
+    nothing else comes close to.
+
+    A row may stay unassigned at cost `reach` (px), so no pair is farther apart than that. A
+    pair (i, j) is kept when the best assignment without it costs at least (1/ratio − 1)·dist
+    more (for one row and two columns: dist[i, j] ≤ ratio × the other distance). Rows and
+    columns that cannot meet within `reach` of each other are solved apart."""
+    n, m = dist.shape
+    near = dist <= reach
+    graph = csr_matrix(np.block([[np.zeros((n, n), bool), near], [near.T, np.zeros((m, m), bool)]]))
+    _, label = connected_components(graph, directed=False)
+    keep_rows, keep_cols = [], []
+    for group in np.unique(label[:n][near.any(axis=1)]):
+        r = np.flatnonzero(label[:n] == group)
+        c = np.flatnonzero(label[n:] == group)
+        cost = np.hstack([dist[np.ix_(r, c)], np.where(np.eye(len(r), dtype=bool), reach, _BIG_COST)])
+        rows, cols = linear_sum_assignment(cost)
+        total = cost[rows, cols].sum()
+        for i, j in zip(rows, cols):
+            if j >= len(c):  # left unassigned
+                continue
+            own = cost[i, j]
+            cost[i, j] = _BIG_COST
+            alt_rows, alt_cols = linear_sum_assignment(cost)
+            cost[i, j] = own
+            if cost[alt_rows, alt_cols].sum() - total >= (1.0 / ratio - 1.0) * own:
+                keep_rows.append(r[i])
+                keep_cols.append(c[j])
+    return np.asarray(keep_rows, int), np.asarray(keep_cols, int)
+
+
 class PinTracker:
     """Pin tracker that preserves the canonical pin identities from frame to frame.
 
     Each frame's detections are matched to the pins through a smooth displacement field
-    over the pin lattice (the skin moves as a continuum: on the twin, neighbouring pins
-    differ in displacement by at most ≈ 0.35 spacing even when the pins jump by more than
-    a spacing between frames):
+    over the pin lattice (the skin moves as a continuum) and, for the pins the field cannot
+    predict, through the one-to-one constraint: where the skin bends at a contact's border
+    the pins tilt and swing off their neighbours' motion (on the twin, up to 0.7 spacing
+    off the field fitted to all the other pins, neighbours differing by up to 1.2 spacings,
+    while the pins jump by more than a spacing between frames):
 
     1. Start from a prediction of every pin's position: the previous frame's pins; if that
        leaves pins unresolved, the previous pins moved by the mean displacement of the
        detections (with all pins seen, the mean of the blobs minus the mean of the pins is
        the pins' mean motion: it catches the whole-pattern shear when a slide starts), the
        reference moved likewise, and the reference itself (taps are independent presses,
-       so the previous frame may belong to another contact). The start that resolves the
-       most pins (then the smoothest field) wins.
+       so the previous frame may belong to another contact). The start whose steps 2–4
+       resolve the most pins (then the smoothest field) wins.
     2. Confident matches: the pin's nearest blob is within `confident_fraction` of a pin
        spacing, the match is mutual (the blob's nearest prediction is that pin) and both
        pass a ratio test (the second-nearest blob / prediction is at least twice as far).
@@ -309,7 +346,14 @@ class PinTracker:
        predicts the unresolved pins; repeat from 2 until the confident set stops changing
        (at most `max_iterations`), so the resolved region grows into the pins near the
        contact that moved furthest.
-    5. If every pin is resolved that is the assignment. Otherwise all pins are assigned
+    5. The pins still unresolved are assigned one-to-one (Hungarian) to the blobs of one
+       pin's size that no resolved pin holds, on the distance to their prediction; a pin
+       may stay unassigned at the cost of `grow_fraction` of a spacing, the reach. A pair is
+       kept only if every assignment without it costs at least (1/`ambiguity_ratio` − 1)
+       × its distance more (no rearrangement of the open pins comes close); the kept pins
+       join the field, which predicts the rest again; repeat (at most `max_iterations`).
+       This resolves the swung pins that step 3 drops: their blobs are the ones left.
+    6. If every pin is resolved that is the assignment. Otherwise all pins are assigned
        one-to-one to blobs (Hungarian) on the distance to their prediction, gated by
        `max_jump_px`; a blob much larger than a pin may take several.
 
@@ -320,15 +364,15 @@ class PinTracker:
 
     reference: (127, 2) reference pin positions (px, canonical order) or a no-contact
         frame (H, W[, 3]) from which they are detected and ordered.
-    max_jump_px: largest distance between a pin's predicted position and its blob (px);
-        default half the median nearest-neighbour pin spacing of the reference.
+    max_jump_px: largest distance between a pin's predicted position and its blob in step 6
+        (px); default half the median nearest-neighbour pin spacing of the reference.
     merge_area_ratio: a blob whose area exceeds this multiple of the expected pin area
         may hold several pins.
     ambiguity_ratio: a pin is "ambiguous" when the distance to its blob is more than this
         fraction of the blob's distance to the next-closest predicted pin (and at least a
         quarter of a pin spacing).
-    confident_fraction, consistency_fraction, field_sigma (spacings), field_ridge,
-    max_iterations: steps 2–4 above.
+    confident_fraction, consistency_fraction, grow_fraction, field_sigma (spacings),
+    field_ridge, max_iterations: steps 2–5 above.
     """
 
     def __init__(
@@ -341,6 +385,7 @@ class PinTracker:
         reference_areas_px: np.ndarray | None = None,
         confident_fraction: float = 0.35,
         consistency_fraction: float = 0.4,
+        grow_fraction: float = 1.0,
         field_sigma: float = 0.75,
         field_ridge: float = 0.05,
         max_iterations: int = 8,
@@ -362,6 +407,7 @@ class PinTracker:
         self.ambiguity_ratio = float(ambiguity_ratio)
         self.confident_px = float(confident_fraction) * self.spacing_px
         self.consistency_px = float(consistency_fraction) * self.spacing_px
+        self.grow_px = float(grow_fraction) * self.spacing_px
         self.field_ridge = float(field_ridge)
         self.max_iterations = int(max_iterations)
         # Lattice geometry of the field fit (spacing units), fixed by the reference.
@@ -422,12 +468,14 @@ class PinTracker:
         b = g[:3, :, 1:].transpose(1, 0, 2)                         # (127, 3, 2)
         return np.linalg.solve(a, b)[:, 0, :]
 
-    def _match_field(self, cents: np.ndarray, tree: cKDTree, start: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    def _match_field(
+        self, cents: np.ndarray, tree: cKDTree, start: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
         """Steps 2–4 of the class doc from the predicted positions `start`.
 
         Returns (predicted positions (127, 2) px — the matched blob for confident pins, the
-        field's prediction otherwise —, confident mask (127,), RMS leave-one-out residual of
-        the confident pins (px))."""
+        field's prediction otherwise —, confident mask (127,), blob index of each pin (127,),
+        valid where confident, RMS leave-one-out residual of the confident pins (px))."""
         ref = self._reference
         k = len(cents)
         pred = start
@@ -449,13 +497,38 @@ class PinTracker:
                 new &= resid <= self.consistency_px
                 loo_rms = float(np.sqrt(np.mean(resid[new] ** 2))) if new.any() else np.inf
             if new.all():  # every pin has its own blob: nothing left to predict
-                return cents[j], new, loo_rms
+                return cents[j], new, j, loo_rms
             pred = ref + self._field(disp, new)
             pred[new] = cents[j[new]]
             if np.array_equal(new, conf):
                 break
             conf = new
-        return pred, conf, loo_rms
+        return pred, conf, j, loo_rms
+
+    def _grow(self, cents: np.ndarray, single: np.ndarray, pred: np.ndarray, resolved: np.ndarray,
+              blob: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Step 5 of the class doc: assign the unresolved pins to the blobs no resolved pin
+        holds, keep the unambiguous pairs, refit the field, repeat.
+
+        single: (K,) blobs of one pin's size. Returns (predicted positions (127, 2) px,
+        resolved mask (127,)); `blob` is updated in place."""
+        ref = self._reference
+        pred, resolved = pred.copy(), resolved.copy()
+        for _ in range(self.max_iterations):
+            pins = np.flatnonzero(~resolved)
+            free = np.setdiff1d(np.flatnonzero(single), blob[resolved])
+            if not len(pins) or not len(free):
+                break
+            d = np.linalg.norm(pred[pins, None, :] - cents[None, free, :], axis=2)  # (open pins, free blobs)
+            rows, cols = _unambiguous_pairs(d, self.grow_px, self.ambiguity_ratio)
+            if not len(rows):
+                break
+            resolved[pins[rows]] = True
+            blob[pins[rows]] = free[cols]
+            disp = np.where(resolved[:, None], cents[blob] - ref, 0.0)
+            pred = ref + self._field(disp, resolved)
+            pred[resolved] = cents[blob[resolved]]
+        return pred, resolved
 
     def assign(self, det: Detections) -> TrackResult:
         """Assign detections to pin identities and advance the tracker state."""
@@ -479,23 +552,27 @@ class PinTracker:
         starts.append(self._reference)
         best = None
         for start in starts:
-            pred, conf, loo = self._match_field(cents, tree, start)
+            pred, conf, blob, loo = self._match_field(cents, tree, start)
             score = (int(conf.sum()), -loo)
             if best is None or score > best[0]:
-                best = (score, pred)
+                best = (score, pred, conf, blob)
             if score[0] == N_PINS:
                 break
-        pred = best[1]
-        if best[0][0] == N_PINS:
-            # Every pin matched its own blob mutually and unambiguously (ratio tests) and
-            # consistently with its neighbours: that is the assignment (no merges possible).
+        _, pred, resolved, blob = best
+        expected = self._expected_areas(det)
+        if not resolved.all():
+            nearest_pin = cKDTree(pred).query(cents)[1]
+            single = areas <= self.merge_area_ratio * expected[nearest_pin]
+            pred, resolved = self._grow(cents, single, pred, resolved, blob)
+        if resolved.all():
+            # Every pin holds a blob of its own, matched unambiguously (ratio tests, or the
+            # assignment's margin in step 5): that is the assignment.
             self._previous = pred
             return TrackResult(pred.copy(), np.ones(N_PINS, bool), (OK,) * N_PINS, k,
                                (time.perf_counter() - t0) * 1e3)
 
-        # Step 5: one-to-one assignment to the predictions, gated; large blobs may take several pins.
+        # Step 6: one-to-one assignment to the predictions, gated; large blobs may take several pins.
         dist = np.linalg.norm(pred[:, None, :] - cents[None, :, :], axis=2)  # (127, K)
-        expected = self._expected_areas(det)
         nearest_pin = np.argmin(dist, axis=0)
         ratio = areas / np.maximum(expected[nearest_pin], 1e-9)
         mult = np.clip(np.rint(ratio), 1, 3).astype(int)
