@@ -57,8 +57,7 @@ def perception_error(run: Run, model) -> dict | None:
     theta, lateral = run.label("theta_deg"), run.label("lateral_mm")
     if not (np.all(np.isfinite(theta)) and np.all(np.isfinite(lateral))) or not len(theta):
         return None
-    camera = run.meta.get("camera") or {"width": 640, "height": 480}
-    pred = model.predict(run.pins_px, resolution=(camera["width"], camera["height"]))
+    pred = model.predict(run.pins_px, resolution=run.resolution)
     return {"orientation_rms_deg": float(np.sqrt(np.mean(angle_error_deg(pred.theta_deg, theta) ** 2))),
             "lateral_rms_mm": float(np.sqrt(np.mean((pred.lateral_mm - lateral) ** 2))),
             "ok_fraction": float(np.mean(pred.ok))}

@@ -58,5 +58,5 @@ def run_demo(out: Path, seed: int = 0, objects: tuple[str, ...] = OBJECTS, worke
     print(f"{done}/{len(rows)} contours completed; mean orientation RMS {mean_rms:.1f}° (paper, real rig: 12.2°); "
           f"all objects in {wall:.1f} s wall time")
     (out / "metrics.json").write_text(json.dumps({"objects": rows, "wall_time_s": wall}, indent=1))
-    print(f"wrote {out}/<object>/contour.png, metrics.json and {out}/rig_overview.png")
+    print(f"wrote {out}/contour_<object>/contour.png, metrics.json and {out}/rig_overview.png")
     return 0 if done == len(rows) else 1

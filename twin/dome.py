@@ -352,7 +352,7 @@ def tactip_mjcf(geometry: TacTipGeometry, params: DomeParams, friction: bool, na
     <elasticity young="{params.young:.9g}" poisson="{params.poisson:.9g}" damping="{params.damping:.9g}"/>
     <contact {contact} contype="{FLEX_CONTYPE}" conaffinity="{FLEX_CONAFFINITY}" solref="{_fmt(params.solref)}" solimp="{_fmt(params.solimp)}"
       margin="{params.margin:.9g}" selfcollide="none"/>
-    <pin gridrange="0 0 0 {cx} {cy} 0"/>{_ghost_pins(geometry, params)}
+    <pin gridrange="0 0 0 {cx} {cy} 0"/>{_ghost_pins(params)}
    </flexcomp>
   </body>
  </worldbody>{membrane_mjcf(geometry, params, name)}
@@ -375,22 +375,17 @@ def membrane_mjcf(geometry: TacTipGeometry, params: DomeParams, name: str) -> st
     cx, cy, cz = params.cellcount
     half = geometry.dome_outer_radius - params.margin  # the grid spans the collision surface's box
     top_z = geometry.sphere_centre_z + half
-    pinned = _ghost_columns(geometry, params)
-    bodies, offsets = [], []
-    for ix in range(cx + 1):
-        for iy in range(cy + 1):
-            if (ix, iy) in pinned:
-                bodies.append(f"{name}dome")
-                offsets.append((-half + 2 * half * ix / cx, -half + 2 * half * iy / cy, top_z))
-            else:
-                bodies.append(f"{name}flex_{ix}_{iy}_{cz}")
-                offsets.append((0.0, 0.0, 0.0))
+    pinned = _ghost_columns(params)
+    columns = [(ix, iy) for ix in range(cx + 1) for iy in range(cy + 1)]  # vertex k = ix·(cy + 1) + iy
+    clamped = [column in pinned for column in columns]
+    bodies = [f"{name}dome" if c else f"{name}flex_{ix}_{iy}_{cz}" for (ix, iy), c in zip(columns, clamped)]
+    offsets = [(-half + 2 * half * ix / cx, -half + 2 * half * iy / cy, top_z) if c else (0.0, 0.0, 0.0)
+               for (ix, iy), c in zip(columns, clamped)]
     triangles = []
     for ix in range(cx):
         for iy in range(cy):
             a, b, c, d = (i * (cy + 1) + j for i, j in ((ix, iy), (ix + 1, iy), (ix + 1, iy + 1), (ix, iy + 1)))
-            triangles += [t for t in ((a, b, c), (a, c, d), (a, b, d), (b, c, d))
-                          if any(bodies[k] != f"{name}dome" for k in t)]  # not all clamped
+            triangles += [t for t in ((a, b, c), (a, c, d), (a, b, d), (b, c, d)) if not all(clamped[k] for k in t)]
     return f"""
  <deformable>
   <flex name="{name}membrane" dim="2" body="{' '.join(bodies)}" vertex="{_fmt(offsets)}"
@@ -402,17 +397,18 @@ def membrane_mjcf(geometry: TacTipGeometry, params: DomeParams, name: str) -> st
  </deformable>"""
 
 
-def _ghost_columns(geometry: TacTipGeometry, params: DomeParams) -> set[tuple[int, int]]:
-    """(ix, iy) of the grid columns outside the dome's footprint (pinned, see _ghost_pins)."""
+def _ghost_columns(params: DomeParams) -> set[tuple[int, int]]:
+    """(ix, iy) of the grid columns outside the dome's footprint (pinned, see _ghost_pins);
+    the grid spans the dome's bounding box, so in units of its half-width the footprint is
+    the unit disc."""
     if not params.pin_ghost_nodes:
         return set()
     cx, cy, _ = params.cellcount
-    r = geometry.dome_outer_radius
     return {(ix, iy) for ix in range(cx + 1) for iy in range(cy + 1)
-            if np.hypot(-r + 2 * r * ix / cx, -r + 2 * r * iy / cy) > r * (1 + 1e-9)}
+            if np.hypot(2 * ix / cx - 1, 2 * iy / cy - 1) > 1 + 1e-9}
 
 
-def _ghost_pins(geometry: TacTipGeometry, params: DomeParams) -> str:
+def _ghost_pins(params: DomeParams) -> str:
     """Pin the grid nodes whose column lies outside the dome's footprint.
 
     The trilinear grid spans the dome's bounding box; nodes in the box's corner columns
@@ -422,7 +418,7 @@ def _ghost_pins(geometry: TacTipGeometry, params: DomeParams) -> str:
     those spurious modes; they only touch the thin flank regions of their cells.
     """
     cx, cy, cz = params.cellcount
-    ids = [(ix * (cy + 1) + iy) * (cz + 1) + iz for ix, iy in sorted(_ghost_columns(geometry, params))
+    ids = [(ix * (cy + 1) + iy) * (cz + 1) + iz for ix, iy in sorted(_ghost_columns(params))
            for iz in range(1, cz + 1)]
     return f'\n    <pin id="{" ".join(map(str, ids))}"/>' if ids else ""
 

@@ -65,9 +65,7 @@ def evaluate(train_dir: Path, test_dir: Path, out: Path, seed: int = 0) -> dict:
     if not np.all(np.isfinite(test.label("direction_deg"))):
         raise UserError(f"{test_dir}: not a multi-directional run (samples need direction_deg labels)")
     models = {"PCA + GP": train_from_run(train, "pca", seed), "GP baseline": train_from_run(train, "baseline", seed)}
-    width = (test.meta.get("camera") or {}).get("width", 640)
-    height = (test.meta.get("camera") or {}).get("height", 480)
-    preds = {name: m.predict(test.pins_px, resolution=(width, height)) for name, m in models.items()}
+    preds = {name: m.predict(test.pins_px, resolution=test.resolution) for name, m in models.items()}
     table = table_i(test, {n: p.theta_deg for n, p in preds.items()})
     lateral = test.label("lateral_mm")
     pca = models["PCA + GP"]

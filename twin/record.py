@@ -169,6 +169,12 @@ class Run:
     def label(self, key: str) -> np.ndarray:
         return np.array([s["labels"].get(key, np.nan) for s in self.samples])
 
+    @property
+    def resolution(self) -> tuple[int, int]:
+        """(width, height) px of the run's camera (640×480 for runs recorded without one)."""
+        camera = self.meta.get("camera") or {}
+        return int(camera.get("width", 640)), int(camera.get("height", 480))
+
     def frame(self, index: int) -> np.ndarray | None:
         name = self.samples[index]["frame"]
         if name is None:

@@ -32,10 +32,8 @@ def train_from_run(run: Run, method: str = "pca", seed: int = 0) -> PerceptionMo
     theta, lateral, depth = run.label("theta_deg"), run.label("lateral_mm"), run.label("depth_mm")
     if not np.all(np.isfinite(theta)) or not np.all(np.isfinite(lateral)):
         raise UserError(f"{run.path}: not a tap run (samples need theta_deg and lateral_mm labels)")
-    camera = run.meta.get("camera") or {"width": 640, "height": 480}
     model = PerceptionModel(method=method)
-    model.fit(pins, theta, lateral, depth, np.random.default_rng(seed),
-              resolution=(camera["width"], camera["height"]),
+    model.fit(pins, theta, lateral, depth, np.random.default_rng(seed), resolution=run.resolution,
               source="real" if run.meta.get("backend") == "hardware" else "sim")
     model.info["trained_on"] = str(run.path)
     return model
