@@ -53,7 +53,7 @@ def bench_physics(quick: bool = False) -> list[dict]:
     """ms of physics per settled frame for each fidelity level (contour-like steps)."""
     from twin.physics import benchmark_physics
 
-    rows = benchmark_physics(repeats=1 if quick else 3, verbose=False)
+    rows = benchmark_physics(repeats=1 if quick else 5, verbose=False)
     return [{"section": "physics", **r} for r in rows]
 
 

@@ -11,6 +11,7 @@ from pathlib import Path
 
 from twin import gl  # noqa: F401  (headless GL before anything imports mujoco)
 from twin.errors import TwinError, UserError
+from twin.parallel import one_blas_thread
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
@@ -188,6 +189,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    one_blas_thread()
     try:
         return int(args.func(args) or 0)
     except UserError as err:

@@ -34,18 +34,29 @@ def map_ordered(fn: Callable, jobs: list[tuple], workers: int | None = None, clu
     context = get_context("forkserver")
     context.set_forkserver_preload(["twin.sim_env", "twin.runner", "twin.contour"])
     with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=context,
-                             initializer=_one_thread_per_worker) as pool:
+                             initializer=one_blas_thread) as pool:
         futures = [pool.submit(fn, *job) for job in jobs]
         for future in futures:
             yield future.result()
 
 
-def _one_thread_per_worker() -> None:
-    """A worker is one core's job: BLAS threads on top oversubscribe the cores (the skin
-    layer's solves; pins only on 2 cores ran at 41 frames/s instead of 98, measured)."""
+def one_blas_thread() -> None:
+    """Limit this process to one BLAS/OpenMP thread (for the rest of its life).
+
+    Every matrix here is small (the skin layer's ≤ 100² solves, GP kernels of a few
+    hundred taps), so BLAS threads only add hand-off cost, and on top of one process per
+    core they oversubscribe the cores. Measured on 2 cores: pins only 41 → 98 frames/s
+    over two workers; physics 2.0 → 1.5 ms per frame of Python-side overhead in one
+    process. Called by `twin`'s CLI, every local worker and every Ray task."""
     from threadpoolctl import threadpool_limits
 
     threadpool_limits(1)
+
+
+def _call_with_one_blas_thread(fn: Callable, *args):
+    """Ray task body: `one_blas_thread`, then fn(*args)."""
+    one_blas_thread()
+    return fn(*args)
 
 
 def _map_ray(fn: Callable, jobs: list[tuple], cluster: str) -> Iterator:
@@ -61,8 +72,8 @@ def _map_ray(fn: Callable, jobs: list[tuple], cluster: str) -> Iterator:
             ray.init(address=cluster, log_to_driver=False)
         started = True
     try:
-        remote = ray.remote(fn)
-        refs = [remote.remote(*job) for job in jobs]
+        remote = ray.remote(_call_with_one_blas_thread)
+        refs = [remote.remote(fn, *job) for job in jobs]
         for ref in refs:
             yield ray.get(ref)
     finally:

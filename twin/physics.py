@@ -232,24 +232,26 @@ class SensorPhysics:
         start = self._commanded
         dt = self.model.opt.timestep
         delta_p = target[:3, 3] - start[:3, 3]
-        rotvec = Rotation.from_matrix(start[:3, :3].T @ target[:3, :3]).as_rotvec()  # in the start tool frame
+        relative = start[:3, :3].T @ target[:3, :3]
+        turns = not np.allclose(relative, np.eye(3), rtol=0.0, atol=1e-12)
+        rotvec = Rotation.from_matrix(relative).as_rotvec() if turns else np.zeros(3)  # in the start tool frame
         n = int(max(1, np.ceil(np.linalg.norm(delta_p) / (speed_mm_s * 1e-3 * dt) - 1e-9),
                     np.ceil(np.linalg.norm(rotvec) / (self.angular_speed * dt) - 1e-9)))
         duration = n * dt
         v_tool = delta_p / duration  # lab frame, constant
         w_tool = start[:3, :3] @ (rotvec / duration)  # lab frame, constant (rotation axis is fixed)
-        s = np.arange(1, n + 1) / n
-        rotations = start[:3, :3] @ Rotation.from_rotvec(rotvec[None, :] * s[:, None]).as_matrix()
+        s = np.arange(0, n + 1) / n  # the start pose, then one pose per step
+        if turns:
+            rotations = start[:3, :3] @ Rotation.from_rotvec(rotvec[None, :] * s[:, None]).as_matrix()
+        else:
+            rotations = start[None, :3, :3]  # broadcast over the steps
         positions = start[:3, 3] + delta_p * s[:, None]
         qpos, qvel = self._carrier_states(rotations, positions, v_tool, w_tool)
-        # the carrier is at the start pose: give it the move's velocity for the first step
-        _, qvel0 = self._carrier_states(start[None, :3, :3], start[None, :3, 3], v_tool, w_tool)
-        qvel = np.vstack([qvel0, qvel])
-        for k in range(n):
-            self._set_carrier_velocity(qvel[k])
+        for k in range(1, n + 1):
+            self._set_carrier_velocity(qvel[k - 1])  # the carrier is at pose k − 1 moving towards pose k
             self._advance()
-            self._set_carrier((qpos[k], qvel[k + 1]))  # snap onto the commanded path (removes ≤ nm drift)
-            self._after_step_at(rotations[k], positions[k])
+            self._set_carrier((qpos[k], qvel[k]))  # snap onto the commanded path (removes ≤ nm drift)
+            self._after_step_at(rotations[k if turns else 0], positions[k])
         self._commanded = target
         return n
 
@@ -328,8 +330,9 @@ class SensorPhysics:
 
     def _carrier_states(self, rotations: np.ndarray, positions: np.ndarray, v_tool: np.ndarray,
                         w_tool: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Carrier qpos (n, 7) and qvel (n, 6) for sensor poses (rotations (n,3,3), positions
-        (n,3) m, lab frame) moving at linear velocity v and angular velocity ω (lab frame).
+        """Carrier qpos (n, 7) and qvel (n, 6) for sensor poses (rotations (n,3,3), or (1,3,3)
+        for all, positions (n,3) m, lab frame) moving at linear velocity v and angular
+        velocity ω (lab frame).
 
         carrier2scene = tool2scene · inv(tool2world) · stimulus2world. A point fixed in the
         lab, seen from a tool frame moving with linear velocity v (of the tool origin) and
@@ -339,14 +342,16 @@ class SensorPhysics:
         """
         c2w_r, c2w_p = self.stimulus2world[:3, :3], self.stimulus2world[:3, 3]
         t2s_r, t2s_p = self._tool2scene[:3, :3], self._tool2scene[:3, 3]
+        n = len(positions)
         r_scene = np.einsum("ij,nkj->nik", t2s_r, rotations)  # lab → scene rotations: T2S·Rᵀ
         c2s_r = r_scene @ c2w_r
+        quat = Rotation.from_matrix(c2s_r).as_quat()  # x, y, z, w
+        r_scene, c2s_r, quat = (np.broadcast_to(a, (n,) + a.shape[1:]) for a in (r_scene, c2s_r, quat))
         c2s_p = np.einsum("nij,nj->ni", r_scene, c2w_p - positions) + t2s_p
-        v_lab = -(v_tool + np.cross(w_tool, c2w_p - positions))
+        v_lab = -(v_tool + np.cross(w_tool, c2w_p - positions)) if w_tool.any() else -(v_tool + np.zeros_like(positions))
         v_scene = np.einsum("nij,nj->ni", r_scene, v_lab)
         w_scene = -(r_scene @ w_tool)
         w_local = np.einsum("nji,nj->ni", c2s_r, w_scene)
-        quat = Rotation.from_matrix(c2s_r).as_quat()  # x, y, z, w
         qpos = np.column_stack([c2s_p, quat[:, 3], quat[:, :3]])
         return qpos, np.column_stack([v_scene, w_local])
 
@@ -374,11 +379,19 @@ class SensorPhysics:
         return pin_tips_tool(self.model, self.data, self.handles)
 
     def _after_step(self, pose: np.ndarray) -> None:
+        self._read_step()
+        self._check(pose)
+
+    def _after_step_at(self, rotation: np.ndarray, position: np.ndarray) -> None:
+        self._read_step()
+        self._check(None, (rotation, position))
+
+    def _read_step(self) -> None:
+        """Count the step and read the pins (m, tool frame) and their images (px)."""
         self._steps += 1
         self._since_frame += 1
         self._pins = self._read_pins()
         self._pins_px = self._project(self._pins)
-        self._check(pose)
 
     def _project(self, pins_tool: np.ndarray) -> np.ndarray:
         """CameraModel.project_tool_points with the intrinsics unpacked once (px)."""
@@ -386,38 +399,31 @@ class SensorPhysics:
         z = pins_tool[:, 2] + z0
         return np.column_stack([fx * pins_tool[:, 0] / z + cx, fy * pins_tool[:, 1] / z + cy])
 
-    def _after_step_at(self, rotation: np.ndarray, position: np.ndarray) -> None:
-        self._steps += 1
-        self._since_frame += 1
-        self._pins = self._read_pins()
-        self._pins_px = self._project(self._pins)
-        self._check(None, (rotation, position))
-
     def _check(self, pose: np.ndarray | None, at: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         """Per-step sanity checks (module docstring); `pose` (4×4) or `at` (R, p) names the
         commanded pose in an error."""
         d, p = self.data, self.params
         where = (lambda: pose) if pose is not None else (lambda: make_transform(*at))
         counts = d.warning.number
-        if np.any(counts > self._warnings):
+        if (counts > self._warnings).any():
             names = [mujoco.mjtWarning(i).name for i in np.flatnonzero(counts > self._warnings)]
             self._warnings = counts.copy()
             self._fail(f"MuJoCo warning {', '.join(names)}", where())
         if not math.isfinite(d.qpos.sum() + d.qvel.sum() + self._pins.sum()):  # a NaN/Inf anywhere propagates
             self._fail("NaN/Inf in the state (qpos, qvel or pin tips)", where())
         if d.ncon:
-            depth = -float(np.min(d.contact.dist[: d.ncon]))
+            depth = -float(d.contact.dist[: d.ncon].min())
             if depth > p.max_penetration:
                 self._fail(f"penetration {depth * 1e3:.3f} mm > {p.max_penetration * 1e3:.3f} mm", where())
             # net contact force on the object = constraint force on the carrier's free joint
-            force = float(np.linalg.norm(d.qfrc_constraint[self._vadr: self._vadr + 3]))
+            force = math.hypot(*d.qfrc_constraint[self._vadr: self._vadr + 3])
             if force > p.max_force:
                 self._fail(f"contact force {force:.3g} N > {p.max_force:.3g} N", where())
-        excursion = float(np.sqrt(np.max(np.sum((self._pins - self.rest_pins) ** 2, axis=1))))
-        if excursion > p.max_pin_excursion:
-            self._fail(
-                f"a pin moved {excursion * 1e3:.3f} mm from rest (> {p.max_pin_excursion * 1e3:.3f} mm)", where()
-            )
+        moved = self._pins - self.rest_pins
+        excursion2 = float(np.einsum("ij,ij->i", moved, moved).max())
+        if excursion2 > p.max_pin_excursion**2:
+            self._fail(f"a pin moved {math.sqrt(excursion2) * 1e3:.3f} mm from rest "
+                       f"(> {p.max_pin_excursion * 1e3:.3f} mm)", where())
 
     def contact_force_world(self) -> np.ndarray:
         """(3,) total force of all contacts on the dome, scene frame (N) (= tool frame if the
@@ -521,28 +527,32 @@ def sensor_down(x_mm: float, y_mm: float, depth_mm: float, gamma_deg: float = 0.
     return make_transform(rot, np.array([x_mm, y_mm, -depth_mm]) * 1e-3)
 
 
-def benchmark_physics(levels: list[str] | None = None, repeats: int = 3, speed_mm_s: float = 15.0,
-                      verbose: bool = True) -> list[dict]:
+def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose: bool = True) -> list[dict]:
     """ms of physics per settled frame for each fidelity level, best of `repeats`.
 
-    Contour-following-like sequence on the edge scene: press to 3 mm at the edge, then
-    five 3 mm slide steps along the edge (frames every e = 3 mm) at `speed_mm_s`, then
-    lift off. Each frame = move + settle, timed as wall time of the whole SensorPhysics
-    calls (stepping, pin read-out, checks). Returns one dict per level: level,
-    ms_per_frame (best), steps_per_frame (mean), ms_per_step.
+    A contour-following sequence on the edge scene with the contour protocol's defaults
+    (twin.scenario.ContourProtocol: depth d, step e, speed): press to d at the edge, then
+    eight steps of e along the edge, then lift off. Each frame = move + settle, timed as
+    wall time of the whole SensorPhysics calls (stepping, pin read-out, checks, skin
+    layer). Returns one dict per level: level, ms_per_frame (best), steps_per_frame
+    (mean), ms_per_step.
     """
     from twin.dome import FIDELITY_LEVELS
+    from twin.scenario import ContourProtocol
 
+    contour = ContourProtocol()
+    depth, step = contour.depth_mm, contour.step_mm
+    poses = ([sensor_down(0, 0, depth)] + [sensor_down(0, step * k, depth) for k in range(1, 9)]
+             + [sensor_down(0, 8 * step, -2)])
     rows = []
     for level in levels or list(FIDELITY_LEVELS):
         params = FIDELITY_LEVELS[level]
         best = np.inf
         for _ in range(repeats):
             model, data, handles, physics = edge_scene(params, scenario=f"benchmark-{level}")
-            poses = [sensor_down(0, 0, 3)] + [sensor_down(0, 3 * k, 3) for k in range(1, 6)] + [sensor_down(0, 15, -2)]
             t0 = time.perf_counter()
             for pose in poses:
-                physics.move(pose, speed_mm_s)
+                physics.move(pose, contour.speed_mm_s)
                 physics.settle()
             elapsed = time.perf_counter() - t0
             if elapsed < best:

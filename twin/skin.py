@@ -100,21 +100,29 @@ class SkinLayer:
 
     def pressures(self, delta: np.ndarray) -> np.ndarray:
         """(nodes,) contact pressures p ≥ 0 (kernel units) with w = K·p: w = δ where p > 0,
-        w ≥ δ elsewhere (active-set solution of the linear complementarity problem)."""
-        p = np.zeros(len(delta))
-        active = np.flatnonzero(delta > 0)
+        w ≥ δ elsewhere (active-set solution of the linear complementarity problem).
+
+        Solved among the nodes with δ > 0 only: a node the object does not reach needs no
+        pressure (K ≥ 0, so w ≥ 0 ≥ δ there)."""
+        touching = np.flatnonzero(delta > 0)
+        full = np.zeros(len(delta))
+        kernel = self.kernel[np.ix_(touching, touching)]
+        target = delta[touching]
+        p = np.zeros(len(touching))
+        active = np.arange(len(touching))
         for _ in range(50):
             if not len(active):
-                return p
-            pa = np.linalg.solve(self.kernel[np.ix_(active, active)], delta[active])
+                return full
+            pa = np.linalg.solve(kernel[np.ix_(active, active)], target[active])
             if np.any(pa < 0):
                 active = active[pa > 0]
                 continue
             p[:] = 0.0
             p[active] = pa
-            short = np.flatnonzero((delta > 0) & (p == 0) & (self.kernel @ p < delta))
+            short = np.flatnonzero((p == 0) & (kernel @ p < target))
             if not len(short):
-                return p
+                full[touching] = p
+                return full
             active = np.union1d(active, short)
         raise PhysicsError("skin contact: the active set did not converge in 50 iterations")
 
@@ -122,7 +130,8 @@ class SkinLayer:
         """(127, 3) pin-tip offsets (m, tool frame) for the penetrations `delta` (m)."""
         if not np.any(delta > 0):
             return np.zeros_like(self.pin_normals)
-        slope = (self.gradient_matrix @ self.pressures(delta)).reshape(-1, 3)
+        touching = np.flatnonzero(delta > 0)
+        slope = (self.gradient_matrix[:, touching] @ self.pressures(delta)[touching]).reshape(-1, 3)
         tilted = self.pin_normals + slope  # the skin's outward normal n + ∇w (unnormalised)
         tilted /= np.linalg.norm(tilted, axis=1, keepdims=True)
         return -self.lever * (tilted - self.pin_normals)
