@@ -91,6 +91,38 @@ def test_flank_on_the_edge_settles(level):
     assert _rest_error_px(env, rest) < REST_PX
 
 
+def _flank_cycle_run(cycle_relaxation: float) -> list[int]:
+    """The sweep's grid_5x5x2 slide probe at θ = −80° (twin.sweep); settle steps per frame."""
+    from dataclasses import replace
+
+    from twin.protocols import protocol_moves
+    from twin.runner import chunk_moves
+    from twin.sweep import FULL_PROBE, full_settings
+
+    setting = next(s for s in full_settings() if s.name == "grid_5x5x2")
+    probe = replace(FULL_PROBE, slide_orientations_deg=(-80.0,))
+    env = SimEnvironment(setting.scenario(probe.contour()))
+    steps = []
+    for chunk in chunk_moves(protocol_moves(setting.scenario(probe.slides()).protocol)):
+        env.reset()  # a new SensorPhysics with the scene's parameters
+        env.physics.params = env.physics.params.with_(cycle_relaxation=cycle_relaxation)
+        for move in chunk:
+            env.move_to(move.pose, move.speed_mm_s)
+            steps.append(env.physics.steps)
+    return steps
+
+
+def test_a_contact_switching_cycle_is_relaxed_until_it_settles():
+    """Regression (`twin bench sweep`, grid_5x5x2 with the skin membrane): sliding onto the
+    rectangle at x = 64, γ = −80°, the quasi-static iteration fell into a period-4 cycle
+    (3 / 2 / 30 / 7 contacts, pins 3.5 px) and never settled. Under-relaxed steps after
+    `cycle_after` steps (DomeParams.cycle_relaxation) settle it; without them it raises."""
+    with pytest.raises(PhysicsError, match=r"x=64\.000 .*did not settle"):
+        _flank_cycle_run(1.0)
+    steps = np.diff(_flank_cycle_run(FIDELITY_LEVELS["default"].cycle_relaxation))
+    assert np.max(steps) < FIDELITY_LEVELS["default"].max_settle_steps
+
+
 @pytest.mark.parametrize("level", LEVELS)
 def test_sliding_at_three_times_nominal_speed(level):
     """Sliding at 60 mm/s, along the edge (90°) and then straight off the object (180°):

@@ -162,6 +162,15 @@ class DomeParams:
         point can hop between an element's vertices, so some configurations (the flank
         on an edge) never come to rest but cycle with a fixed amplitude of 0.02–0.1 px
         (measured); that is a settled frame for any camera.
+      cycle_relaxation (–): a contact frame still moving beyond `cycle_px` after
+        `cycle_after` steps is iterated with under-relaxed steps, the grid nodes moved by
+        this fraction of each step (q ← q + ω·Δq), and its motion is judged as Δq (the
+        full step). Zeroing the velocities makes each step a full Newton-like step, which
+        on a flank contact can fall into a contact-switching limit cycle: the 5×5×2 grid
+        at x = 64 mm, γ = −80° on the rectangle cycled with period 4 (3 / 2 / 30 / 7
+        contacts, pins 3.5 px) until `max_settle_steps`; half steps settle it in 2–4
+        more steps (measured). 1 = off. Frames that settle before `cycle_after` steps
+        (every frame of the default's slide and contour probes) are unaffected.
       max_settle_steps: cap; not settled by then → PhysicsError.
       max_penetration (m), max_force (N), max_pin_excursion (m): per-step sanity bounds.
         Pin excursion: a 6 mm press plus ≈ 2–3 mm of stuck shear while being dragged off
@@ -196,6 +205,7 @@ class DomeParams:
     settle_steps: int = 1
     cycle_after: int = 40
     cycle_px: float = 0.25
+    cycle_relaxation: float = 0.5
     max_settle_steps: int = 200
     max_penetration: float = 0.002
     max_force: float = 50.0

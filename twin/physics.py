@@ -28,7 +28,9 @@ Settling criterion (in camera pixels, DomeParams "Settling"): the pins are proje
 through the camera model after every step; a frame is settled when over the last
 `params.settle_steps` steps no pin's image moved more than `params.settle_px` (in contact)
 or `params.free_settle_px` (no contact) away from where it is now; after
-`params.cycle_after` steps, a contact frame cycling within `params.cycle_px` is accepted.
+`params.cycle_after` steps, a contact frame cycling within `params.cycle_px` is accepted,
+and one still cycling beyond it is iterated with under-relaxed steps
+(`params.cycle_relaxation`).
 Scale: the camera's focal length is ≈ 451 px and the pin tips lie 30–42 mm in front of
 it, so 1 px ≈ 65–92 µm (≈ 75 µm) of lateral pin motion; motion along the viewing ray
 (the apex pin moving in z) is nearly invisible, exactly as for the real camera. This is
@@ -268,9 +270,15 @@ class SensorPhysics:
         rest = self._carrier_state(self._commanded, np.zeros(3), np.zeros(3))
         history = [self._pins_px]
         band = np.inf
+        relax = False  # under-relaxed steps once a contact frame cycles on (DomeParams.cycle_relaxation)
+        nodes = self._pin_map.qadr
         for k in range(1, p.max_settle_steps + 1):
             self._set_carrier(rest)
+            if relax:
+                before = self.data.qpos[nodes]
             self._advance(still=True)
+            if relax:
+                self.data.qpos[nodes] = before + p.cycle_relaxation * (self.data.qpos[nodes] - before)
             self._set_carrier(rest)
             self._after_step(self._commanded)
             history.append(self._pins_px)
@@ -279,6 +287,8 @@ class SensorPhysics:
             if len(history) <= window:
                 continue
             band = max(float(np.max(np.abs(self._pins_px - past))) for past in history[:-1])
+            if relax:
+                band /= p.cycle_relaxation  # the motion a full step would have made
             # out of contact there is no friction to hold a sheared skin, and the no-contact
             # frame is the tracker's reference: hold it to a tighter bound
             tol = p.settle_px if self.data.ncon else p.free_settle_px
@@ -299,6 +309,7 @@ class SensorPhysics:
                 )
                 self._since_frame = 0
                 return frame
+            relax = relax or (p.cycle_relaxation < 1 and k >= p.cycle_after and bool(self.data.ncon))
         self._fail(
             f"pins did not settle within {p.max_settle_steps} steps (over the last {window} steps a pin "
             f"moved {band:.4g} px; tolerance {p.settle_px:.4g} px in contact, {p.free_settle_px:.4g} px free)"
