@@ -28,3 +28,20 @@ def test_local_processes_match_one_process(tmp_path) -> None:
 def test_ray_local_cluster_matches(tmp_path) -> None:
     pytest.importorskip("ray", reason="the ray extra is installed by the README's commands")
     assert np.array_equal(_pins(tmp_path, "serial", workers=1), _pins(tmp_path, "ray", cluster="local"))
+
+
+def test_one_blas_thread_covers_libraries_loaded_later() -> None:
+    """numpy, scipy and OpenCV each bring their own OpenBLAS; an idle second BLAS thread
+    spin-waits beside the physics (twin.parallel.one_blas_thread). Fresh process: the
+    limit must hold for the libraries loaded after the call too."""
+    import ast
+    import subprocess
+    import sys
+
+    code = ("from twin.parallel import one_blas_thread; one_blas_thread()\n"
+            "import numpy, scipy.linalg, cv2, sklearn.gaussian_process\n"
+            "from threadpoolctl import threadpool_info\n"
+            "print(sorted({(i['filepath'], i['num_threads']) for i in threadpool_info()}))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    pools = ast.literal_eval(out)
+    assert len(pools) >= 2 and all(n == 1 for _, n in pools), pools

@@ -41,13 +41,17 @@ def map_ordered(fn: Callable, jobs: list[tuple], workers: int | None = None, clu
 
 
 def one_blas_thread() -> None:
-    """Limit this process to one BLAS/OpenMP thread (for the rest of its life).
+    """Limit this process to one BLAS/OpenMP thread, for the libraries loaded already
+    (threadpoolctl) and for those loaded later (the environment variables they read when
+    they load: numpy, scipy and OpenCV each bring their own OpenBLAS).
 
     Every matrix here is small (the skin layer's ≤ 100² solves, GP kernels of a few
-    hundred taps), so BLAS threads only add hand-off cost, and on top of one process per
-    core they oversubscribe the cores. Measured on 2 cores: pins only 41 → 98 frames/s
-    over two workers; physics 2.0 → 1.5 ms per frame of Python-side overhead in one
-    process. Called by `twin`'s CLI, every local worker and every Ray task."""
+    hundred taps), so BLAS threads only hand work off and then spin-wait: a second
+    OpenBLAS thread burnt a whole core beside the physics (CPU time 1.7× the wall time
+    in one process, measured) and, with one process per core, stole it from the other
+    worker. Called by `twin`'s CLI, every local worker and every Ray task."""
+    for name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ[name] = "1"
     from threadpoolctl import threadpool_limits
 
     threadpool_limits(1)
