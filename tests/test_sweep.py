@@ -76,6 +76,7 @@ def test_quick_sweep_writes_a_consistent_table(tmp_path) -> None:
     assert sum(line.startswith("| ") for line in md.splitlines()) == len(rows) + 1  # header + one per setting
     meta = json.loads((out / "sweep.json").read_text())["meta"]
     assert meta["quick"] is True and meta["failures"] == []
+    assert meta["timing"]["repeats"] >= 2 and meta["timing"]["orientations_deg"]  # the serial timing pass ran
 
 
 def test_failed_setting_is_recorded_counted_and_kept_off_the_front(tmp_path) -> None:

@@ -20,11 +20,15 @@ Figures per setting (units in the column names; the CSV's columns are `CSV_COLUM
 * time per frame (ms), split into physics (`env.move_to` into the frame: move +
   settle), render (`env.observe`: the frame, or the projection without `render`),
   tracking (`PinReader.read`) and perception (one single-frame
-  `PerceptionModel.predict`), averaged over every frame of the slide probe and the
-  contour run (each = one move of ≈ 2–4 mm in contact, one frame); the sum is
-  `total_ms`. These are **CPU** ms of the job's process (all its threads), so they do
-  not depend on how many jobs share the machine; the wall-clock figures are in the
-  `*_wall_ms` columns. Resets, lifts between slides and the tap probe are not timed.
+  `PerceptionModel.predict`); the sum is `total_ms`. CPU ms of one process (all its
+  threads). Physics, render and tracking come from the **timing pass** (`time_setting`):
+  after the parallel accuracy jobs, every setting replays the slide probe's first
+  orientations alone on the machine, best of TIMING_REPEATS passes; timed inside the
+  parallel jobs instead, physics-identical settings spread over 12–18 ms. Perception
+  (≈ 1 ms, the same model size for every setting) is the accuracy job's mean. The
+  accuracy jobs' wall-clock figures (every slide and contour frame, contention included)
+  are in the `*_wall_ms` columns. Resets, lifts between slides and the tap probe are not
+  timed.
 * pin error (px RMS over all pins and slide frames, at 640×480 — pins of other
   resolutions are rescaled as `PerceptionModel` does): the setting's pins as the
   pipeline sees them (tracked from frames when rendering, projected otherwise) against
@@ -75,7 +79,7 @@ import time
 import traceback
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from types import SimpleNamespace
 from typing import TYPE_CHECKING
@@ -92,6 +96,10 @@ REFERENCE = "reference"
 DEFAULT = "default"
 #: Reference camera resolution (W, H) px: pin errors are expressed at this resolution.
 REFERENCE_RESOLUTION = (640, 480)
+#: The timing pass (`time_setting`): best of this many passes per setting (full, quick
+#: sweep) over the slide probe's first TIMING_ORIENTATIONS orientations.
+TIMING_REPEATS = (3, 2)
+TIMING_ORIENTATIONS = 2
 #: Noise margins of the Pareto dominance test: relative time, relative and absolute error.
 TIME_MARGIN = 0.05
 ERROR_MARGIN_REL = 0.02
@@ -256,10 +264,10 @@ class _Stages:
     """Per-stage clocks of one setting's probe: CPU time of this process (all its threads:
     MuJoCo, the GL rasteriser, BLAS) and wall time, accumulated over the timed frames.
 
-    CPU time is the figure the table and the Pareto fronts use: unlike wall time it does
-    not grow when other jobs (the sweep's own parallel jobs, or anything else on the
-    machine) compete for the cores (measured: 13.7 vs 13.9 ms physics per frame with and
-    without two busy processes beside it, when the wall time went from 13.9 to 20.8 ms).
+    CPU time, unlike wall time, does not grow with the number of runnable processes
+    (13.7 vs 13.9 ms physics per frame with and without two busy processes beside it,
+    when the wall time went from 13.9 to 20.8 ms), but on this VM it still varies with
+    what runs beside it (cache and host contention), hence the sweep's timing pass.
     """
 
     def __init__(self) -> None:
@@ -436,6 +444,34 @@ def probe_setting(setting: Setting, probe: Probe, seed: int = 0) -> dict:
     return out
 
 
+def time_setting(setting: Setting, probe: Probe, seed: int = 0, repeats: int = TIMING_REPEATS[0]) -> dict:
+    """{physics,render,track}_ms (CPU ms per frame) and n_timed_frames of `setting` on
+    the timing probe: the slide probe's first TIMING_ORIENTATIONS orientations, best of
+    `repeats` passes, each on a fresh environment (min per stage).
+
+    run_sweep calls it for every setting one after the other in its own process, after
+    the parallel accuracy jobs, so no other job competes for the cores: timed inside the
+    parallel jobs, physics-identical settings spread over 12–18 ms per frame (measured),
+    more than the differences the front must resolve."""
+    from twin.protocols import protocol_moves
+    from twin.sim_env import SimEnvironment
+
+    timing = replace(probe, slide_orientations_deg=probe.slide_orientations_deg[:TIMING_ORIENTATIONS])
+    moves = protocol_moves(setting.scenario(timing.slides(), seed).protocol)
+    best: dict[str, float] = {}
+    for _ in range(repeats):
+        env = SimEnvironment(setting.scenario(timing.contour(), seed), seed=seed)
+        stages = _Stages()
+        try:
+            _open_loop(env, moves, stages)
+        finally:
+            env.close()
+        for stage in ("physics", "render", "track"):
+            ms = 1e3 * stages.cpu[stage] / stages.calls[stage]
+            best[f"{stage}_ms"] = min(best.get(f"{stage}_ms", math.inf), ms)
+    return {**best, "n_timed_frames": stages.calls["physics"]}
+
+
 def _rms_px(a: np.ndarray, b: np.ndarray) -> float:
     """RMS pin distance (px) over all frames and pins of two (N, 127, 2) arrays."""
     return float(np.sqrt(np.mean(np.sum((np.asarray(a) - np.asarray(b)) ** 2, axis=-1))))
@@ -541,10 +577,9 @@ def run_sweep(out: Path, quick: bool = False, workers: int | None = None, cluste
     """Run the sweep, write sweep.csv, sweep.json, sweep.md and pareto.png to `out`.
 
     quick: the QUICK_PROBE over quick_settings() (smoke check, < 2 min on 2 cores).
-    workers / cluster: as twin.parallel.map_ordered (default: all local cores); one job
-      per setting. Stage times are measured inside each job, so with several jobs per
-      machine they include the contention for cores (the run's `workers` is written to
-      sweep.json and sweep.md).
+    workers / cluster: as twin.parallel.map_ordered (default: all local cores); one
+      accuracy job per setting. The timing pass then runs here, one setting at a time
+      (`time_setting`; on a cluster too, so that every time is from the same machine).
     Returns the rows (dicts with the CSV_COLUMNS keys present).
     """
     from twin.errors import UserError
@@ -568,8 +603,19 @@ def run_sweep(out: Path, quick: bool = False, workers: int | None = None, cluste
             state = "ok" if r["status"] == "ok" else f"FAILED in {r['stage']}: {r['error']}"
             print(f"[{i + 1}/{len(settings)}] {r['setting']:18s} {r.get('total_ms', float('nan')):7.1f} ms/frame  "
                   f"{r['wall_s']:6.1f} s  {state}", flush=True)
-    wall = time.perf_counter() - wall0
     rows = [r["row"] for r in results]
+    repeats = TIMING_REPEATS[1] if quick else TIMING_REPEATS[0]
+    for i, (setting, row) in enumerate(zip(settings, rows)):
+        if row["status"] != "ok":
+            continue
+        try:
+            row.update(time_setting(setting, probe, seed, repeats))
+        except Exception as err:  # recorded like a failed probe (module doc)
+            row.update(status="failed", stage="timing", error=f"{type(err).__name__}: {err}"[:400])
+        row["total_ms"] = float(sum(row[f"{k}_ms"] for k in STAGES))
+        if verbose:
+            print(f"[timing {i + 1}/{len(settings)}] {row['setting']:18s} {row['total_ms']:7.1f} ms/frame", flush=True)
+    wall = time.perf_counter() - wall0
     ref = results[names.index(REFERENCE)]
     ref_truth = ref["slide_truth_px"]
     for result in results:
@@ -583,6 +629,7 @@ def run_sweep(out: Path, quick: bool = False, workers: int | None = None, cluste
         "wall_s": wall, "machine": f"{platform.machine()}, {os.cpu_count()} cores, {platform.python_version()}",
         "gl": gl.GL_BACKEND, "failures": [f"{r['setting']} ({r['stage']}): {r['error']}" for r in rows if r["status"] != "ok"],
         "reference": REFERENCE, "default": DEFAULT if DEFAULT in names else None,
+        "timing": {"repeats": repeats, "orientations_deg": list(probe.slide_orientations_deg[:TIMING_ORIENTATIONS])},
         "date": time.strftime("%Y-%m-%d"),
     }
     write_outputs(rows, meta, Path(out), verbose=verbose)
@@ -680,6 +727,19 @@ def _contour_cell(r: dict) -> str:
     return f"{r['contour_path_mean_mm']:.1f} ({r.get('contour_steps')}, {r.get('contour_stop')})"
 
 
+def _timing_note(meta: dict) -> str:
+    """How the times were measured (a sweep.json from before the timing pass has no 'timing')."""
+    timing = meta.get("timing")
+    if timing is None:
+        return ("Times: CPU ms per frame of the accuracy job's process over the slide and contour frames, measured "
+                "beside the other parallel jobs.")
+    angles = ", ".join(f"{a:g}" for a in timing["orientations_deg"])
+    return ("Times: CPU ms per frame; physics (move into the frame + settle), render and tracking from the timing "
+            f"pass (each setting alone on the machine after the accuracy jobs, best of {timing['repeats']} passes "
+            f"over the slides at θ = {angles}°), perception from the accuracy job; wall-clock figures of the accuracy "
+            "jobs in sweep.csv.")
+
+
 def markdown_table(rows: list[dict], meta: dict) -> str:
     """The README's table: one line per setting, then the verdict and how it was measured."""
     head = ("| setting | knob | physics | render | tracking | perception | **total ms/frame** | "
@@ -720,8 +780,7 @@ def markdown_table(rows: list[dict], meta: dict) -> str:
         f"Probe: {len(p['tap_orientations_deg'])} orientations × {len(p['lateral_mm'])} lateral × "
         f"{len(p['tap_depths_mm'])} depths taps train PCA + GP; {len(p['slide_orientations_deg'])} orientations × "
         f"{len(p['directions_deg'])} directions × {len(p['lateral_mm'])} samples of slides test it; contour following "
-        f"of the rectangle (≤ {p['contour_max_steps']} steps). Times: CPU ms per frame of the job's process over the "
-        "slide and contour frames (physics = move into the frame + settle; wall-clock figures in sweep.csv). Pin error: px RMS at 640×480 against the reference's true pins "
+        f"of the rectangle (≤ {p['contour_max_steps']} steps). {_timing_note(meta)} Pin error: px RMS at 640×480 against the reference's true pins "
         "at the same poses (physics part: the setting's true pins; tracking part: tracked vs its own true pins). "
         "Settling error: px RMS at 640×480 of the setting's true pins against the same frames settled on to "
         "convergence (untimed): what the settle tolerance leaves, which the pin error (mostly the grid's "
