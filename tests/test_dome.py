@@ -135,7 +135,7 @@ def test_absurd_stiffness_raises():
 
 def test_absurd_settling_cap_raises():
     with pytest.raises(PhysicsError, match="did not settle"):
-        _press(DomeParams(max_settle_steps=2), 0, 0, 4)
+        _press(DomeParams(max_settle_steps=2, settle_px=1e-3), 0, 0, 4)  # 0.001 px in 2 steps
 
 
 def test_pin_map_is_exact():
