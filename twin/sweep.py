@@ -470,9 +470,9 @@ def time_setting(setting: Setting, probe: Probe, seed: int = 0, repeats: int = T
             _open_loop(env, moves, stages)
         finally:
             env.close()
-        for stage in ("physics", "render", "track"):
-            ms = 1e3 * stages.cpu[stage] / stages.calls[stage]
-            best[f"{stage}_ms"] = min(best.get(f"{stage}_ms", math.inf), ms)
+        per_frame = stages.ms_per_frame()
+        for key in ("physics_ms", "render_ms", "track_ms"):
+            best[key] = min(best.get(key, math.inf), per_frame[key])
     return {**best, "n_timed_frames": stages.calls["physics"]}
 
 
