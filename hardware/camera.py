@@ -19,7 +19,7 @@ is treated like a device without timestamps.
 
 Every frame is stamped with `time.monotonic()` (s) when it was read, and returned as RGB
 (H, W, 3) uint8 (OpenCV delivers BGR; we convert), the frame layout of
-`twin.env.Observation.frame`. Live sources (device, URL) are warmed up with `warmup`
+`twin.core.environment.Observation.frame`. Live sources (device, URL) are warmed up with `warmup`
 frames on open (auto gain / exposure settle); a file starts at its first frame.
 
 Failures raise `HardwareError`: the device cannot be opened ("camera 0 not found
@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from twin.errors import HardwareError
+from twin.core.errors import HardwareError
 
 #: V4L2 auto-exposure menu values as passed through by OpenCV's V4L2 backend
 V4L2_EXPOSURE_MANUAL = 1

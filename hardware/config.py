@@ -12,8 +12,8 @@ from typing import Annotated, Literal
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from hardware.safety import SafetyLimits
-from twin.config_files import read_yaml, validate_mapping
-from twin.poses import Pose
+from twin.core.validation import read_yaml, validate_mapping
+from twin.core.poses import Pose
 
 PoseList = Annotated[list[float], Field(min_length=6, max_length=6)]
 
@@ -31,7 +31,7 @@ class RobotConfig(_Strict):
     connect_timeout_s: float = Field(default=3.0, gt=0, le=60)
     reply_timeout_s: float = Field(default=5.0, gt=0, le=120)
     #: TCP (dome apex) in the flange frame tool0: x, y, z mm; α, β, γ deg (extrinsic XYZ).
-    #: Default = the twin's mount (twin.scene.FLANGE_TO_APEX, 101 mm); measure your rig's.
+    #: Default = the twin's mount (twin.world.scene.FLANGE_TO_APEX, 101 mm); measure your rig's.
     tcp_mm_deg: PoseList = [0.0, 0.0, 101.0, 0.0, 0.0, 0.0]
     #: work frame in the robot base frame: x, y, z mm; α, β, γ deg (extrinsic XYZ)
     work_frame_mm_deg: PoseList = [400.0, 0.0, 50.0, 180.0, 0.0, 0.0]

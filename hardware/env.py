@@ -1,4 +1,4 @@
-"""The real rig behind the `twin.env.Environment` interface.
+"""The real rig behind the `twin.core.environment.Environment` interface.
 
 | Observation field | hardware meaning                                                      |
 |-------------------|-----------------------------------------------------------------------|
@@ -16,12 +16,12 @@ from __future__ import annotations
 import logging
 
 from hardware.camera import TactipCamera
-from hardware.config import HardwareConfig
+from hardware.config import HardwareConfig, load_hardware_config
 from hardware.robot import RobotDriver
-from twin.env import Environment, Observation
-from twin.errors import UserError
-from twin.poses import Pose
-from twin.tactip import CameraModel
+from twin.core.environment import Environment, Observation
+from twin.core.errors import UserError
+from twin.core.poses import Pose
+from twin.core.sensor import CameraModel
 
 log = logging.getLogger(__name__)
 
@@ -69,17 +69,15 @@ class HardwareEnvironment(Environment):
     def from_scenario(cls, scenario, config_path: str | None = None) -> "HardwareEnvironment":
         """The rig for a scenario: its `hardware_config` file (or `config_path`), with the
         scenario's camera resolution."""
-        from hardware.config import load_hardware_config
-        from twin.scene import camera_model
-
         name = config_path or scenario.hardware_config
         if name is None:
             raise UserError(f"{scenario.source}: the hardware backend needs a config file: set field "
                             "'hardware_config' or pass --hardware-config (see hardware/example_config.yaml)")
-        return cls(load_hardware_config(scenario.resolve(name)), camera_model(scenario))
+        return cls(load_hardware_config(scenario.resolve(name)), scenario.camera_model())
 
-    def reset(self) -> Observation:
-        """Move (straight line) to the config's no-contact start pose and observe."""
+    def reset(self, seed: int | None = None) -> Observation:
+        """Move (straight line) to the config's no-contact start pose and observe. The rig
+        has no randomness of its own to seed: `seed` is accepted and ignored."""
         self.move_to(self.config.robot.start_pose)
         return self.observe()
 

@@ -2,7 +2,7 @@
 
 Own implementation, written from the protocol facts (command codes, byte layout, units);
 shared by the client (`hardware.robot`) and the virtual controller
-(`twin.virtual_robot`). One TCP connection, one request at a time, strictly
+(`hardware.virtual_controller`). One TCP connection, one request at a time, strictly
 request → reply, everything big-endian ("network order"):
 
     request = uint16 command code, then the arguments as float32 (or uint16 where noted)
@@ -50,7 +50,8 @@ from enum import IntEnum
 
 import numpy as np
 
-from twin.poses import Pose, make_transform, quat_wxyz_to_matrix, quat_xyzw_to_wxyz
+from twin.core.poses import Pose, make_transform, quat_wxyz_to_matrix, quat_xyzw_to_wxyz
+from scipy.spatial.transform import Rotation
 
 #: default TCP port of the RAPID server
 DEFAULT_PORT = 5000
@@ -224,7 +225,7 @@ FINE_POINT = Zone()
 def pose_to_wire(pose: Pose) -> tuple[float, ...]:
     """(x, y, z mm, qw, qx, qy, qz) of a lab pose (mm, extrinsic-XYZ deg).
 
-    The quaternion is computed here by `twin.poses` (Euler axes explicit), so no client
+    The quaternion is computed here by `twin.core.poses` (Euler axes explicit), so no client
     library converts Euler angles with its own (fork-dependent) axis convention.
     """
     q = pose.quat_wxyz()
@@ -252,7 +253,6 @@ def wire_to_matrix(values) -> np.ndarray:
 
 def matrix_to_wire(a2b: np.ndarray) -> tuple[float, ...]:
     """(x, y, z mm, qw, qx, qy, qz) of a 4×4 transform (m)."""
-    from scipy.spatial.transform import Rotation
 
     q = quat_xyzw_to_wxyz(Rotation.from_matrix(a2b[:3, :3]).as_quat())
     if q[0] < 0:

@@ -12,7 +12,7 @@ Two interchangeable clients carry the bytes:
 
 Units at this interface: poses are lab poses (x, y, z mm; α, β, γ deg, extrinsic XYZ) of
 the tool (TCP) in the work frame; joints in deg; speeds in mm/s and deg/s. Orientations
-travel as w-first quaternions computed by `twin.poses` (no Euler conversion inside any
+travel as w-first quaternions computed by `twin.core.poses` (no Euler conversion inside any
 client library, whose axis conventions differ between forks).
 
 Speeds are sent with SET_SPEED (linear and angular together) — setting `robot.speed` on
@@ -50,8 +50,8 @@ from hardware.protocol import (
     reply_values_size,
     wire_to_pose,
 )
-from twin.errors import HardwareError, UserError
-from twin.poses import Pose, angle_between_rotations_deg
+from twin.core.errors import HardwareError, UserError
+from twin.core.poses import Pose, angle_between_rotations_deg
 
 log = logging.getLogger(__name__)
 

@@ -29,8 +29,8 @@ from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
-from twin.errors import SafetyError
-from twin.poses import Pose
+from twin.core.errors import SafetyError
+from twin.core.poses import Pose
 
 Range = Annotated[tuple[float, float], Field(description="[min, max], inclusive")]
 

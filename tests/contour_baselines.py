@@ -5,7 +5,7 @@ Regenerate (after a change that is meant to move the figures, and say why in the
     .venv/bin/python -m tests.contour_baselines
 
 It traces the six objects exactly as the tests do (the tap model from the cache,
-twin.training; one process) and writes tests/baselines/contours.json.
+twin.runs.training; one process) and writes tests/baselines/contours.json.
 """
 from __future__ import annotations
 
@@ -14,19 +14,20 @@ import sys
 import tempfile
 from pathlib import Path
 
-from twin.demo import OBJECTS, SCENARIO_DIR, trace_contour
-from twin.scenario import load_scenario
-from twin.training import cached_tap_model
+from twin.core.resources import scenario_path
+from twin.tools.demo import OBJECTS, trace_contour
+from twin.core.scenario import load_scenario
+from twin.runs.training import cached_tap_model
 
 BASELINE_FILE = Path(__file__).resolve().parent / "baselines" / "contours.json"
-#: the figures a baseline holds per object (metrics.json keys, twin.contour)
+#: the figures a baseline holds per object (metrics.json keys, twin.control.contour)
 KEYS = ("completed", "stop_reason", "steps", "orientation_rms_deg", "lateral_rms_mm", "path_distance_mean_mm",
         "path_distance_max_mm", "coverage")
 
 
 def trace_all(out: Path) -> dict[str, dict]:
     """metrics.json of each of the six objects' contour runs (default fidelity, seed 0)."""
-    scenarios = {name: load_scenario(SCENARIO_DIR / f"contour_{name}.yaml") for name in OBJECTS}
+    scenarios = {name: load_scenario(scenario_path(f"contour_{name}")) for name in OBJECTS}
     model = cached_tap_model(scenarios["rectangle"], progress=False)
     return {name: trace_contour(s, out / s.name, model) for name, s in scenarios.items()}
 

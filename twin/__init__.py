@@ -1,2 +1,2 @@
 """TacTip digital twin."""
-from twin import gl as _gl  # noqa: F401  (sets the headless GL backend before mujoco loads)
+from twin.world import gl as _gl  # noqa: F401  (sets the headless GL backend before mujoco loads)

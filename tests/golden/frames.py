@@ -5,8 +5,8 @@ from pathlib import Path
 
 import numpy as np
 
-from twin.scenario import load_scenario
-from twin.sim_env import SimEnvironment, first_pose
+from twin.core.scenario import load_scenario
+from twin.runs.sim_env import SimEnvironment, first_pose
 
 SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
 

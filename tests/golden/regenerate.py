@@ -14,7 +14,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 import cv2  # noqa: E402
 
-from twin import gl  # noqa: E402
+from twin.world import gl  # noqa: E402
 from tests.golden.frames import GOLDEN_FRAMES  # noqa: E402
 
 

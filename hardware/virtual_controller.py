@@ -1,0 +1,409 @@
+"""A virtual IRB120 controller that speaks the lab's RAPID server protocol over TCP.
+
+Any client of the real robot — the lab's `cri` ABB client, or `hardware.robot.RobotDriver`
+— can connect to it as if it were the controller on port 5000 (protocol table in
+`hardware.protocol`). It keeps the controller state (tool, work object, speeds, zone,
+joints) and moves a simulated arm through a pluggable backend:
+
+* `KinematicArm` (default): joint angles only. Linear moves are solved with the IK of
+  `twin.world.kinematics` along the straight path (unreachable poses, joint-limit violations and
+  configuration flips near singularities get the protocol's ERROR reply and the arm stays
+  where it was); a simulated clock advances by each move's duration at the set speeds.
+* anything implementing `ArmBackend` (e.g. the full MuJoCo scene) — four methods in SI.
+
+One client at a time, like the RAPID server; a client that disconnects (or sends CLOSE)
+frees the server for the next. Loopback only unless `allow_remote=True`.
+
+Differences from the real controller, on purpose: moves are checked *before* moving
+(the robot would stop mid-path), MOVE_CIRCULAR is answered with ERROR (not simulated),
+replies come at once unless `realtime_factor` > 0 (then a move takes
+`realtime_factor` × its simulated duration of wall time).
+"""
+from __future__ import annotations
+
+import contextlib
+import ipaddress
+import logging
+import math
+import socket
+import threading
+import time
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
+
+from hardware.protocol import (
+    CODE_SIZE,
+    DEFAULT_PORT,
+    Command,
+    ProtocolError,
+    Zone,
+    decode_request_payload,
+    encode_reply,
+    matrix_to_wire,
+    parse_command_code,
+    request_payload_size,
+    wire_to_matrix,
+)
+from twin.core.errors import UnreachablePoseError, UserError
+from twin.core.poses import angle_between_rotations_deg, invert_transform, make_transform
+from twin.world.kinematics import Irb120Kinematics
+
+log = logging.getLogger(__name__)
+
+#: IRB120 maximum joint speeds, axes 1–6 (deg/s), from the ABB product specification
+IRB120_MAX_JOINT_SPEED_DEG_S = np.array([250.0, 250.0, 250.0, 320.0, 320.0, 420.0])
+
+_POLL_S = 0.05  # how often blocking socket calls look at the stop flag
+
+
+class ArmBackend(Protocol):
+    """What the virtual controller needs from a simulated arm. SI units: m, rad, s.
+
+    Moves return their duration (s) and raise `UnreachablePoseError` when refused, in
+    which case the arm must not have moved.
+    """
+
+    def move_linear(self, tool2world: np.ndarray, tool2flange: np.ndarray, linear_speed_m_s: float, angular_speed_rad_s: float) -> float: ...
+
+    def move_joints(self, q_rad: np.ndarray, tool2flange: np.ndarray, linear_speed_m_s: float, angular_speed_rad_s: float) -> float: ...
+
+    def get_joints(self) -> np.ndarray: ...
+
+    def get_pose(self, tool2flange: np.ndarray) -> np.ndarray: ...
+
+
+class KinematicArm:
+    """Kinematics-only IRB120: joint state, IK along straight paths, a simulated clock.
+
+    `time_s` is the simulated time (s) that has passed in moves. Not thread-safe; the
+    server calls it from one thread.
+    """
+
+    def __init__(
+        self,
+        kinematics=None,
+        q0_rad: np.ndarray | None = None,
+        path_step_m: float = 0.005,
+        path_step_rad: float = math.radians(5.0),
+        max_joint_step_rad: float = math.radians(30.0),
+    ) -> None:
+        if kinematics is None:
+
+            kinematics = Irb120Kinematics()
+        self.kinematics = kinematics
+        self.q = np.array(kinematics.home_q if q0_rad is None else q0_rad, dtype=float)
+        self._check_limits(self.q)
+        self.path_step_m = path_step_m
+        self.path_step_rad = path_step_rad
+        self.max_joint_step_rad = max_joint_step_rad
+        self.time_s = 0.0
+
+    def get_joints(self) -> np.ndarray:
+        """(6,) joint angles (rad)."""
+        return self.q.copy()
+
+    def get_pose(self, tool2flange: np.ndarray) -> np.ndarray:
+        """tool2world (4×4, m) at the current joints."""
+        return self.kinematics.forward(self.q) @ tool2flange
+
+    def move_linear(self, tool2world: np.ndarray, tool2flange: np.ndarray, linear_speed_m_s: float, angular_speed_rad_s: float) -> float:
+        start = self.get_pose(tool2flange)
+        distance = float(np.linalg.norm(tool2world[:3, 3] - start[:3, 3]))
+        angle = math.radians(angle_between_rotations_deg(start[:3, :3], tool2world[:3, :3]))
+        n = max(1, min(400, math.ceil(max(distance / self.path_step_m, angle / self.path_step_rad))))
+        slerp = Slerp([0.0, 1.0], Rotation.from_matrix(np.stack([start[:3, :3], tool2world[:3, :3]])))
+        q = self.q
+        joint_time = 0.0
+        for i in range(1, n + 1):
+            s = i / n
+            target = tool2world if i == n else make_transform(
+                slerp([s]).as_matrix()[0], (1 - s) * start[:3, 3] + s * tool2world[:3, 3]
+            )
+            q_next = self.kinematics.inverse(target, tool2flange, q)
+            step = np.abs(q_next - q)
+            if float(np.max(step)) > self.max_joint_step_rad:
+                raise UnreachablePoseError(
+                    f"linear move passes a singularity or changes configuration near "
+                    f"{np.round(target[:3, 3] * 1e3, 1).tolist()} mm (joint {int(np.argmax(step)) + 1} "
+                    f"would jump {math.degrees(float(np.max(step))):.0f}°)"
+                )
+            joint_time += float(np.max(np.degrees(step) / IRB120_MAX_JOINT_SPEED_DEG_S))
+            q = q_next
+        duration = max(distance / linear_speed_m_s, angle / angular_speed_rad_s, joint_time)
+        self.q = q
+        self.time_s += duration
+        return duration
+
+    def move_joints(self, q_rad: np.ndarray, tool2flange: np.ndarray, linear_speed_m_s: float, angular_speed_rad_s: float) -> float:
+        q = np.asarray(q_rad, dtype=float)
+        self._check_limits(q)
+        start, end = self.get_pose(tool2flange), self.kinematics.forward(q) @ tool2flange
+        distance = float(np.linalg.norm(end[:3, 3] - start[:3, 3]))
+        angle = math.radians(angle_between_rotations_deg(start[:3, :3], end[:3, :3]))
+        joint_time = float(np.max(np.degrees(np.abs(q - self.q)) / IRB120_MAX_JOINT_SPEED_DEG_S))
+        duration = max(distance / linear_speed_m_s, angle / angular_speed_rad_s, joint_time)
+        self.q = q.copy()
+        self.time_s += duration
+        return duration
+
+    def _check_limits(self, q: np.ndarray) -> None:
+        limits = self.kinematics.joint_limits_rad
+        if q.shape != (6,) or not np.all(np.isfinite(q)):
+            raise UnreachablePoseError(f"joint target {q.tolist()} is not 6 finite angles")
+        bad = [
+            f"joint {j + 1} = {math.degrees(q[j]):.2f}°, limit {math.degrees(limits[j, 0]):.0f}…{math.degrees(limits[j, 1]):.0f}°"
+            for j in range(6)
+            if not limits[j, 0] - 1e-9 <= q[j] <= limits[j, 1] + 1e-9
+        ]
+        if bad:
+            raise UnreachablePoseError("joint target outside the limits: " + "; ".join(bad))
+
+
+@dataclass(frozen=True)
+class CommandRecord:
+    """One request the server received (wire units), in arrival order."""
+
+    time: float  # time.monotonic() at arrival (s)
+    command: Command
+    args: tuple[float, ...]
+
+
+class VirtualRobotServer:
+    """TCP server answering the RAPID server protocol with a simulated arm.
+
+    | state            | units (as on the wire)                                   |
+    |------------------|----------------------------------------------------------|
+    | tool             | (x, y, z mm, qw, qx, qy, qz) TCP in the flange frame     |
+    | work_object      | (x, y, z mm, qw, qx, qy, qz) work frame in the base frame |
+    | speed            | (linear mm/s, angular deg/s); controller default (100, 50) |
+    | zone             | `hardware.protocol.Zone`                                 |
+    | command_log      | every request received, `CommandRecord`s                 |
+
+    Use as a context manager (starts a background thread, shuts down on exit), or call
+    `start()`/`shutdown()`, or `serve_forever()` in the calling thread. The socket is
+    bound in the constructor: with port 0 the OS picks a free port (`self.port`).
+    """
+
+    def __init__(
+        self,
+        host: str = "127.0.0.1",
+        port: int = DEFAULT_PORT,
+        backend: ArmBackend | None = None,
+        *,
+        allow_remote: bool = False,
+        realtime_factor: float = 0.0,
+        info: str = "virtual IRB120, tactip-twin, RAPID server protocol",
+    ) -> None:
+        if not allow_remote and not _is_loopback(host):
+            raise UserError(f"virtual robot: host {host!r} is not a loopback address; pass allow_remote=True to serve on it")
+        self.backend: ArmBackend = backend if backend is not None else KinematicArm()
+        self.realtime_factor = float(realtime_factor)
+        self.info_text = info
+        self.tool: tuple[float, ...] = (0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
+        self.work_object: tuple[float, ...] = (0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
+        self.speed: tuple[float, float] = (100.0, 50.0)
+        self.zone = Zone(True, 0.3, 0.3, 0.03)
+        self.command_log: list[CommandRecord] = []
+        self.last_error: str | None = None
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._client: socket.socket | None = None
+        self._lock = threading.Lock()
+        self._listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        self._listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            self._listener.bind((host, port))
+        except OSError as err:
+            self._listener.close()
+            raise UserError(f"virtual robot: cannot listen on {host}:{port}: {err}") from None
+        self._listener.listen(1)
+        self._listener.settimeout(_POLL_S)
+        self.host, self.port = self._listener.getsockname()[:2]
+
+    @property
+    def address(self) -> str:
+        return f"{self.host}:{self.port}"
+
+    # ------------------------------------------------------------------ lifecycle
+    def start(self) -> "VirtualRobotServer":
+        """Serve in a background (daemon) thread; returns self."""
+        if self._thread is None:
+            self._thread = threading.Thread(target=self.serve_forever, name=f"virtual-robot-{self.port}", daemon=True)
+            self._thread.start()
+        return self
+
+    def serve_forever(self) -> None:
+        """Accept and serve clients one at a time until `shutdown()`."""
+        try:
+            while not self._stop.is_set():
+                try:
+                    conn, peer = self._listener.accept()
+                except (TimeoutError, socket.timeout):
+                    continue
+                except OSError:
+                    break  # listener closed by shutdown()
+                log.info("virtual robot %s: client %s connected", self.address, peer)
+                with conn:
+                    conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+                    self._client = conn
+                    try:
+                        self._serve_client(conn)
+                    except (ConnectionError, OSError) as err:
+                        log.info("virtual robot %s: client %s gone: %s", self.address, peer, err)
+                    finally:
+                        self._client = None
+        finally:
+            with contextlib.suppress(OSError):
+                self._listener.close()
+
+    def shutdown(self, timeout_s: float = 2.0) -> None:
+        """Stop serving, drop the client connection, close the port. Safe to call twice."""
+        self._stop.set()
+        client = self._client
+        if client is not None:
+            with contextlib.suppress(OSError):
+                client.shutdown(socket.SHUT_RDWR)
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(timeout_s)
+        with contextlib.suppress(OSError):
+            self._listener.close()
+
+    def __enter__(self) -> "VirtualRobotServer":
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.shutdown()
+
+    def count(self, command: Command) -> int:
+        """How many `command` requests have arrived so far."""
+        with self._lock:
+            return sum(1 for r in self.command_log if r.command == command)
+
+    # ------------------------------------------------------------------ one client
+    def _serve_client(self, conn: socket.socket) -> None:
+        while not self._stop.is_set():
+            code = self._recv_exactly(conn, CODE_SIZE)
+            if code is None:
+                return  # client closed, or shutdown
+            try:
+                command = parse_command_code(code)
+            except ProtocolError as err:
+                self._drain(conn)
+                self.last_error = str(err)
+                log.warning("virtual robot %s: %s", self.address, err)
+                conn.sendall(encode_reply(Command.SET_TOOL, ok=False))  # bare ERROR status
+                continue
+            payload = self._recv_exactly(conn, request_payload_size(command))
+            if payload is None:
+                return
+            args = decode_request_payload(command, payload)
+            with self._lock:
+                self.command_log.append(CommandRecord(time.monotonic(), command, args))
+            if command is Command.CLOSE:
+                return
+            reply, duration = self._execute(command, args)
+            if duration > 0 and self.realtime_factor > 0 and self._stop.wait(duration * self.realtime_factor):
+                return  # shut down mid-move: the client gets no reply
+            conn.sendall(reply)
+
+    def _execute(self, command: Command, args: tuple[float, ...]) -> tuple[bytes, float]:
+        """(reply bytes, simulated duration s) of one request."""
+        try:
+            if command is Command.GET_INFO:
+                return encode_reply(command, True, self.info_text), 0.0
+            if command is Command.SET_TOOL:
+                self._check_frame(args)
+                self.tool = tuple(args)
+            elif command is Command.SET_WORK_OBJECT:
+                self._check_frame(args)
+                self.work_object = tuple(args)
+            elif command is Command.SET_SPEED:
+                if not all(math.isfinite(v) and v > 0 for v in args):
+                    raise ProtocolError(f"speeds must be > 0, got {args}")
+                self.speed = (float(args[0]), float(args[1]))
+            elif command is Command.SET_ZONE:
+                self.zone = Zone(bool(args[0]), *(float(a) for a in args[1:]))
+            elif command is Command.GET_JOINTS:
+                return encode_reply(command, True, tuple(np.degrees(self.backend.get_joints()))), 0.0
+            elif command is Command.GET_POSE:
+                tool2work = invert_transform(self._work2world) @ self.backend.get_pose(self._tool2flange)
+                return encode_reply(command, True, matrix_to_wire(tool2work)), 0.0
+            elif command is Command.MOVE_LINEAR:
+                self._check_frame(args)
+                tool2world = self._work2world @ wire_to_matrix(args)
+                duration = self.backend.move_linear(tool2world, self._tool2flange, *self._speeds_si)
+                return encode_reply(command, True), duration
+            elif command is Command.MOVE_JOINTS:
+                duration = self.backend.move_joints(np.radians(args), self._tool2flange, *self._speeds_si)
+                return encode_reply(command, True), duration
+            elif command is Command.MOVE_CIRCULAR:
+                raise ProtocolError("MOVE_CIRCULAR is not simulated by the virtual controller")
+            return encode_reply(command, True), 0.0
+        except (UnreachablePoseError, ProtocolError) as err:
+            self.last_error = f"{command.name}: {err}"
+            log.warning("virtual robot %s: refused %s", self.address, self.last_error)
+            return encode_reply(command, False), 0.0
+
+    @staticmethod
+    def _check_frame(args: tuple[float, ...]) -> None:
+        q = np.asarray(args[3:], dtype=float)
+        if not np.all(np.isfinite(args)) or abs(float(np.linalg.norm(q)) - 1.0) > 1e-3:
+            raise ProtocolError(f"pose {tuple(round(a, 6) for a in args)} has no finite unit quaternion")
+
+    @property
+    def _tool2flange(self) -> np.ndarray:
+        return wire_to_matrix(self.tool)
+
+    @property
+    def _work2world(self) -> np.ndarray:
+        return wire_to_matrix(self.work_object)
+
+    @property
+    def _speeds_si(self) -> tuple[float, float]:
+        return self.speed[0] * 1e-3, math.radians(self.speed[1])
+
+    def _recv_exactly(self, conn: socket.socket, n: int) -> bytes | None:
+        """n bytes, or None if the client closed or the server is shutting down."""
+        buf = bytearray()
+        conn.settimeout(_POLL_S)
+        while len(buf) < n:
+            if self._stop.is_set():
+                return None
+            try:
+                chunk = conn.recv(n - len(buf))
+            except (TimeoutError, socket.timeout):
+                continue
+            if not chunk:
+                return None
+            buf += chunk
+        return bytes(buf)
+
+    @staticmethod
+    def _drain(conn: socket.socket) -> None:
+        """Discard what is left of a malformed request."""
+        conn.settimeout(0.02)
+        with contextlib.suppress(TimeoutError, socket.timeout, OSError):
+            while conn.recv(4096):
+                pass
+
+
+def _is_loopback(host: str) -> bool:
+    try:
+        return ipaddress.ip_address(socket.gethostbyname(host)).is_loopback
+    except (OSError, ValueError):
+        return False
+
+
+def serve_robot(host: str = "127.0.0.1", port: int = DEFAULT_PORT, *, realtime_factor: float = 0.0, backend: ArmBackend | None = None) -> None:
+    """Run the virtual controller in the foreground until Ctrl-C (for the CLI)."""
+    server = VirtualRobotServer(host, port, backend, realtime_factor=realtime_factor)
+    print(f"virtual IRB120 controller (RAPID server protocol) listening on {server.address}; Ctrl-C stops it", flush=True)
+    try:
+        server.serve_forever()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        server.shutdown()

@@ -1,0 +1,47 @@
+"""Scale-out gives identical results: one process, two local processes and a local Ray
+instance record the same pins for the same scenario and seed."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from twin.runs.record import load_run
+from twin.runs.run import run_scenario
+from twin.core.scenario import scenario_from_dict
+
+TAPS = {"name": "parallel_taps", "object": {"name": "rectangle"}, "fidelity": "fast", "effects": ["contact", "friction"],
+        "protocol": {"kind": "taps", "orientations_deg": [-40, 0, 40], "lateral_mm": [6, 0, -4], "depths_mm": [3]}}
+
+
+def _pins(tmp_path, name: str, **kwargs) -> np.ndarray:
+    run = load_run(run_scenario(scenario_from_dict(TAPS), tmp_path / name, progress=False, **kwargs))
+    assert run.meta["status"] == "completed" and len(run.samples) == 9
+    return run.pins_px
+
+
+def test_local_processes_match_one_process(tmp_path) -> None:
+    serial = _pins(tmp_path, "serial", workers=1)
+    assert np.array_equal(serial, _pins(tmp_path, "two", workers=2))
+    assert np.abs(serial - serial[0]).max() > 1.0  # the taps did press on the edge
+
+
+def test_ray_local_cluster_matches(tmp_path) -> None:
+    pytest.importorskip("ray", reason="the ray extra is installed by the README's commands")
+    assert np.array_equal(_pins(tmp_path, "serial", workers=1), _pins(tmp_path, "ray", cluster="local"))
+
+
+def test_one_blas_thread_covers_libraries_loaded_later() -> None:
+    """numpy, scipy and OpenCV each bring their own OpenBLAS; an idle second BLAS thread
+    spin-waits beside the physics (twin.runs.parallel.one_blas_thread). Fresh process: the
+    limit must hold for the libraries loaded after the call too."""
+    import ast
+    import subprocess
+    import sys
+
+    code = ("from twin.runs.parallel import one_blas_thread; one_blas_thread()\n"
+            "import numpy, scipy.linalg, cv2, sklearn.gaussian_process\n"
+            "from threadpoolctl import threadpool_info\n"
+            "print(sorted({(i['filepath'], i['num_threads']) for i in threadpool_info()}))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    pools = ast.literal_eval(out)
+    assert len(pools) >= 2 and all(n == 1 for _, n in pools), pools

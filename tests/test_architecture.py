@@ -1,0 +1,46 @@
+"""The package's shape: layers that show the pipeline, no import cycles, imports at the top.
+
+The layer rule itself is the import-linter contract in pyproject.toml ([tool.importlinter]):
+twin.tools > twin.runs | hardware > twin.control > twin.sensing > twin.world > twin.core.
+"""
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+#: imported where they are used: optional extras that a default install may lack
+OPTIONAL = {"ray", "cri"}
+
+
+def test_import_contracts_hold() -> None:
+    lint = Path(sys.executable).with_name("lint-imports")
+    result = subprocess.run([str(lint), "--no-cache"], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-2000:]
+    assert "broken" in result.stdout and " 0 broken" in result.stdout
+
+
+def _function_level_imports(path: Path) -> list[str]:
+    found = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            for inner in ast.walk(node):
+                if isinstance(inner, ast.Import):
+                    names = [a.name for a in inner.names]
+                elif isinstance(inner, ast.ImportFrom):
+                    names = [inner.module or ""]
+                else:
+                    continue
+                if not any(n.split(".")[0] in OPTIONAL for n in names):
+                    found.append(f"{path.relative_to(ROOT)}:{inner.lineno} {', '.join(names)}")
+    return found
+
+
+def test_imports_sit_at_module_top() -> None:
+    """Hidden imports inside functions hid an import cycle once; only optional extras may
+    be imported where they are used."""
+    files = sorted((ROOT / "twin").rglob("*.py")) + sorted((ROOT / "hardware").rglob("*.py"))
+    inside = [hit for f in files for hit in _function_level_imports(f)]
+    assert not inside, "imports inside functions:\n" + "\n".join(inside)

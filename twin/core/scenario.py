@@ -1,0 +1,222 @@
+"""Scenario files: everything about one run (object, placement, sensor, protocol,
+fidelity, effects), validated with pydantic. Errors name the file, field and value."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Literal, Union
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+from twin.core.poses import Pose
+from twin.core.sensor import CameraModel
+from twin.core.validation import read_yaml, validate_mapping
+
+EFFECTS = ("contact", "friction", "arm_dynamics", "render", "camera_noise", "lighting")
+#: Approach choreography shared by every protocol (work frame, README "Conventions"):
+#: an episode starts at START_POSE, out of contact; the sensor approaches and leaves a
+#: surface by hovering at HOVER_Z_MM (5 mm above the object's top), at DEFAULT_SPEED_MM_S.
+START_POSE = Pose(0.0, 0.0, -10.0, 0.0, 0.0, 0.0)
+HOVER_Z_MM = -5.0
+DEFAULT_SPEED_MM_S = 20.0
+
+
+def hover_over(x_mm: float, y_mm: float, gamma_deg: float) -> Pose:
+    """The no-contact pose above (x, y) with the sensor pointing down at orientation γ."""
+    return Pose(x_mm, y_mm, HOVER_Z_MM, 0.0, 0.0, gamma_deg)
+BUILTIN_OBJECTS = ("rectangle", "large_circle", "small_circle", "flower", "spiral", "tape_measure")
+
+PoseList = Annotated[list[float], Field(min_length=6, max_length=6)]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class ObjectSpec(_Strict):
+    """The stimulus: a built-in name, a user STL, or a user outline CSV extruded."""
+
+    name: str | None = None
+    stl: str | None = None
+    outline: str | None = None
+    thickness_mm: float | None = Field(default=None, gt=0, le=200)
+    material: str | None = None
+    friction: float | None = Field(default=None, ge=0, le=3)
+
+    @model_validator(mode="after")
+    def _one_source(self) -> "ObjectSpec":
+        given = [k for k in ("name", "stl", "outline") if getattr(self, k) is not None]
+        if len(given) != 1:
+            raise ValueError(f"give exactly one of name, stl, outline (got {given or 'none'})")
+        if self.name is not None and self.name not in BUILTIN_OBJECTS:
+            raise ValueError(f"unknown object {self.name!r}; built-ins are {', '.join(BUILTIN_OBJECTS)}")
+        if self.outline is not None and self.thickness_mm is None:
+            raise ValueError("an outline needs thickness_mm")
+        return self
+
+
+class Placement(_Strict):
+    """Where the object's reference point sits on the table (robot base frame)."""
+
+    position_mm: Annotated[list[float], Field(min_length=2, max_length=2)] = [400.0, 0.0]
+    yaw_deg: float = 0.0
+
+
+class CameraSpec(_Strict):
+    width: int = Field(default=640, ge=64, le=4096)
+    height: int = Field(default=480, ge=48, le=4096)
+    fov_y_deg: float = Field(default=56.0, gt=10, lt=150)
+    msaa: int = Field(default=0, ge=0, le=16)
+    noise_std: float = Field(default=2.0, ge=0, le=50, description="grey levels, with camera_noise")
+
+
+class PhysicsOverrides(_Strict):
+    """Overrides of the fidelity level's dome parameters (twin.world.dome.flex.DomeParams), for sweeps."""
+
+    cellcount: Annotated[list[int], Field(min_length=3, max_length=3)] | None = None
+    timestep_s: float | None = Field(default=None, gt=0, le=0.05)
+    settle_px: float | None = Field(default=None, gt=0, le=5)
+    surface_spacing_mm: float | None = Field(default=None, ge=0.5, le=10)
+    skin_spacing_mm: float | None = Field(default=None, description="skin layer node spacing (twin.world.dome.skin); 0 = off")
+    membrane_young_mpa: float | None = Field(default=None, ge=0, le=10,
+                                             description="skin membrane's Young's modulus (twin.world.dome.flex); 0 = off")
+
+    @field_validator("skin_spacing_mm")
+    @classmethod
+    def _skin_spacing(cls, v: float | None) -> float | None:
+        if v is not None and v != 0 and not 0.5 <= v <= 5:
+            raise ValueError(f"skin_spacing_mm must be 0 (off) or in [0.5, 5] mm, got {v}")
+        return v
+
+    def as_dome_changes(self) -> dict:
+        changes = {"cellcount": None if self.cellcount is None else tuple(self.cellcount), "timestep": self.timestep_s,
+                   "settle_px": self.settle_px,
+                   "surface_spacing": None if self.surface_spacing_mm is None else self.surface_spacing_mm * 1e-3,
+                   "skin_spacing": None if self.skin_spacing_mm is None else self.skin_spacing_mm * 1e-3,
+                   "membrane_young": None if self.membrane_young_mpa is None else self.membrane_young_mpa * 1e6}
+        return {k: v for k, v in changes.items() if v is not None}
+
+
+class SensorSpec(_Strict):
+    camera: CameraSpec = CameraSpec()
+
+
+class RenderProtocol(_Strict):
+    """Observe at a list of poses (no-contact frame by default)."""
+
+    kind: Literal["render"] = "render"
+    poses: list[PoseList] = [[0.0, 0.0, HOVER_Z_MM, 0.0, 0.0, 0.0]]
+    speed_mm_s: float = Field(default=DEFAULT_SPEED_MM_S, gt=0, le=250)
+
+
+class _StraightEdgeProtocol(_Strict):
+    """Fields shared by the paper's two data sets on the rectangle's straight edge."""
+
+    orientations_deg: list[float] = [float(a) for a in range(-160, 181, 20)]
+    lateral_mm: list[float] = [9.9, 6, 4, 2, 0, -2, -4, -6]
+    edge_point_mm: Annotated[list[float], Field(min_length=2, max_length=2)] = [60.0, 0.0]
+    edge_normal_deg: float = 0.0
+    approach_mm: float = Field(default=5.0, gt=0, le=50)
+    speed_mm_s: float = Field(default=DEFAULT_SPEED_MM_S, gt=0, le=250)
+    free_speed_mm_s: float = Field(default=50.0, gt=0, le=250, description="moves above the object, out of contact")
+
+
+class TapProtocol(_StraightEdgeProtocol):
+    """The paper's tap training set (§III-A2)."""
+
+    kind: Literal["taps"] = "taps"
+    depths_mm: list[float] = [2.0, 4.0]
+
+
+class SlideProtocol(_StraightEdgeProtocol):
+    """The paper's multi-directional sliding set (§III-C)."""
+
+    kind: Literal["slides"] = "slides"
+    directions_deg: list[float] = [float(a) for a in range(0, 360, 45)]
+    depth_mm: float = Field(default=3.0, ge=0, le=6)
+
+
+class ContourProtocol(_Strict):
+    """Contour following with the paper's controller (§III-D)."""
+
+    kind: Literal["contour"] = "contour"
+    depth_mm: float = Field(default=3.0, ge=0, le=6)
+    step_mm: float = Field(default=3.0, gt=0, le=20)
+    gain: float = Field(default=0.35, ge=0, le=2)
+    lateral_target_mm: float = Field(default=0.0, ge=-10, le=10)
+    max_steps: int = Field(default=400, ge=1, le=100000)
+    model: str | None = None
+    controller: str = "paper"
+    orientation_deg: float = 0.0
+    speed_mm_s: float = Field(default=DEFAULT_SPEED_MM_S, gt=0, le=250)
+
+
+Protocol = Annotated[Union[RenderProtocol, TapProtocol, SlideProtocol, ContourProtocol], Field(discriminator="kind")]
+
+
+class Scenario(_Strict):
+    """One run. See scenarios/README.md for every field with units."""
+
+    name: str
+    description: str = ""
+    backend: Literal["sim", "hardware"] = "sim"
+    seed: int = Field(default=0, ge=0)
+    object: ObjectSpec
+    placement: Placement = Placement()
+    work_frame: Literal["object"] | PoseList = "object"
+    sensor: SensorSpec = SensorSpec()
+    fidelity: Literal["fast", "default", "reference"] = "default"
+    physics: PhysicsOverrides = PhysicsOverrides()
+    effects: list[str] = ["contact", "friction", "render"]
+    protocol: Protocol = RenderProtocol()
+    hardware_config: str | None = None
+
+    @field_validator("effects")
+    @classmethod
+    def _known_effects(cls, effects: list[str]) -> list[str]:
+        for e in effects:
+            if e not in EFFECTS:
+                raise ValueError(f"unknown effect {e!r}; known effects are {', '.join(EFFECTS)}")
+        if "friction" in effects and "contact" not in effects:
+            raise ValueError("effect 'friction' needs 'contact'")
+        if "camera_noise" in effects and "render" not in effects:
+            raise ValueError("effect 'camera_noise' needs 'render'")
+        return sorted(set(effects), key=EFFECTS.index)
+
+    def has(self, effect: str) -> bool:
+        return effect in self.effects
+
+    @property
+    def source_dir(self) -> Path:
+        return Path(getattr(self, "_source", ".")).parent
+
+    @property
+    def source(self) -> str:
+        return getattr(self, "_source", "<inline>")
+
+    def resolve(self, relative: str) -> Path:
+        """A path named in the scenario, relative to the scenario file."""
+        p = Path(relative).expanduser()
+        return p if p.is_absolute() else (self.source_dir / p)
+
+    def camera_model(self) -> CameraModel:
+        """The sensor's camera model (resolution and field of view of `sensor.camera`)."""
+        c = self.sensor.camera
+        return CameraModel(width=c.width, height=c.height, fov_y_deg=c.fov_y_deg)
+
+    def with_changes(self, **changes) -> "Scenario":
+        """A copy with top-level fields replaced and re-validated (keeps the source path)."""
+        data = self.model_dump()
+        data.update(changes)
+        return scenario_from_dict(data, self.source)
+
+
+def scenario_from_dict(data: dict, source: str = "<inline>") -> Scenario:
+    """Validate a scenario given as a dict; `source` names it in errors."""
+    scenario = validate_mapping(Scenario, data, source, "scenario")
+    object.__setattr__(scenario, "_source", source)
+    return scenario
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario YAML file."""
+    return scenario_from_dict(read_yaml(path, "scenario"), str(path))

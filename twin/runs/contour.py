@@ -1,0 +1,109 @@
+"""Contour-following runs: trace an object with the closed loop (twin.control.contour),
+record every step (twin.runs.record), then score the run against the true contour and
+plot it (the paper's Figs. 7–8).
+"""
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from twin.control.contour import COVERAGE_RADIUS_MM, ContourFollower
+from twin.core.poses import work_to_object_xy
+from twin.core.scenario import Scenario
+from twin.runs.backends import make_environment
+from twin.runs.record import RunRecorder, load_run
+from twin.runs.training import model_for_scenario
+from twin.world.scene import load_scenario_stimulus
+import matplotlib
+import matplotlib.pyplot as plt
+
+
+def run_contour(scenario: Scenario, out: Path, seed: int | None = None, progress: bool = True, model=None,
+                controller=None) -> Path:
+    """Trace the scenario's object and record the run in `out` (with metrics.json and
+    contour.png). `model` is a fitted PerceptionModel; default: scenario's `model` file,
+    else the cached model trained on the tap set (twin.runs.training). `controller`: an
+    object replacing the scenario's `protocol.controller` (twin.control.controllers)."""
+    seed = scenario.seed if seed is None else seed
+    if model is None:
+        model = model_for_scenario(scenario)
+    stimulus = load_scenario_stimulus(scenario)
+    wall0 = time.perf_counter()
+    env = make_environment(scenario, seed)
+    follower = ContourFollower(env, scenario, model, stimulus, controller=controller)
+    recorder = RunRecorder(out, scenario, seed, scenario.backend, scenario.camera_model(),
+                           extra={"model": model.info.get("path", "in memory")})
+    try:
+        with recorder:
+            for step in tqdm(follower, desc=scenario.name, unit="step", total=scenario.protocol.max_steps,
+                             disable=not progress):
+                recorder.add(step.observation, step.target, step.labels, step.pins_px, step.found)
+            recorder.meta["stop_reason"] = follower.stop_reason
+            recorder.meta["wall_time_s"] = time.perf_counter() - wall0
+    finally:
+        env.close()
+    metrics = contour_metrics(load_run(out), stimulus)
+    (Path(out) / "metrics.json").write_text(json.dumps(metrics, indent=1))
+    plot_contour(load_run(out), stimulus, Path(out) / "contour.png")
+    return Path(out)
+
+
+def contour_metrics(run, stimulus) -> dict:
+    """The per-run metrics of a contour-following run (units in the key names)."""
+    samples = run.samples
+    xy_work = np.array([[s["pose"][0], s["pose"][1]] for s in samples])
+    xy_obj = work_to_object_xy(xy_work)
+    lab = {k: np.array([s["labels"][k] for s in samples]) for k in
+           ("perceived_normal_deg", "true_normal_deg", "lateral_hat_mm", "true_lateral_mm", "ok")}
+    ok = lab["ok"].astype(bool)
+    d_angle = (lab["perceived_normal_deg"] - lab["true_normal_deg"] + 180.0) % 360.0 - 180.0
+    path_dist = stimulus.distance_to_contour(xy_obj)
+    trace = stimulus.trace_path(1.0)
+    gaps = np.min(np.linalg.norm(trace[:, None, :] - xy_obj[None, :, :], axis=2), axis=1) if len(xy_obj) else np.inf
+    status = run.meta.get("status")
+    stop = run.meta.get("stop_reason", "")
+    return {
+        "object": stimulus.name,
+        "completed": bool(status == "completed" and stop in ("loop closed", "end of contour")),
+        "stop_reason": stop,
+        "steps": len(samples),
+        "orientation_rms_deg": float(np.sqrt(np.mean(d_angle[ok] ** 2))) if ok.any() else float("nan"),
+        "lateral_rms_mm": float(np.sqrt(np.mean((lab["lateral_hat_mm"] - lab["true_lateral_mm"])[ok] ** 2))) if ok.any() else float("nan"),
+        "path_distance_mean_mm": float(np.mean(path_dist)),
+        "path_distance_max_mm": float(np.max(path_dist)),
+        "coverage": float(np.mean(gaps <= COVERAGE_RADIUS_MM)),
+        "sim_time_s": float(samples[-1]["time"]) if samples else 0.0,
+        "wall_time_s": float(run.meta.get("wall_time_s", float("nan"))),
+        "lost_contact_steps": int((~ok).sum()),
+    }
+
+
+def plot_contour(run, stimulus, out: Path) -> Path:
+    """The paper's Figs. 7–8: the object's outline, the sensor path and the perceived
+    edge normals (grey), in the object frame seen from above (mm)."""
+
+    matplotlib.use("Agg")
+
+    xy = work_to_object_xy(np.array([[s["pose"][0], s["pose"][1]] for s in run.samples]))
+    normals = -np.array([s["labels"]["perceived_normal_deg"] for s in run.samples])  # work → object angle
+    fig, ax = plt.subplots(figsize=(5, 5), dpi=120)
+    outline = np.asarray(stimulus.outline.exterior.coords)
+    ax.fill(outline[:, 0], outline[:, 1], color="0.92", zorder=0)
+    ax.plot(outline[:, 0], outline[:, 1], color="0.5", lw=0.8, zorder=1)
+    for (x, y), a in zip(xy, np.radians(normals)):
+        ax.plot([x, x - 8 * np.cos(a)], [y, y - 8 * np.sin(a)], color="0.6", lw=0.6, zorder=2)
+    ax.plot(xy[:, 0], xy[:, 1], color="tab:blue", lw=1.5, zorder=3, label="sensor path")
+    ax.plot(*xy[0], "o", color="tab:green", ms=5, zorder=4, label="start")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.set_title(f"{stimulus.name}: contour following")
+    ax.legend(loc="upper right", fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out)
+    plt.close(fig)
+    return out

@@ -1,0 +1,205 @@
+"""The run record: one format for sim and real runs, written as the run goes.
+
+A run directory holds
+  run.json        metadata: scenario (as validated), seed, backend, package versions,
+                  camera model, start/end time, status ("running", "completed",
+                  "interrupted", "failed") and the error if any
+  samples.jsonl   one JSON object per sample, appended and flushed immediately:
+                  index, time (s), target and measured pose (mm/deg, work frame),
+                  labels (protocol-specific: theta_deg, lateral_mm, depth_mm,
+                  direction_deg, on_object, step …), pins_px (127×2 px or null),
+                  found (127 bools or null), frame (file name or null), truth (sim only)
+  frames/NNNNNN.png   the camera frame of a sample, when rendered or filmed
+An interrupted run keeps every sample written so far; `load_run` reads any of them.
+"""
+from __future__ import annotations
+
+import json
+import platform
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from importlib import metadata
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from twin.core.environment import Observation
+from twin.core.errors import UserError
+from twin.core.poses import Pose
+
+FORMAT_VERSION = 1
+_PACKAGES = ("tactip-twin", "mujoco", "numpy", "scipy", "scikit-learn", "opencv-contrib-python-headless", "trimesh")
+
+
+def package_versions() -> dict[str, str]:
+    versions = {"python": platform.python_version()}
+    for name in _PACKAGES:
+        try:
+            versions[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            versions[name] = "not installed"
+    return versions
+
+
+def jsonable(value):
+    if isinstance(value, np.ndarray):
+        return (np.round(value, 6) if value.dtype.kind == "f" else value).tolist()
+    if isinstance(value, (np.floating, np.integer, np.bool_)):
+        return value.item()
+    if isinstance(value, Pose):
+        return [round(float(v), 6) for v in value.as_array()]
+    if isinstance(value, dict):
+        return {k: jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [jsonable(v) for v in value]
+    return value
+
+
+class RunRecorder:
+    """Appends samples to a run directory; use as a context manager so the status is
+    finalised even when the run is interrupted or fails."""
+
+    def __init__(self, out_dir: Path, scenario, seed: int, backend: str, camera=None, extra: dict | None = None) -> None:
+        self.out_dir = Path(out_dir)
+        self.frames_dir = self.out_dir / "frames"
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+        if (self.out_dir / "samples.jsonl").exists():
+            raise UserError(f"{self.out_dir}: already holds a run; choose another --out")
+        self.meta = {
+            "format_version": FORMAT_VERSION,
+            "scenario": scenario.model_dump(),
+            "scenario_file": scenario.source,
+            "seed": seed,
+            "backend": backend,
+            "versions": package_versions(),
+            "camera": None if camera is None else {"width": camera.width, "height": camera.height,
+                                                   "intrinsics": camera.intrinsics.tolist()},
+            "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+            "status": "running",
+            **(extra or {}),
+        }
+        self._write_meta()
+        self._samples = open(self.out_dir / "samples.jsonl", "w")
+        self._images = ThreadPoolExecutor(max_workers=1)  # PNG encoding overlaps the simulation
+        self._pending = []
+        self.count = 0
+
+    def _write_meta(self) -> None:
+        tmp = self.out_dir / "run.json.tmp"
+        tmp.write_text(json.dumps(jsonable(self.meta), indent=1))
+        tmp.replace(self.out_dir / "run.json")
+
+    def add(self, observation: Observation, target: Pose, labels: dict, pins_px: np.ndarray | None = None,
+            found: np.ndarray | None = None) -> int:
+        """Record one sample; returns its index."""
+        index = self.count
+        frame_name = None
+        if observation.frame is not None:
+            self.frames_dir.mkdir(exist_ok=True)
+            frame_name = f"frames/{index:06d}.png"
+            path = str(self.out_dir / frame_name)
+            bgr = observation.frame[..., ::-1]
+            self._pending.append(self._images.submit(cv2.imwrite, path, bgr, [cv2.IMWRITE_PNG_COMPRESSION, 1]))
+        pins = pins_px if pins_px is not None else observation.pins_px
+        row = {
+            "index": index,
+            "time": observation.time,
+            "target": target,
+            "pose": observation.pose,
+            "labels": labels,
+            "pins_px": pins,
+            "found": None if found is None else found.astype(bool),
+            "frame": frame_name,
+            "truth": observation.truth,
+        }
+        self._samples.write(json.dumps(jsonable(row)) + "\n")
+        self._samples.flush()
+        self.count += 1
+        return index
+
+    def close(self, status: str = "completed", error: str | None = None, summary: dict | None = None) -> None:
+        if self._samples.closed:
+            return
+        for job in self._pending:
+            job.result()
+        self._images.shutdown()
+        self._samples.close()
+        self.meta.update(status=status, samples=self.count, finished=time.strftime("%Y-%m-%dT%H:%M:%S%z"))
+        if error:
+            self.meta["error"] = error
+        if summary:
+            self.meta["summary"] = summary
+        self._write_meta()
+
+    def __enter__(self) -> "RunRecorder":
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            self.close("completed")
+        elif issubclass(exc_type, KeyboardInterrupt):
+            self.close("interrupted", "KeyboardInterrupt")
+        else:
+            self.close("failed", f"{exc_type.__name__}: {exc}")
+
+
+@dataclass
+class Run:
+    """A recorded run loaded back: metadata and per-sample arrays."""
+
+    path: Path
+    meta: dict
+    samples: list[dict]
+
+    @property
+    def pins_px(self) -> np.ndarray:
+        """(N, 127, 2) px; NaN where a sample has no pins."""
+        return np.array([np.full((127, 2), np.nan) if s["pins_px"] is None else s["pins_px"] for s in self.samples])
+
+    @property
+    def targets(self) -> np.ndarray:
+        return np.array([s["target"] for s in self.samples])
+
+    @property
+    def poses(self) -> np.ndarray:
+        return np.array([s["pose"] for s in self.samples])
+
+    def label(self, key: str) -> np.ndarray:
+        return np.array([s["labels"].get(key, np.nan) for s in self.samples])
+
+    @property
+    def resolution(self) -> tuple[int, int]:
+        """(width, height) px of the run's camera (640×480 for runs recorded without one)."""
+        camera = self.meta.get("camera") or {}
+        return int(camera.get("width", 640)), int(camera.get("height", 480))
+
+    def frame(self, index: int) -> np.ndarray | None:
+        name = self.samples[index]["frame"]
+        if name is None:
+            return None
+        image = cv2.imread(str(self.path / name), cv2.IMREAD_COLOR)
+        return None if image is None else image[..., ::-1]
+
+
+def load_run(path: str | Path) -> Run:
+    """Read a run directory (complete or interrupted)."""
+    path = Path(path)
+    meta_file = path / "run.json"
+    if not meta_file.is_file():
+        raise UserError(f"{path}: not a run directory (no run.json)")
+    meta = json.loads(meta_file.read_text())
+    samples = []
+    samples_file = path / "samples.jsonl"
+    if samples_file.exists():
+        for n, line in enumerate(samples_file.read_text().splitlines(), 1):
+            if not line.strip():
+                continue
+            try:
+                samples.append(json.loads(line))
+            except json.JSONDecodeError:
+                if n == len(samples_file.read_text().splitlines()):
+                    break  # a line cut by an interruption
+                raise UserError(f"{samples_file}: line {n} is not valid JSON") from None
+    return Run(path, meta, samples)

@@ -1,0 +1,121 @@
+"""Recording open-loop protocols (render, taps, slides) on a scenario's backend (twin.runs.record).
+
+Open-loop protocols (render, taps, slides) are split into independent chunks — one per
+sensor orientation, each starting from a reset (no contact) — and the chunks run in
+parallel over the local cores (or a Ray cluster, twin.runs.parallel). Every chunk starts from
+the same reset state, so the samples do not depend on how chunks were distributed.
+Samples are recorded in protocol order as chunks complete.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from twin.core.environment import Environment, Observation
+from twin.runs.backends import make_environment
+from twin.sensing.pins import PinReader
+from twin.runs.protocols import Move, protocol_moves
+from twin.runs.record import RunRecorder
+from twin.core.scenario import Scenario
+from twin.runs.parallel import default_workers, map_ordered
+
+
+@dataclass
+class Sample:
+    """One recorded sample as produced by a worker (picklable)."""
+
+    move: Move
+    observation: Observation
+    pins_px: np.ndarray
+    found: np.ndarray | None
+    track_ms: float
+
+
+def chunk_moves(moves: list[Move]) -> list[list[Move]]:
+    """Split a protocol into chunks that start out of contact: a new chunk begins at each
+    change of sensor orientation (γ)."""
+    chunks: list[list[Move]] = []
+    for move in moves:
+        if not chunks or move.pose.gamma != chunks[-1][-1].pose.gamma:
+            chunks.append([])
+        chunks[-1].append(move)
+    return chunks
+
+
+def run_chunk(scenario: Scenario, seed: int, moves: list[Move], sink=None) -> list[Sample]:
+    """Run one chunk in a fresh environment state (reset). Each sample goes to `sink` as
+    soon as it is observed (serial runs record as they go); the samples not sunk are
+    returned (parallel workers send their chunk back when it is done)."""
+    env = worker_environment(scenario, seed)
+    reader = PinReader(env.reset())
+    samples = []
+    for move in moves:
+        env.move_to(move.pose, move.speed_mm_s)
+        if move.record:
+            obs = env.observe()
+            pins, found, ms = reader.read(obs)
+            sample = Sample(move, obs, pins, found, ms)
+            if sink is None:
+                samples.append(sample)
+            else:
+                sink(sample)
+    return samples
+
+
+_ENV_CACHE: dict = {}
+
+
+def worker_environment(scenario: Scenario, seed: int) -> Environment:
+    """One environment per process and scenario, reused across chunks (reset in between)."""
+    key = (scenario.model_dump_json(), seed)
+    if key not in _ENV_CACHE:
+        close_worker_envs()
+        _ENV_CACHE[key] = make_environment(scenario, seed)
+    return _ENV_CACHE[key]
+
+
+def close_worker_envs() -> None:
+    """Close and forget this process's cached environments (see worker_environment)."""
+    for env in _ENV_CACHE.values():
+        env.close()
+    _ENV_CACHE.clear()
+
+
+def record_protocol(scenario: Scenario, out: Path, seed: int | None = None, workers: int | None = None,
+                    cluster: str | None = None, progress: bool = True) -> Path:
+    """Run and record an open-loop scenario (render, taps, slides); returns the run directory."""
+
+    seed = scenario.seed if seed is None else seed
+    if scenario.protocol.kind == "contour":
+        raise ValueError("contour runs are closed-loop: twin.runs.run.run_scenario dispatches them")
+    moves = protocol_moves(scenario.protocol)
+    chunks = chunk_moves(moves)
+    n_samples = sum(m.record for m in moves)
+    wall = time.perf_counter()
+    with RunRecorder(out, scenario, seed, scenario.backend, scenario.camera_model()) as recorder:
+        bar = tqdm(total=n_samples, desc=scenario.name, unit="frame", disable=not progress)
+
+        def record(s: Sample) -> None:
+            recorder.add(s.observation, s.move.pose, s.move.labels, s.pins_px, s.found)
+            bar.update(1)
+
+        serial = scenario.backend != "sim" or (cluster is None and (workers or default_workers()) <= 1)
+        try:
+            if serial:  # record each sample as it is observed
+                for chunk in chunks:
+                    run_chunk(scenario, seed, chunk, sink=record)
+            else:  # record each chunk as its worker finishes it, in protocol order
+                for chunk_samples in map_ordered(run_chunk, [(scenario, seed, c) for c in chunks],
+                                                 workers=workers, cluster=cluster):
+                    for s in chunk_samples:
+                        record(s)
+        finally:
+            bar.close()
+            if serial:
+                close_worker_envs()
+        recorder.meta["wall_time_s"] = time.perf_counter() - wall
+    return Path(out)

@@ -1,0 +1,135 @@
+"""The simulated rig behind the `Environment` interface (twin.core.environment)."""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from twin.world import gl  # noqa: F401
+import mujoco
+
+from twin.world.arm import ArmDynamics
+from twin.core.environment import Environment, Observation
+from twin.core.errors import UserError
+from twin.world.dome.physics import SensorPhysics
+from twin.core.poses import Pose, invert_transform
+from twin.world.render import PinRenderer, render_overview
+from twin.core.scenario import DEFAULT_SPEED_MM_S, START_POSE, Scenario
+from twin.world.scene import TOOL2FLANGE, Scene, build_overview, build_scene, kinematics
+from twin.runs.protocols import protocol_moves
+
+
+
+class SimEnvironment(Environment):
+    """MuJoCo twin of the rig. Poses in the scenario's work frame (mm/deg).
+
+    Every commanded pose is first checked against the real arm's inverse kinematics
+    (reach and joint limits) so the twin refuses what the robot could not do, whether or
+    not the arm's dynamics are simulated.
+    """
+
+    def __init__(self, scenario: Scenario, seed: int | None = None, start_pose: Pose = START_POSE) -> None:
+        self.scenario = scenario
+        self.seed = scenario.seed if seed is None else seed
+        self.start_pose = start_pose
+        self.scene: Scene = build_scene(scenario, start_pose)
+        self.camera = self.scene.camera
+        self.work_frame = Pose.from_matrix(self.scene.work2world)
+        self.world2work = invert_transform(self.scene.work2world)
+        self._renderer = None
+        if scenario.has("render"):
+            self._renderer = PinRenderer(self.camera, lighting=scenario.has("lighting"), msaa=scenario.sensor.camera.msaa)
+        self._noise = scenario.sensor.camera.noise_std if scenario.has("camera_noise") else 0.0
+        #: wall time (s) spent per stage since construction: physics (move + settle), render
+        self.timings = {"physics": 0.0, "render": 0.0, "frames": 0}
+        self._new_episode()
+
+    def _new_episode(self) -> None:
+        mujoco.mj_resetData(self.scene.model, self.scene.data)
+        self.rng = np.random.default_rng(self.seed)
+        start = self.scene.work2world @ self.start_pose.to_matrix()
+        self._q = kinematics().inverse(start, TOOL2FLANGE)  # the start pose must be reachable too
+        self._commanded = start
+        self.arm = ArmDynamics(kinematics(), TOOL2FLANGE, self._q) if self.scenario.has("arm_dynamics") else None
+        self.physics = SensorPhysics(self.scene.model, self.scene.data, self.scene.tactip, self.scene.dome_params,
+                                     self.scenario.name, start, stimulus2world=self.scene.object2world,
+                                     work2world=self.scene.work2world)
+        self._frame = None
+
+    @property
+    def rest_pins_px(self) -> np.ndarray:
+        """(127, 2) px: the undeformed pins projected through the camera model."""
+        return self.camera.project_tool_points(self.physics.rest_pins)
+
+    def reset(self, seed: int | None = None) -> Observation:
+        """Back to the start pose with the dome at rest; `seed` reseeds the camera noise."""
+        if seed is not None:
+            self.seed = int(seed)
+        self._new_episode()
+        self._frame = self.physics.settle()
+        return self.observe()
+
+    def move_to(self, pose: Pose, speed_mm_s: float | None = None) -> None:
+        target = self.scene.work2world @ pose.to_matrix()
+        self._q = kinematics().inverse(target, TOOL2FLANGE, q_seed=self._q)  # raises UnreachablePoseError
+        speed = speed_mm_s or DEFAULT_SPEED_MM_S
+        t0 = time.perf_counter()
+        if self.arm is None:
+            self.physics.move(target, speed)
+        else:
+            # the dome follows the arm's actual tool pose, one physics step per sample
+            dt = self.scene.model.opt.timestep
+            previous = self._commanded
+            for actual in self.arm.move(self._commanded, target, speed, dt):
+                step_mm_s = np.linalg.norm(actual[:3, 3] - previous[:3, 3]) * 1e3 / dt
+                self.physics.move(actual, max(step_mm_s * (1 + 1e-9), 1e-6))
+                previous = actual
+        self._commanded = target
+        self._frame = self.physics.settle()
+        self.timings["physics"] += time.perf_counter() - t0
+
+    def observe(self) -> Observation:
+        frame = self._frame if self._frame is not None else self.physics.settle()
+        self._frame = frame
+        self.timings["frames"] += 1
+        pins_px = self.camera.project_tool_points(frame.pins_tool)
+        pose = Pose.from_matrix(self.world2work @ frame.tool2world)
+        truth = {"pins_px": pins_px, "contact_force_n": frame.contact_force, "physics_steps": frame.n_steps}
+        if self._renderer is None:
+            return Observation(time=frame.time, pose=pose, pins_px=pins_px, truth=truth)
+        t0 = time.perf_counter()
+        image = self._renderer.render(frame.pins_tool, self._noise, self.rng)
+        self.timings["render"] += time.perf_counter() - t0
+        return Observation(time=frame.time, pose=pose, frame=image, truth=truth)
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+def first_pose(scenario: Scenario) -> Pose:
+    """The first recorded pose of a scenario's protocol (for single images)."""
+
+    if scenario.protocol.kind == "contour":
+        return START_POSE
+    return next(m.pose for m in protocol_moves(scenario.protocol) if m.record)
+
+
+def render_scenario_view(scenario: Scenario, out: Path, view: str = "sensor") -> Path:
+    """Write the inside-camera frame (`sensor`) or an overview of the rig (`scene`) at
+    the scenario's first recorded pose as a PNG."""
+    pose = first_pose(scenario)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if view == "sensor":
+        with SimEnvironment(scenario.with_changes(effects=sorted(set(scenario.effects) | {"render"}))) as env:
+            env.move_to(pose)
+            image = env.observe().frame
+    else:
+        model, data = build_overview(scenario, pose)
+        image = render_overview(model, data, lookat=np.array([0.3, 0.0, 0.15]), distance=1.3)
+    if not cv2.imwrite(str(out), image[..., ::-1]):
+        raise UserError(f"could not write {out}")
+    return out

@@ -1,0 +1,84 @@
+"""Training perception models from recorded tap runs, and the model cache.
+
+A contour scenario names its model file, or gets the model trained on the tap set of
+the same fidelity, effects and camera — run and trained on the first use, then loaded
+from the cache (twin.core.resources.cache_dir: `$TWIN_CACHE` or the user cache
+directory). A cached model is keyed on what it depends on: the tap scenario, the dome
+parameters it was simulated with and the package version.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import shutil
+
+import numpy as np
+
+from twin.core.errors import UserError
+from twin.core.resources import cache_dir, package_version, scenario_path
+from twin.world.scene import dome_params
+from twin.sensing.perception import PerceptionModel
+from twin.runs.record import Run, load_run
+from twin.core.scenario import Scenario, load_scenario
+from twin.runs.runner import record_protocol
+
+def train_from_run(run: Run, method: str = "pca", seed: int = 0) -> PerceptionModel:
+    """Fit the paper's model (or the baseline) on a recorded tap run."""
+    pins = run.pins_px
+    theta, lateral, depth = run.label("theta_deg"), run.label("lateral_mm"), run.label("depth_mm")
+    if not np.all(np.isfinite(theta)) or not np.all(np.isfinite(lateral)):
+        raise UserError(f"{run.path}: not a tap run (samples need theta_deg and lateral_mm labels)")
+    model = PerceptionModel(method=method)
+    model.fit(pins, theta, lateral, depth, np.random.default_rng(seed), resolution=run.resolution,
+              source="real" if run.meta.get("backend") == "hardware" else "sim")
+    model.info["trained_on"] = str(run.path)
+    return model
+
+
+def tap_scenario_like(scenario: Scenario) -> Scenario:
+    """The tap training scenario with the given scenario's fidelity, effects and sensor."""
+    taps = load_scenario(scenario_path("taps_rectangle"))
+    return taps.with_changes(fidelity=scenario.fidelity, effects=list(scenario.effects),
+                             sensor=scenario.sensor.model_dump(), seed=scenario.seed)
+
+
+def cache_key(taps: Scenario) -> str:
+    """What a cached tap model depends on: the tap scenario (protocol, sensor, effects,
+    fidelity, seed), the dome parameters it simulates and the package version."""
+    payload = json.dumps({"scenario": taps.model_dump(mode="json"),
+                          "dome": dataclasses.asdict(dome_params(taps)), "version": package_version()},
+                         sort_keys=True, default=str)
+    return hashlib.sha256(payload.encode()).hexdigest()[:16]
+
+
+def cached_tap_model(scenario: Scenario, progress: bool = True) -> PerceptionModel:
+    """The PCA+GP model trained on the tap set matching `scenario` (cached)."""
+    taps = tap_scenario_like(scenario)
+    key = cache_key(taps)
+    model_path = cache_dir() / "models" / f"taps_{key}.npz"
+    if model_path.exists():
+        model = PerceptionModel.load(model_path)
+    else:
+        run_dir = cache_dir() / "runs" / f"taps_{key}"
+        if not (run_dir / "run.json").exists() or load_run(run_dir).meta.get("status") != "completed":
+            shutil.rmtree(run_dir, ignore_errors=True)
+            record_protocol(taps, run_dir, progress=progress)
+        model = train_from_run(load_run(run_dir))
+        model_path.parent.mkdir(parents=True, exist_ok=True)
+        model.save(model_path)
+    model.info["path"] = str(model_path)
+    return model
+
+
+def model_for_scenario(scenario: Scenario) -> PerceptionModel:
+    """The model a contour scenario asks for: its `model` file, else the cached tap model."""
+    name = scenario.protocol.model
+    if name is None:
+        return cached_tap_model(scenario)
+    path = scenario.resolve(name)
+    if not path.is_file():
+        raise UserError(f"{scenario.source}: field 'protocol.model': no such model file {path}")
+    model = PerceptionModel.load(path)
+    model.info["path"] = str(path)
+    return model

@@ -1,0 +1,52 @@
+"""Observations to pins: the one way to get (127, 2) px pins from any observation.
+
+A rendered or filmed observation carries a frame, and the tracker (twin.sensing.tracker)
+finds the pins in it against the no-contact reference frame; an observation of a scene
+without rendering carries the pins projected through the camera model. `PinReader` takes
+both, so everything downstream (perception, control, recording) is the same code.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from twin.core.environment import Observation
+from twin.core.errors import LostPinsError
+from twin.sensing.tracker import PinTracker
+
+
+class PinReading(NamedTuple):
+    """Pins of one observation: positions (127, 2) px in the pin order of
+    twin.core.sensor; found (127,) bool, None when projected (all found); tracking time ms."""
+
+    pins_px: np.ndarray
+    found: np.ndarray | None
+    ms: float
+
+
+class PinReader:
+    """Turns observations into pins: tracked from frames, or taken as projected.
+
+    reference: the no-contact observation (`Environment.reset()`); its frame, if any, is
+    the tracker's reference. A frame with more than `max_lost_fraction` of its pins
+    untracked stops the run with LostPinsError (a torn skin, a covered lens or a camera
+    that moved)."""
+
+    max_lost_fraction = 0.2
+
+    def __init__(self, reference: Observation) -> None:
+        self.tracker = PinTracker(reference.frame) if reference.frame is not None else None
+
+    def read(self, obs: Observation) -> PinReading:
+        if obs.frame is None or self.tracker is None:
+            if obs.pins_px is None:
+                raise LostPinsError(f"observation at pose {obs.pose} has neither a frame nor pins")
+            return PinReading(obs.pins_px, None, 0.0)
+        result = self.tracker.track(obs.frame)
+        lost = int((~result.found).sum())
+        if lost > self.max_lost_fraction * len(result.found):
+            reasons = sorted({r for r in result.reasons if r})
+            raise LostPinsError(f"lost {lost}/{len(result.found)} pins at pose {obs.pose} ({', '.join(reasons)}); "
+                                "check the camera and the skin")
+        return PinReading(result.pins_px, result.found, result.ms)

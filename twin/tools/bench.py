@@ -1,0 +1,192 @@
+"""`twin bench`: speed (and, for the sweep, accuracy) figures printed as tables.
+
+Speed targets are checked here by printing measured figures, never by timed asserts
+in tests. Each section returns rows (dicts) so the sweep can write CSV/markdown.
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from twin.world import gl
+from twin.world.render import PinRenderer
+from twin.core.sensor import CameraModel
+from twin.world.dome.physics import benchmark_physics
+from twin.sensing.perception import benchmark_perception
+from twin.runs.runner import run_chunk, worker_environment
+from twin.runs.parallel import default_workers, map_ordered
+from twin.runs.protocols import protocol_moves
+from twin.runs.runner import chunk_moves, close_worker_envs
+from twin.core.resources import scenario_path
+from twin.core.scenario import load_scenario
+from twin.tools.sweep import run_sweep
+from twin.core.errors import UserError
+import csv
+
+
+def _time_per_call(fn: Callable[[], object], min_calls: int = 20, min_seconds: float = 0.5) -> float:
+    """Median seconds per call of `fn` over at least `min_calls` calls and `min_seconds`."""
+    fn()  # warm-up
+    samples: list[float] = []
+    start = time.perf_counter()
+    while len(samples) < min_calls or time.perf_counter() - start < min_seconds:
+        t0 = time.perf_counter()
+        fn()
+        samples.append(time.perf_counter() - t0)
+    return float(np.median(samples))
+
+
+def bench_render(quick: bool = False) -> list[dict]:
+    """Inside-camera frames per second at 640×480, with and without anti-aliasing."""
+
+    camera = CameraModel()
+    pins = camera.geometry.pin_tip_points()
+    rng = np.random.default_rng(0)
+    rows = []
+    for lighting in (False, True):
+        for msaa in (0, 4):
+            renderer = PinRenderer(camera, lighting=lighting, msaa=msaa)
+            jitter = lambda: pins + rng.normal(0, 2e-4, pins.shape)  # noqa: E731  (new pins each frame)
+            seconds = _time_per_call(lambda: renderer.render(jitter()), min_calls=30 if quick else 120)
+            renderer.close()
+            rows.append({"section": "render", "resolution": f"{camera.width}x{camera.height}", "lighting": lighting,
+                         "msaa": msaa, "ms_per_frame": seconds * 1e3, "fps": 1.0 / seconds, "gl": gl.GL_BACKEND})
+    base = {(r["lighting"]): r["ms_per_frame"] for r in rows if r["msaa"] == 0}
+    for r in rows:
+        r["aa_cost_ms"] = r["ms_per_frame"] - base[r["lighting"]]
+    return rows
+
+
+def bench_physics(quick: bool = False) -> list[dict]:
+    """ms of physics per settled frame for each fidelity level (contour-like steps)."""
+
+    rows = benchmark_physics(repeats=1 if quick else 5, verbose=False)
+    return [{"section": "physics", **r} for r in rows]
+
+
+def bench_perception(quick: bool = False) -> list[dict]:
+    """Tracker ms/frame at 640×480, GP training on 288 points, prediction per frame."""
+
+    r = benchmark_perception(np.random.default_rng(0), n_frames=20 if quick else 50, n_restarts=1 if quick else 2)
+    return [{"section": "perception", **{k: v for k, v in r.items() if not isinstance(v, (list, dict))}}]
+
+
+def _timed_chunk(scenario, seed: int, moves) -> tuple[int, float, float]:
+    """Run one protocol chunk in this process's environment (built on first use).
+
+    Returns (recorded frames, seconds running the chunk, seconds getting the
+    environment — ≈ 0 when this process had already built it)."""
+
+    t0 = time.perf_counter()
+    worker_environment(scenario, seed)
+    startup = time.perf_counter() - t0
+    t1 = time.perf_counter()
+    samples = run_chunk(scenario, seed, moves)
+    return len(samples), time.perf_counter() - t1, startup
+
+
+def bench_throughput(quick: bool = False) -> list[dict]:
+    """End-to-end frames per second on the multi-directional slide protocol (§III-C),
+    pins only and rendered + tracked, in one process and over all local cores.
+
+    A frame is one recorded sample: the move into it (≈ 2–4 mm, sliding in contact),
+    settling, the observation (projected pins, or a rendered 640×480 frame tracked by
+    twin.sensing.tracker); the protocol's unrecorded approach and lift moves count against it.
+    Columns: fps_1_process (frames / time running the chunks, one process);
+    fps_all_cores (frames / wall time of the parallel run, worker start-up included);
+    fps_all_cores_steady (the same without the start-up: frames / (wall − the slowest
+    worker's scene build)); speedup = fps_all_cores_steady / fps_1_process, same run.
+    """
+
+    base = load_scenario(scenario_path("slides_rectangle"))
+    orientations = [-160.0, 0.0] if quick else [-160.0, -80.0, 0.0, 80.0]
+    rows = []
+    workers = default_workers()
+    outputs = (("pins only", ["contact", "friction"]), ("rendered + tracked", ["contact", "friction", "render"]))
+    for label, effects in outputs:
+        scenario = base.model_copy(update={
+            "effects": effects,
+            "protocol": base.protocol.model_copy(update={"orientations_deg": orientations})})
+        jobs = [(scenario, 0, chunk) for chunk in chunk_moves(protocol_moves(scenario.protocol))]
+        serial = [_timed_chunk(*job) for job in jobs]
+        close_worker_envs()  # this process's environment (and GL context) is not needed any more
+        frames = sum(f for f, _, _ in serial)
+        fps_1 = frames / sum(s for _, s, _ in serial)
+        t0 = time.perf_counter()
+        parallel = list(map_ordered(_timed_chunk, jobs, workers=workers))
+        wall = time.perf_counter() - t0
+        startup = max(s for _, _, s in parallel)
+        rows.append({"section": "throughput", "output": label, "frames": frames, "workers": workers,
+                     "fps_1_process": fps_1, "ms_per_frame_1_process": 1e3 / fps_1,
+                     "fps_all_cores": frames / wall, "fps_all_cores_steady": frames / (wall - startup),
+                     "speedup": frames / (wall - startup) / fps_1})
+    return rows
+
+
+def bench_sweep(quick: bool = False, out: Path | None = None, workers: int | None = None,
+                cluster: str | None = None) -> list[dict]:
+    """The fidelity sweep (twin.tools.sweep): per setting, ms per frame split into physics,
+    render, tracking and perception, against pin error (px), perception error (deg, mm)
+    and contour error (mm); writes sweep.csv, sweep.md, sweep.json and pareto.png to
+    `out` (default out/bench). Prints its own table."""
+
+    return run_sweep(out if out is not None else Path("out") / "bench", quick=quick, workers=workers, cluster=cluster)
+
+
+SECTIONS: dict[str, Callable[..., list[dict]]] = {
+    "render": bench_render,
+    "physics": bench_physics,
+    "perception": bench_perception,
+    "throughput": bench_throughput,
+    "sweep": bench_sweep,
+}
+#: Sections that take out/workers/cluster and write and print their own outputs.
+_SELF_REPORTING = {"sweep"}
+
+
+def _print_rows(title: str, rows: list[dict]) -> None:
+    if not rows:
+        return
+    keys = list(rows[0].keys())
+    fmt = lambda v: f"{v:.2f}" if isinstance(v, float) else str(v)  # noqa: E731
+    widths = [max(len(k), *(len(fmt(r.get(k, ""))) for r in rows)) for k in keys]
+    print(f"\n== {title} ==")
+    print("  ".join(k.ljust(w) for k, w in zip(keys, widths)))
+    for r in rows:
+        print("  ".join(fmt(r.get(k, "")).ljust(w) for k, w in zip(keys, widths)))
+
+
+def run_bench(what: str = "all", quick: bool = False, out: Path | None = None, workers: int | None = None,
+              cluster: str | None = None) -> int:
+    """Run one section or all of them, print tables, optionally write CSVs to `out`.
+
+    The sweep section always writes its files (to `out`, default out/bench) and runs its
+    settings in parallel (`workers` local processes, default all cores, or a Ray
+    `cluster`). Returns the exit code: 1 when a sweep setting failed (reported, not hidden).
+    """
+    names = list(SECTIONS) if what == "all" else [what]
+    status = 0
+    for name in names:
+        if name not in SECTIONS:
+
+            raise UserError(f"unknown bench section {name!r}; choose from {', '.join(SECTIONS)}")
+        if name in _SELF_REPORTING:
+            rows = SECTIONS[name](quick, out=out, workers=workers, cluster=cluster)
+            failed = [r["setting"] for r in rows if r.get("status") != "ok"]
+            if failed:
+                print(f"{len(failed)} sweep setting(s) failed: {', '.join(failed)}")
+                status = 1
+            continue
+        rows = SECTIONS[name](quick)
+        _print_rows(name, rows)
+        if out is not None:
+
+            out.mkdir(parents=True, exist_ok=True)
+            with open(out / f"bench_{name}.csv", "w", newline="") as fh:
+                writer = csv.DictWriter(fh, fieldnames=list(rows[0].keys()))
+                writer.writeheader()
+                writer.writerows(rows)
+    return status

@@ -1,0 +1,205 @@
+"""`twin` command line. Every sub-command is a thin layer over a module function.
+
+Exit codes: 0 success, 1 the run failed (e.g. PhysicsError, HardwareError),
+2 user error (bad scenario, file, pose or argument), 130 interrupted.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from twin.world import gl  # noqa: F401  (headless GL before anything imports mujoco)
+from twin.core.errors import TwinError, UserError
+from twin.runs.parallel import one_blas_thread
+from twin.core.scenario import load_scenario
+from twin.core.scenario import START_POSE
+from twin.world.scene import build_scene
+from twin.runs.sim_env import render_scenario_view
+from twin.runs.run import run_scenario
+from twin.tools.evaluate import evaluate, format_table
+from hardware.virtual_controller import serve_robot
+from twin.tools.compare import compare_runs
+from twin.tools.figures import write_shear_figure
+from twin.tools.demo import run_demo
+from twin.tools.bench import run_bench
+
+
+def _cmd_check(args: argparse.Namespace) -> int:
+
+    for path in args.scenarios:
+        scenario = load_scenario(path)
+        if args.compile and scenario.backend == "sim":
+
+            build_scene(scenario, START_POSE)
+        print(f"{path}: ok ({scenario.protocol.kind}, object {scenario.object.name or scenario.object.stl or scenario.object.outline}, "
+              f"effects {', '.join(scenario.effects) or 'none'})")
+    return 0
+
+
+def _cmd_render(args: argparse.Namespace) -> int:
+
+    out = render_scenario_view(load_scenario(args.scenario), Path(args.out), view=args.view)
+    print(f"wrote {out}")
+    return 0
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+
+    scenario = load_scenario(args.scenario)
+    if args.backend:
+        scenario = scenario.with_changes(backend=args.backend)
+    if args.hardware_config:
+        scenario = scenario.with_changes(hardware_config=str(Path(args.hardware_config).resolve()))
+    out = Path(args.out) if args.out else Path("runs") / f"{scenario.name}_seed{args.seed if args.seed is not None else scenario.seed}"
+    run_dir = run_scenario(scenario, out, seed=args.seed, workers=args.workers, cluster=args.cluster,
+                           progress=not args.quiet)
+    print(f"recorded {run_dir}")
+    return 0
+
+
+def _cmd_evaluate(args: argparse.Namespace) -> int:
+
+    result = evaluate(Path(args.train), Path(args.test), Path(args.out), seed=args.seed)
+    print(format_table(result["table_i_rms_orientation_deg"]))
+    for name, v in result["lateral_rms_mm"].items():
+        print(f"lateral RMS error, {name}: {v:.2f} mm (paper: 2.15 mm)")
+    print(f"variance explained by 3 PCs: {100 * result['variance_explained_3pc']:.1f} % (paper: 88.3 %)")
+    print(f"wrote {args.out}/table_i.csv, table_i.json and the PCA figures")
+    return 0
+
+
+def _cmd_serve_robot(args: argparse.Namespace) -> int:
+
+    serve_robot(args.host, args.port, realtime_factor=args.realtime)
+    return 0
+
+
+def _cmd_compare(args: argparse.Namespace) -> int:
+
+    r = compare_runs(Path(args.run_a), Path(args.run_b), Path(args.out),
+                     model_path=Path(args.model) if args.model else None)
+    print(f"{r['n_pairs']} paired samples ({r['pairing']})")
+    print(f"pin RMS difference: {r['pin_rms_difference_px']:.3f} px")
+    c = r["pin_displacement_correlation"]
+    if c["mean"] is not None:
+        print(f"per-pin displacement correlation: mean {c['mean']:.3f}, min {c['min']:.3f} over {c['pins']} pins")
+    if r["ssim"]:
+        print(f"image SSIM: mean {r['ssim']['mean']:.3f}, min {r['ssim']['min']:.3f} over {r['ssim']['frames']} frames")
+    for tag in ("a", "b"):
+        perc = r.get(f"perception_{tag}") or (r.get(f"metrics_{tag}") or None)
+        if perc:
+            print(f"run {tag.upper()} perception: θ RMS {perc['orientation_rms_deg']:.1f}°, l RMS {perc['lateral_rms_mm']:.2f} mm")
+    if "path_distance" in r:
+        print(f"path distance: mean {r['path_distance']['mean_mm']:.2f} mm, Hausdorff {r['path_distance']['hausdorff_mm']:.2f} mm")
+    print(f"wrote {args.out}/comparison.json and plots")
+    return 0
+
+
+def _cmd_figure(args: argparse.Namespace) -> int:
+
+    numbers = write_shear_figure(Path(args.out), fidelity=args.fidelity, friction=not args.no_friction)
+    print(f"wrote {args.out}")
+    for key, value in numbers.items():
+        print(f"  {key}: {value}")
+    return 0
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+
+    return run_demo(Path(args.out), seed=args.seed)
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+
+    return run_bench(args.what, quick=args.quick, out=Path(args.out) if args.out else None, workers=args.workers,
+                     cluster=args.cluster)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="twin", description="TacTip digital twin (Aquilina et al., ICRA 2019)")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("check", help="validate scenario files (and compile their scenes)")
+    p.add_argument("scenarios", nargs="+")
+    p.add_argument("--no-compile", dest="compile", action="store_false", help="only validate the file")
+    p.set_defaults(func=_cmd_check)
+
+    p = sub.add_parser("render", help="render the inside-camera frame or an overview of a scenario")
+    p.add_argument("scenario")
+    p.add_argument("--out", required=True, help="PNG file to write")
+    p.add_argument("--view", choices=("sensor", "scene"), default="sensor")
+    p.set_defaults(func=_cmd_render)
+
+    p = sub.add_parser("run", help="run a scenario and record it")
+    p.add_argument("scenario")
+    p.add_argument("--out", default=None, help="run directory (default runs/<name>_seed<N>)")
+    p.add_argument("--seed", type=int, default=None)
+    p.add_argument("--backend", choices=("sim", "hardware"), default=None)
+    p.add_argument("--hardware-config", default=None, help="robot/camera config for --backend hardware")
+    p.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
+    p.add_argument("--cluster", default=None, help="Ray address ('local' starts one); needs the ray extra")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("evaluate", help="the paper's offline test: Table I from a tap run and a slides run")
+    p.add_argument("--train", required=True, help="tap run directory")
+    p.add_argument("--test", required=True, help="multi-directional slides run directory")
+    p.add_argument("--out", required=True)
+    p.add_argument("--seed", type=int, default=0)
+    p.set_defaults(func=_cmd_evaluate)
+
+    p = sub.add_parser("serve-robot", help="answer the IRB120's RAPID socket protocol with the simulated arm")
+    p.add_argument("--host", default="127.0.0.1")
+    p.add_argument("--port", type=int, default=5000)
+    p.add_argument("--realtime", type=float, default=0.0, help="1 = moves take their real duration; 0 = instant")
+    p.set_defaults(func=_cmd_serve_robot)
+
+    p = sub.add_parser("compare", help="compare two runs of one scenario (sim vs sim, sim vs real)")
+    p.add_argument("run_a")
+    p.add_argument("run_b")
+    p.add_argument("--out", required=True)
+    p.add_argument("--model", default=None, help="perception model file to score labelled runs (taps, slides)")
+    p.set_defaults(func=_cmd_compare)
+
+    p = sub.add_parser("figure", help="the paper's Fig. 2: pin traces tapping vs sliding across the edge in 8 directions")
+    p.add_argument("which", choices=("shear",))
+    p.add_argument("--out", default="out/fig2_shear.png")
+    p.add_argument("--fidelity", choices=("fast", "default", "reference"), default="default")
+    p.add_argument("--no-friction", action="store_true", help="frictionless contact: slides should match taps")
+    p.set_defaults(func=_cmd_figure)
+
+    p = sub.add_parser("demo", help="the main job: the six-object contour-following demo")
+    p.add_argument("--out", default="out/demo")
+    p.add_argument("--seed", type=int, default=0)
+    p.set_defaults(func=_cmd_demo)
+
+    p = sub.add_parser("bench", help="print speed figures and sweep what accuracy costs in time")
+    p.add_argument("what", nargs="?", default="all", choices=("all", "render", "physics", "perception", "throughput", "sweep"),
+                   help="one section (default: all; 'sweep' = the fidelity sweep: CSV, Pareto plot, markdown table)")
+    p.add_argument("--quick", action="store_true", help="small sections and the quick sweep (< 2 min on 2 cores)")
+    p.add_argument("--out", default=None, help="directory for the CSVs and the sweep's files (sweep default: out/bench)")
+    p.add_argument("--workers", type=int, default=None, help="sweep: local processes (default: all cores)")
+    p.add_argument("--cluster", default=None, help="sweep: Ray address ('local' starts one); needs the ray extra")
+    p.set_defaults(func=_cmd_bench)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    one_blas_thread()
+    try:
+        return int(args.func(args) or 0)
+    except UserError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    except TwinError as err:
+        print(f"failed: {type(err).__name__}: {err}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("interrupted; everything recorded so far is kept", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,127 @@
+"""`twin evaluate`: the paper's offline experiment (§IV-A) — train PCA+GP and the
+raw-pin baseline on a tap run, test on a multi-directional sliding run, and write
+Table I, the lateral error, the variance explained and the PCA figures."""
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+
+from twin.core.errors import UserError
+from twin.sensing.perception import angle_error_deg, pca_fit, pins_to_vectors
+from twin.runs.record import Run, jsonable, load_run
+from twin.runs.training import train_from_run
+import matplotlib
+import matplotlib.pyplot as plt
+
+DIRECTIONS = (0, 45, 90, 135, 180, 225, 270, 315)
+#: Table I of the paper (RMS orientation error, deg): direction → (On, Off); 90°/270° On only.
+PAPER_TABLE_I = {
+    "GP baseline": {0: (26.01, 16.59), 45: (2.94, 8.02), 90: (50.68, None), 135: (92.37, 99.59),
+                    180: (127.18, 145.27), 225: (141.56, 153.39), 270: (90.32, None), 315: (50.10, 31.97)},
+    "PCA + GP": {0: (49.41, 10.17), 45: (24.17, 8.24), 90: (3.27, None), 135: (22.74, 10.82),
+                 180: (46.74, 14.61), 225: (52.67, 11.98), 270: (12.66, None), 315: (51.87, 12.77)},
+}
+PAPER_VARIANCE_3PC = 0.883
+PAPER_LATERAL_RMS_MM = 2.15
+
+
+def _rms(x: np.ndarray) -> float | None:
+    return float(np.sqrt(np.mean(x**2))) if len(x) else None
+
+
+def table_i(test: Run, predictions: dict[str, np.ndarray]) -> dict:
+    """{model: {direction: {"on": rms, "off": rms}}} of the orientation error (deg)."""
+    theta = test.label("theta_deg")
+    direction = test.label("direction_deg")
+    on = np.array([bool(s["labels"].get("on_object", False)) for s in test.samples])
+    table = {}
+    for name, theta_hat in predictions.items():
+        err = angle_error_deg(theta_hat, theta)
+        table[name] = {int(d): {"on": _rms(err[(direction == d) & on]), "off": _rms(err[(direction == d) & ~on])}
+                       for d in DIRECTIONS}
+    return table
+
+
+def _fmt(v) -> str:
+    return "—" if v is None else f"{v:.2f}"
+
+
+def format_table(table: dict, paper: bool = True) -> str:
+    """Table I as text, the paper's figures beside the twin's."""
+    head = "model".ljust(24) + "".join(f"{d}° on/off".rjust(16) for d in DIRECTIONS)
+    lines = [head]
+    for name, rows in table.items():
+        lines.append(f"twin {name}".ljust(24) + "".join(f"{_fmt(rows[d]['on'])}/{_fmt(rows[d]['off'])}".rjust(16) for d in DIRECTIONS))
+        if paper and name in PAPER_TABLE_I:
+            p = PAPER_TABLE_I[name]
+            lines.append(f"paper {name}".ljust(24) + "".join(f"{_fmt(p[d][0])}/{_fmt(p[d][1])}".rjust(16) for d in DIRECTIONS))
+    return "\n".join(lines)
+
+
+def evaluate(train_dir: Path, test_dir: Path, out: Path, seed: int = 0) -> dict:
+    """Train on `train_dir` (tap run), test on `test_dir` (slides run); write results to `out`."""
+    train, test = load_run(train_dir), load_run(test_dir)
+    if not np.all(np.isfinite(test.label("direction_deg"))):
+        raise UserError(f"{test_dir}: not a multi-directional run (samples need direction_deg labels)")
+    models = {"PCA + GP": train_from_run(train, "pca", seed), "GP baseline": train_from_run(train, "baseline", seed)}
+    preds = {name: m.predict(test.pins_px, resolution=test.resolution) for name, m in models.items()}
+    table = table_i(test, {n: p.theta_deg for n, p in preds.items()})
+    lateral = test.label("lateral_mm")
+    pca = models["PCA + GP"]
+    result = {
+        "train_run": str(train_dir), "test_run": str(test_dir), "n_train": len(train.samples), "n_test": len(test.samples),
+        "table_i_rms_orientation_deg": table,
+        "orientation_rms_deg": {n: _rms(angle_error_deg(p.theta_deg, test.label("theta_deg"))) for n, p in preds.items()},
+        "lateral_rms_mm": {n: _rms(p.lateral_mm - lateral) for n, p in preds.items()},
+        "variance_explained_3pc": float(np.sum(pca.variance_explained[:3])),
+        "paper": {"table_i": PAPER_TABLE_I, "variance_explained_3pc": PAPER_VARIANCE_3PC,
+                  "lateral_rms_mm": PAPER_LATERAL_RMS_MM},
+        "training": {n: m.training_summary for n, m in models.items()},
+    }
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "table_i.json").write_text(json.dumps(jsonable(result), indent=1))
+    with open(out / "table_i.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["model", "direction_deg", "group", "rms_orientation_error_deg", "paper_deg"])
+        for name, rows in table.items():
+            for d in DIRECTIONS:
+                for i, group in enumerate(("on", "off")):
+                    w.writerow([name, d, group, rows[d][group], PAPER_TABLE_I[name][d][i]])
+    write_pca_figures(train, test, out)
+    for name, m in models.items():
+        m.save(out / f"model_{'pca' if name == 'PCA + GP' else 'baseline'}.npz")
+    return result
+
+
+def write_pca_figures(train: Run, test: Run, out: Path) -> list[Path]:
+    """Figs. 5–6: the sliding set on its own PCs (PC1–PC2, PC4–PC5) and on the tap set's
+    PC2–PC3, one panel per sliding direction, coloured by the true orientation."""
+
+    matplotlib.use("Agg")
+
+    z_test = pins_to_vectors(test.pins_px)
+    theta = test.label("theta_deg")
+    direction = test.label("direction_deg")
+    mean_t, comps_t, _ = pca_fit(z_test, 5)
+    own = (z_test - mean_t) @ comps_t.T
+    mean_tap, comps_tap, _ = pca_fit(pins_to_vectors(train.pins_px), 3)
+    tap = (z_test - mean_tap) @ comps_tap.T
+    panels = [("fig5_multidirectional_pc1_pc2.png", own, (0, 1)), ("fig5_multidirectional_pc4_pc5.png", own, (3, 4)),
+              ("fig6_tap_eigenvectors_pc2_pc3.png", tap, (1, 2))]
+    paths = []
+    for name, proj, (a, b) in panels:
+        fig, axes = plt.subplots(1, 4, figsize=(13, 3.4), dpi=110, sharex=True, sharey=True)
+        for ax, d in zip(axes, (0, 90, 180, 270)):
+            m = direction == d
+            sc = ax.scatter(proj[m, a], proj[m, b], c=theta[m], cmap="hsv", vmin=-180, vmax=180, s=8)
+            ax.set_title(f"sliding direction {d}°")
+            ax.set_xlabel(f"PC{a + 1}")
+        axes[0].set_ylabel(f"PC{b + 1}")
+        fig.colorbar(sc, ax=axes, label="true orientation θ (deg)")
+        fig.savefig(out / name)
+        plt.close(fig)
+        paths.append(out / name)
+    return paths

@@ -1,0 +1,165 @@
+"""The paper's Figure 2: what sliding does to the pins, reproduced in the twin.
+
+Aquilina et al. 2019, Fig. 2: "(a) The black trace shows the pin motion of the sensor
+when tapping across a straight edge at different lateral positions without sliding. The
+coloured traces depict the sensor moving the same amount across the edge as the black
+trace whilst sliding in different directions (from 0° to 315°). (b) Zoomed in version of
+(a) over the central pin."
+
+Here, on the rectangle's +x edge with the paper's geometry (twin.runs.protocols; sensor
+orientation θ = 0, depth 3 mm, the slide protocol's depth):
+  * taps: the 8 lateral positions l = 9.9, 6, 4, …, −6 mm, one static press each
+    (twin.runs.protocols.tap_moves), giving one black trace per pin (8 points, px);
+  * slides: for each direction δ = 0°, 45°, …, 315° (0° = onto the object, 90° = along
+    the edge, 180° = off it), the slide protocol's straight slide through 8 samples the
+    same distances apart (twin.runs.protocols.slide_moves), one coloured trace per pin.
+Every slide starts from a reset (no contact), like the runner's chunks.
+
+The numbers returned quantify the figure: for each slide sample, the *shear shift* is the
+pin displacement (px) from the static tap at the same lateral position (tap traces
+interpolated linearly in l); per direction we report its mean over pins and samples
+(u, v components and the mean magnitude).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from twin.runs.protocols import slide_moves, tap_moves
+from twin.core.scenario import SlideProtocol, TapProtocol, hover_over, scenario_from_dict
+from twin.runs.sim_env import SimEnvironment
+import matplotlib
+import matplotlib.pyplot as plt
+
+DIRECTIONS_DEG = tuple(float(a) for a in range(0, 360, 45))
+DEPTH_MM = 3.0
+CENTRAL_PIN = 0  # pin order of twin.core.sensor: the central pin first
+
+
+def _environment(fidelity: str, friction: bool):
+
+    effects = ["contact", "friction"] if friction else ["contact"]
+    scenario = scenario_from_dict({
+        "name": f"shear_figure_{fidelity}_{'friction' if friction else 'frictionless'}",
+        "object": {"name": "rectangle"}, "fidelity": fidelity, "effects": effects,
+    })
+    return SimEnvironment(scenario, start_pose=hover_over(60.0, 0.0, 0.0))
+
+
+def collect_shear_data(fidelity: str = "default", friction: bool = True) -> dict:
+    """Run the taps and the 8 slides; returns the raw traces.
+
+    Returns a dict with
+      tap_lateral_mm (8,), tap_pins_px (8, 127, 2): the taps across the edge;
+      slides: {direction_deg: {"lateral_mm": (8,), "pins_px": (8, 127, 2)}};
+      rest_pins_px (127, 2): the no-contact frame.
+    """
+    env = _environment(fidelity, friction)
+    try:
+        rest = env.reset().pins_px
+        tap_lateral, tap_pins = [], []
+        for move in tap_moves(TapProtocol(orientations_deg=[0.0], depths_mm=[DEPTH_MM])):
+            env.move_to(move.pose, move.speed_mm_s)
+            if move.record:
+                tap_lateral.append(move.labels["lateral_mm"])
+                tap_pins.append(env.observe().pins_px.copy())
+        slides = {}
+        for direction in DIRECTIONS_DEG:
+            env.reset()
+            lateral, pins = [], []
+            for move in slide_moves(SlideProtocol(orientations_deg=[0.0], directions_deg=[direction],
+                                                  depth_mm=DEPTH_MM)):
+                env.move_to(move.pose, move.speed_mm_s)
+                if move.record:
+                    lateral.append(move.labels["lateral_mm"])
+                    pins.append(env.observe().pins_px.copy())
+            slides[direction] = {"lateral_mm": np.array(lateral), "pins_px": np.array(pins)}
+    finally:
+        env.close()
+    return {"tap_lateral_mm": np.array(tap_lateral), "tap_pins_px": np.array(tap_pins), "slides": slides,
+            "rest_pins_px": np.asarray(rest)}
+
+
+def tap_pins_at(data: dict, lateral_mm: np.ndarray) -> np.ndarray:
+    """(N, 127, 2) px: the tap frames interpolated linearly at lateral positions (mm)."""
+    lat = data["tap_lateral_mm"]
+    order = np.argsort(lat)
+    lat, pins = lat[order], data["tap_pins_px"][order]
+    flat = pins.reshape(len(lat), -1)
+    out = np.stack([np.interp(lateral_mm, lat, flat[:, j]) for j in range(flat.shape[1])], axis=-1)
+    return out.reshape(len(np.atleast_1d(lateral_mm)), *pins.shape[1:])
+
+
+def shear_numbers(data: dict) -> dict:
+    """Per direction: mean shear shift (px) of the slide frames from the taps at the same l.
+
+    Returns {"directions": {δ: {"mean_shift_px": [du, dv], "mean_abs_shift_px": m,
+    "max_shift_px": M, "central_pin_shift_px": [du, dv]}}} — means over pins and the
+    8 samples; "central_pin" is the mean over samples for pin 0.
+    """
+    out = {}
+    for direction, slide in data["slides"].items():
+        shift = slide["pins_px"] - tap_pins_at(data, slide["lateral_mm"])  # (8, 127, 2)
+        out[float(direction)] = {
+            "mean_shift_px": shift.mean(axis=(0, 1)).tolist(),
+            "mean_abs_shift_px": float(np.linalg.norm(shift, axis=2).mean()),
+            "max_shift_px": float(np.linalg.norm(shift, axis=2).max()),
+            "central_pin_shift_px": shift[:, CENTRAL_PIN].mean(axis=0).tolist(),
+        }
+    return {"directions": out}
+
+
+def plot_shear_figure(data: dict, out_png: Path, title: str = "") -> Path:
+    """Fig. 2: (a) all 127 pin traces, taps black, slides coloured by direction; (b) the
+    central pin zoomed. Image coordinates (px): u right, v down."""
+
+    matplotlib.use("Agg")
+
+    colours = plt.get_cmap("hsv")(np.linspace(0.0, 1.0, len(DIRECTIONS_DEG), endpoint=False))
+    fig, (ax_a, ax_b) = plt.subplots(1, 2, figsize=(11, 5.2), dpi=120, gridspec_kw={"width_ratios": [1.6, 1]})
+    taps = data["tap_pins_px"]  # (8, 127, 2)
+    for ax, pins in ((ax_a, range(taps.shape[1])), (ax_b, [CENTRAL_PIN])):
+        for j in pins:
+            for (direction, slide), colour in zip(sorted(data["slides"].items()), colours):
+                p = slide["pins_px"][:, j]
+                ax.plot(p[:, 0], p[:, 1], "-", color=colour, lw=0.7 if ax is ax_a else 1.5,
+                        marker="." if ax is ax_b else None, ms=4,
+                        label=f"slide {direction:.0f}°" if (ax is ax_b) else None)
+            ax.plot(taps[:, j, 0], taps[:, j, 1], "-", color="k", lw=0.9 if ax is ax_a else 2.0,
+                    marker="." if ax is ax_b else None, ms=5, label="taps" if ax is ax_b else None)
+        ax.set_aspect("equal")
+        ax.invert_yaxis()
+        ax.set_xlabel("u (px)")
+        ax.set_ylabel("v (px)")
+    # the zoom window of (a), drawn as a rectangle around the central pin
+    centre = np.concatenate([taps[:, CENTRAL_PIN]] + [s["pins_px"][:, CENTRAL_PIN] for s in data["slides"].values()])
+    lo, hi = centre.min(axis=0), centre.max(axis=0)
+    pad = 0.15 * max(float(np.max(hi - lo)), 1.0)
+    ax_a.add_patch(plt.Rectangle(lo - pad, *(hi - lo + 2 * pad), fill=False, lw=1.0, ec="0.3"))
+    ax_b.set_xlim(lo[0] - pad, hi[0] + pad)
+    ax_b.set_ylim(hi[1] + pad, lo[1] - pad)
+    ax_a.set_title("(a) all pins: taps (black) vs slides (colour)")
+    ax_b.set_title("(b) central pin")
+    ax_b.legend(fontsize=7, loc="best")
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    out_png = Path(out_png)
+    out_png.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out_png)
+    plt.close(fig)
+    return out_png
+
+
+def write_shear_figure(out_png: Path, fidelity: str = "default", friction: bool = True) -> dict:
+    """Collect the taps and slides, write Fig. 2 to `out_png`, return the numbers.
+
+    Returns shear_numbers(...) plus "png" (path), "fidelity", "friction".
+    """
+    data = collect_shear_data(fidelity, friction)
+    label = "with friction" if friction else "frictionless"
+    plot_shear_figure(data, Path(out_png), f"Sliding vs tapping across an edge ({fidelity}, {label})")
+    numbers = shear_numbers(data)
+    numbers.update({"png": str(out_png), "fidelity": fidelity, "friction": friction})
+    return numbers

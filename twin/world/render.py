@@ -1,0 +1,119 @@
+"""Headless rendering: the TacTip's inside-camera frame and an overview of the scene.
+
+The inside view is rendered from a small dedicated MuJoCo model (pins + dark skin seen
+from the camera), fed with the pin tips computed by the physics. Rendering only what the
+camera can see keeps the frame rate high and the image identical whichever physics
+fidelity produced the pins.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from twin.world import gl  # noqa: F401  (must precede the mujoco import)
+import mujoco
+
+from twin.core.sensor import N_PINS, CameraModel
+
+# MuJoCo cameras look along −z with +y up; OpenCV cameras along +z with +y down.
+_OPENCV_TO_MUJOCO_CAMERA_QUAT = "0 1 0 0"
+
+
+def _pin_scene_xml(camera: CameraModel, lighting: bool, msaa: int) -> str:
+    g = camera.geometry
+    # Dark skin: a disc just beyond the apex whose image fills the circular aperture.
+    skin_depth = g.camera_to_apex + 0.002
+    skin_radius = camera.aperture_radius_px / camera.focal_px * skin_depth
+    if lighting:
+        # LED ring next to the camera: diffuse shading and fall-off with distance.
+        pin_material = '<material name="pin" rgba="0.95 0.95 0.92 1" specular="0.3" shininess="0.5" emission="0.35"/>'
+        lights = '<light pos="0 0 0" dir="0 0 1" directional="false" diffuse="0.9 0.9 0.85" attenuation="1 8 0" castshadow="false"/>'
+        skin_rgba = "0.10 0.10 0.11 1"
+    else:
+        pin_material = '<material name="pin" rgba="1 1 1 1" emission="1" specular="0"/>'
+        lights = ""
+        skin_rgba = "0.08 0.08 0.08 1"
+    # The skin is a many-sided thin prism (a round aperture) so the spheres can use few slices.
+    n = 192
+    angles = np.arange(n) * 2 * np.pi / n
+    ring = np.column_stack([skin_radius * np.cos(angles), skin_radius * np.sin(angles)])
+    disc = np.vstack([np.column_stack([ring, np.zeros(n)]), np.column_stack([ring, np.full(n, 1e-4)])])
+    disc_vertices = " ".join(f"{v:.7g}" for v in disc.ravel())
+    pins = "\n".join(
+        f'<body name="pin{i}" mocap="true"><geom type="sphere" size="{g.pin_radius}" material="pin"/></body>'
+        for i in range(N_PINS)
+    )
+    return f"""
+<mujoco model="tactip_inside_view">
+  <visual>
+    <global offwidth="{camera.width}" offheight="{camera.height}" fovy="{camera.fov_y_deg}"/>
+    <quality offsamples="{msaa}" numslices="16" numstacks="8"/>
+    <headlight active="0" ambient="0 0 0" diffuse="0 0 0" specular="0 0 0"/>
+  </visual>
+  <default><geom contype="0" conaffinity="0"/></default>
+  <asset>
+    {pin_material}
+    <material name="skin" rgba="{skin_rgba}" emission="1" specular="0"/>
+    <mesh name="skin" vertex="{disc_vertices}"/>
+  </asset>
+  <worldbody>
+    {lights}
+    <camera name="inside" pos="0 0 0" quat="{_OPENCV_TO_MUJOCO_CAMERA_QUAT}" fovy="{camera.fov_y_deg}"/>
+    <geom name="skin" type="mesh" mesh="skin" pos="0 0 {skin_depth}" material="skin"/>
+    {pins}
+  </worldbody>
+</mujoco>"""
+
+
+class PinRenderer:
+    """Renders the inside-camera frame (H, W, 3) uint8 RGB from pin tips in the tool frame.
+
+    `lighting` models the LED ring (shaded pins, fall-off); without it pins are flat white
+    discs. `noise_std` (grey levels) adds per-pixel Gaussian camera noise drawn from the
+    generator passed to `render`.
+    """
+
+    def __init__(self, camera: CameraModel, lighting: bool = False, msaa: int = 0) -> None:
+        self.camera = camera
+        self.model = mujoco.MjModel.from_xml_string(_pin_scene_xml(camera, lighting, msaa))
+        self.data = mujoco.MjData(self.model)
+        self._renderer = mujoco.Renderer(self.model, camera.height, camera.width)
+        self._camera_id = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, "inside")
+        self._tool2camera_offset = np.array([0.0, 0.0, camera.geometry.camera_to_apex])
+
+    def render(
+        self,
+        pins_tool: np.ndarray,
+        noise_std: float = 0.0,
+        rng: np.random.Generator | None = None,
+    ) -> np.ndarray:
+        """Frame for (127, 3) pin tips in the tool frame (m)."""
+        self.data.mocap_pos[:] = pins_tool + self._tool2camera_offset
+        mujoco.mj_kinematics(self.model, self.data)
+        mujoco.mj_camlight(self.model, self.data)  # the camera pose is computed here, not in mj_kinematics
+        self._renderer.update_scene(self.data, self._camera_id)
+        frame = self._renderer.render()
+        if noise_std > 0:
+            if rng is None:
+                raise ValueError("camera noise needs a seeded numpy Generator")
+            grey = rng.standard_normal(frame.shape[:2], dtype=np.float32) * np.float32(noise_std)
+            frame = np.clip(frame + grey[..., None], 0, 255).astype(np.uint8)
+        return frame
+
+    def close(self) -> None:
+        self._renderer.close()
+
+
+def render_overview(model: mujoco.MjModel, data: mujoco.MjData, width: int = 960, height: int = 720,
+                    lookat: np.ndarray | None = None, distance: float = 1.2,
+                    azimuth: float = 135.0, elevation: float = -25.0) -> np.ndarray:
+    """Overview image of a whole scene from a free camera (RGB uint8)."""
+    model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
+    model.vis.global_.offheight = max(model.vis.global_.offheight, height)
+    cam = mujoco.MjvCamera()
+    mujoco.mjv_defaultFreeCamera(model, cam)
+    if lookat is not None:
+        cam.lookat[:] = lookat
+    cam.distance, cam.azimuth, cam.elevation = distance, azimuth, elevation
+    with mujoco.Renderer(model, height, width) as renderer:
+        renderer.update_scene(data, cam)
+        return renderer.render()

@@ -1,0 +1,160 @@
+"""Scene assembly: a scenario in, compiled MuJoCo models out, with only what its effects
+need (DESIGN §3).
+
+The **physics scene** is built in the tool frame (twin.world.dome.flex.add_stimulus_carrier says
+why): the TacTip sits still at the origin and the object rides a free "stimulus carrier"
+that twin.world.dome.physics drives along the commanded path. The **overview scene** is the lab as
+a person sees it — table, IRB120, TacTip, object — for `twin render --view scene`; it is
+only rendered, never stepped.
+
+| effect        | what it builds                                                      |
+|---------------|---------------------------------------------------------------------|
+| contact       | the object's convex collision pieces (else the object has none)      |
+| friction      | frictional dome contacts (else condim 1, no friction rows at all)    |
+| render, camera_noise, lighting | nothing here: twin.world.render                          |
+
+World = robot base frame on the table top (README "Conventions").
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from twin.world import gl  # noqa: F401
+import mujoco
+
+from twin.world.dome.flex import FIDELITY_LEVELS, DomeParams, TacTipHandles, add_stimulus_carrier, add_tactip
+from twin.core.errors import UserError
+from twin.world.kinematics import IRB120_XML, Irb120Kinematics
+from twin.core.poses import Pose, make_transform, matrix_to_quat_wxyz
+from twin.core.scenario import Scenario
+from twin.world.stimuli import Stimulus, load_stimulus
+from twin.core.sensor import CameraModel, TacTipGeometry
+
+#: Flange (ABB tool0) to the undeformed dome apex along the flange's +z (m): the TacTip's
+#: mounting adapter, camera housing and dome stacked (assets/tactip/README.md).
+FLANGE_TO_APEX = 0.101
+TOOL2FLANGE = make_transform(np.eye(3), np.array([0.0, 0.0, FLANGE_TO_APEX]))
+TABLE_HALF_SIZE = (0.6, 0.5, 0.02)  # m
+FLIP_X = np.diag([1.0, -1.0, -1.0])  # work frame = object frame turned 180° about x (z into the object)
+OBJECT_PRIORITY = 1  # object geoms win the friction mix against the skin (contact μ = the object's)
+
+
+@dataclass
+class Scene:
+    """The compiled physics scene and what the simulation needs to drive it."""
+
+    scenario: Scenario
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    stimulus: Stimulus
+    tactip: TacTipHandles
+    dome_params: DomeParams
+    camera: CameraModel
+    object2world: np.ndarray
+    work2world: np.ndarray
+
+
+def load_scenario_stimulus(scenario: Scenario) -> Stimulus:
+    """The scenario's object (built-in, STL or outline, paths relative to the scenario)."""
+    o = scenario.object
+    kwargs = {}
+    if o.material is not None:
+        kwargs["material"] = o.material
+    if o.friction is not None:
+        kwargs["friction"] = o.friction
+    if o.name is not None:
+        return load_stimulus(o.name, **kwargs)
+    path = scenario.resolve(o.stl or o.outline)
+    return load_stimulus(path, thickness_mm=o.thickness_mm, **kwargs)
+
+
+def object_and_work_frames(scenario: Scenario, stimulus: Stimulus) -> tuple[np.ndarray, np.ndarray]:
+    """(object2world, work2world) 4×4 (m) for the scenario's placement."""
+    px, py = np.asarray(scenario.placement.position_mm) * 1e-3
+    yaw = np.radians(scenario.placement.yaw_deg)
+    rz = np.array([[np.cos(yaw), -np.sin(yaw), 0], [np.sin(yaw), np.cos(yaw), 0], [0, 0, 1]])
+    object2world = make_transform(rz, np.array([px, py, stimulus.thickness_mm * 1e-3]))
+    if scenario.work_frame == "object":
+        work2world = make_transform(rz @ FLIP_X, object2world[:3, 3])
+    else:
+        work2world = Pose.from_array(scenario.work_frame).to_matrix()
+    return object2world, work2world
+
+
+@lru_cache(maxsize=1)
+def kinematics() -> Irb120Kinematics:
+    return Irb120Kinematics()
+
+
+def _add_object(spec: mujoco.MjSpec, body: mujoco.MjsBody, stimulus: Stimulus, collide: bool, friction: bool) -> None:
+    colour = {"acrylic": [0.75, 0.85, 0.95, 1.0], "abs": [0.95, 0.75, 0.1, 1.0]}.get(stimulus.material, [0.2, 0.45, 0.8, 1.0])
+    for g in stimulus.add_to_spec(spec, body, prefix="object"):
+        g.rgba = colour
+        g.priority = OBJECT_PRIORITY if friction else 0
+        if not collide:
+            g.contype = g.conaffinity = 0
+
+
+def dome_params(scenario: Scenario) -> DomeParams:
+    """The scenario's fidelity level with its `physics` overrides applied."""
+    return FIDELITY_LEVELS[scenario.fidelity].with_(**scenario.physics.as_dome_changes())
+
+
+def build_scene(scenario: Scenario, start_pose: Pose) -> Scene:
+    """Compile the physics scene with the sensor at `start_pose` (work frame, mm/deg)."""
+    stimulus = load_scenario_stimulus(scenario)
+    params = dome_params(scenario)
+    object2world, work2world = object_and_work_frames(scenario, stimulus)
+    spec = mujoco.MjSpec()
+    spec.modelname = f"twin_{scenario.name}"
+    carrier = add_stimulus_carrier(spec)
+    _add_object(spec, carrier, stimulus, collide=scenario.has("contact"), friction=scenario.has("friction"))
+    handles = add_tactip(spec, spec.worldbody, TacTipGeometry(), params, friction=scenario.has("friction"))
+    try:
+        model = spec.compile()
+    except ValueError as err:
+        raise UserError(f"{scenario.source}: the scene does not compile: {err}") from None
+    data = mujoco.MjData(model)
+    return Scene(scenario, model, data, stimulus, handles.resolve(model), params, scenario.camera_model(),
+                 object2world, work2world)
+
+
+def _add_tactip_visual(body: mujoco.MjsBody, geometry: TacTipGeometry) -> None:
+    """The TacTip as seen from outside (body frame = flange): adapter, housing, dome."""
+    apex = FLANGE_TO_APEX
+    dome_centre = apex - geometry.dome_outer_radius
+    base_top = dome_centre - geometry.base_length
+    body.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.9 * geometry.dome_outer_radius, base_top / 2],
+                  pos=[0, 0, base_top / 2], rgba=[0.1, 0.1, 0.1, 1], contype=0, conaffinity=0, mass=0)
+    body.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[geometry.dome_outer_radius, geometry.base_length / 2],
+                  pos=[0, 0, base_top + geometry.base_length / 2], rgba=[0.15, 0.15, 0.15, 1], contype=0, conaffinity=0, mass=0)
+    body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[geometry.dome_outer_radius], pos=[0, 0, dome_centre],
+                  rgba=[0.05, 0.05, 0.05, 1], contype=0, conaffinity=0, mass=0)
+
+
+def build_overview(scenario: Scenario, pose: Pose) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    """The lab for pictures: table, IRB120 posed by IK with the sensor at `pose` (work
+    frame, mm/deg), TacTip, object."""
+    stimulus = load_scenario_stimulus(scenario)
+    object2world, work2world = object_and_work_frames(scenario, stimulus)
+    tool2world = work2world @ pose.to_matrix()
+    spec = mujoco.MjSpec()
+    spec.modelname = f"overview_{scenario.name}"
+    spec.visual.global_.offwidth, spec.visual.global_.offheight = 1280, 960
+    spec.worldbody.add_light(pos=[0.3, -0.3, 1.5], dir=[-0.2, 0.2, -1], diffuse=[0.7, 0.7, 0.7])
+    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=list(TABLE_HALF_SIZE), pos=[0.35, 0, -TABLE_HALF_SIZE[2]],
+                            rgba=[0.55, 0.45, 0.35, 1], contype=0, conaffinity=0)
+    obj = spec.worldbody.add_body(name="object", pos=object2world[:3, 3], quat=matrix_to_quat_wxyz(object2world[:3, :3]))
+    _add_object(spec, obj, stimulus, collide=False, friction=False)
+    arm = mujoco.MjSpec.from_file(str(IRB120_XML))
+    _add_tactip_visual(arm.body("flange"), TacTipGeometry())
+    spec.worldbody.add_frame().attach_body(arm.body("base"), "arm_", "")
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    adr = [model.jnt_qposadr[model.joint(f"arm_joint{i}").id] for i in range(1, 7)]
+    data.qpos[adr] = kinematics().inverse(tool2world, TOOL2FLANGE)
+    mujoco.mj_forward(model, data)
+    return model, data
