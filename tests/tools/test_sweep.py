@@ -15,7 +15,7 @@ import pytest
 
 from twin.world.dome.flex import FIDELITY_LEVELS
 from twin.core.errors import PhysicsError
-from twin.world.dome.physics import edge_scene, sensor_down
+from twin.world.dome.testbed import edge_scene, sensor_down
 from twin.tools.sweep import (CSV_COLUMNS, DEFAULT, REFERENCE, Probe, Setting, dominates, dominators, markdown_table,
                         pareto_flags, quick_settings, run_sweep)
 

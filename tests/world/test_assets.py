@@ -1,5 +1,5 @@
 """Every model in assets/ and every scenario's scene compiles and steps 1 s of simulated
-time with zero MuJoCo warnings (the Menagerie habit, DESIGN §7)."""
+time with zero MuJoCo warnings (the MuJoCo Menagerie habit)."""
 from __future__ import annotations
 
 from pathlib import Path

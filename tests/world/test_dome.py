@@ -1,7 +1,7 @@
 """The compliant dome (twin.world.dome.flex) and its quasi-static stepping (twin.world.dome.physics).
 
 Scene: a box "rectangle" whose top face is z = 0 with a straight edge along y at x = 0
-(box at x < 0), the TacTip pointing down (twin.world.dome.physics.edge_scene). No mocks.
+(box at x < 0), the TacTip pointing down (twin.world.dome.testbed.edge_scene). No mocks.
 
 Pixel scale: CameraModel focal ≈ 451 px; pin tips lie 30–45 mm from the camera, so
 1 µm lateral ≈ 0.010–0.015 px and the 2 µm rest tolerance ≈ 0.02–0.03 px (< 0.05 px).
@@ -13,7 +13,7 @@ import pytest
 
 from twin.world.dome.flex import FIDELITY_LEVELS, DomeParams
 from twin.core.errors import PhysicsError
-from twin.world.dome.physics import edge_scene, sensor_down
+from twin.world.dome.testbed import edge_scene, sensor_down
 from twin.core.sensor import CameraModel
 
 SPEED = 15.0  # mm/s, the paper's robot
@@ -151,11 +151,3 @@ def test_pin_map_is_exact():
     mujoco.mj_flex(physics.model, physics.data)
     exact = pin_tips_tool(physics.model, physics.data, physics.handles)
     assert np.max(np.abs(physics._pin_map(physics.data.qpos) - exact)) < 1e-12
-
-
-def test_benchmark_rows():
-    from twin.world.dome.physics import benchmark_physics
-
-    (row,) = benchmark_physics(["fast"], repeats=1, verbose=False)
-    assert set(row) == {"level", "ms_per_frame", "steps_per_frame", "ms_per_step"}
-    assert row["level"] == "fast" and row["ms_per_frame"] > 0 and row["steps_per_frame"] >= 1

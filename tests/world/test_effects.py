@@ -1,4 +1,4 @@
-"""Effects (DESIGN §3): each changes what is simulated, and an effect that is off is not
+"""Effects: each changes what is simulated, and an effect that is off is not
 built and costs nothing — checked on the compiled model and on the constraint rows MuJoCo
 actually creates (mjData.ncon / nefc), never with timing asserts.
 

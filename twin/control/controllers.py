@@ -15,7 +15,7 @@ from typing import Protocol
 import numpy as np
 
 from twin.core.errors import UserError
-from twin.core.poses import Pose
+from twin.core.poses import Pose, wrap_deg
 
 #: Travel direction: counter-clockwise seen from above (object on the left). The work
 #: frame is the object frame turned 180° about x, so in work coordinates the tangent is
@@ -45,7 +45,7 @@ class Controller(Protocol):
 
 def normal_from_theta(gamma_deg: float, theta_deg: float) -> float:
     """Perceived outward edge normal ψ̂ (deg, work frame) from the sensor's γ and θ̂."""
-    return float((gamma_deg - theta_deg + 180.0) % 360.0 - 180.0)
+    return float(wrap_deg(gamma_deg - theta_deg))
 
 
 @dataclass

@@ -8,6 +8,7 @@ from typing import Annotated, Literal, Union
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from twin.core.poses import Pose
+from twin.core.resources import scenario_path
 from twin.core.sensor import CameraModel
 from twin.core.validation import read_yaml, validate_mapping
 
@@ -115,7 +116,7 @@ class _StraightEdgeProtocol(_Strict):
     lateral_mm: list[float] = [9.9, 6, 4, 2, 0, -2, -4, -6]
     edge_point_mm: Annotated[list[float], Field(min_length=2, max_length=2)] = [60.0, 0.0]
     edge_normal_deg: float = 0.0
-    approach_mm: float = Field(default=5.0, gt=0, le=50)
+    approach_mm: float = Field(default=-HOVER_Z_MM, gt=0, le=50)
     speed_mm_s: float = Field(default=DEFAULT_SPEED_MM_S, gt=0, le=250)
     free_speed_mm_s: float = Field(default=50.0, gt=0, le=250, description="moves above the object, out of contact")
 
@@ -218,5 +219,9 @@ def scenario_from_dict(data: dict, source: str = "<inline>") -> Scenario:
 
 
 def load_scenario(path: str | Path) -> Scenario:
-    """Read and validate a scenario YAML file."""
-    return scenario_from_dict(read_yaml(path, "scenario"), str(path))
+    """Read and validate a scenario YAML file: a path, or the name of a shipped scenario
+    (``contour_flower``; twin.core.resources.shipped_scenarios)."""
+    given = Path(path)
+    if not given.suffix and not given.exists() and given.name == str(path):
+        given = scenario_path(str(path))
+    return scenario_from_dict(read_yaml(given, "scenario"), str(given))

@@ -103,7 +103,7 @@ class CameraModel:
     def focal_px(self) -> float:
         return 0.5 * self.height / np.tan(np.radians(self.fov_y_deg) / 2)
 
-    @property
+    @cached_property
     def intrinsics(self) -> np.ndarray:
         """3×3 matrix K (px)."""
         f = self.focal_px
@@ -112,10 +112,17 @@ class CameraModel:
         return np.array([[f, 0.0, (self.width - 1) / 2], [0.0, f, (self.height - 1) / 2], [0.0, 0.0, 1.0]])
 
     def project_tool_points(self, points_tool: np.ndarray) -> np.ndarray:
-        """Project (N, 3) tool-frame points (m) to (N, 2) pixels (u right, v down)."""
-        p = points_tool + np.array([0.0, 0.0, self.geometry.camera_to_apex])
+        """Project (N, 3) tool-frame points (m) to (N, 2) pixels (u right, v down): the
+        one pinhole projection of the twin (the camera sits camera_to_apex behind the apex)."""
         k = self.intrinsics
-        return np.column_stack([k[0, 0] * p[:, 0] / p[:, 2] + k[0, 2], k[1, 1] * p[:, 1] / p[:, 2] + k[1, 2]])
+        z = points_tool[:, 2] + self.geometry.camera_to_apex
+        return np.column_stack([k[0, 0] * points_tool[:, 0] / z + k[0, 2], k[1, 1] * points_tool[:, 1] / z + k[1, 2]])
+
+    def rescale_px(self, pins_px: np.ndarray, from_width: int) -> np.ndarray:
+        """Pixel coordinates measured at another resolution of this camera (same field of
+        view), at `from_width` px wide, moved to this one: u' = (u + 0.5)·r − 0.5 with
+        r = width / from_width (pixel centres at integer coordinates)."""
+        return (np.asarray(pins_px, float) + 0.5) * (self.width / float(from_width)) - 0.5
 
     @property
     def aperture_radius_px(self) -> float:

@@ -432,7 +432,7 @@ class PerceptionModel:
             raise UserError(f"perception: pins must be (M, {N_PINS}, 2) px, got shape {pins.shape}")
         if resolution is not None and int(resolution[0]) != int(self.resolution[0]):
             # Pixel centres sit at integer coordinates: scale about the image corner (−0.5, −0.5).
-            pins = (pins + 0.5) * (float(self.resolution[0]) / float(resolution[0])) - 0.5
+            pins = CameraModel(*self.resolution).rescale_px(pins, resolution[0])
         return pins
 
     def project(self, pins_px: np.ndarray) -> np.ndarray:

@@ -14,7 +14,9 @@ import numpy as np
 from twin.world import gl
 from twin.world.render import PinRenderer
 from twin.core.sensor import CameraModel
-from twin.world.dome.physics import benchmark_physics
+from twin.core.scenario import ContourProtocol
+from twin.world.dome.flex import FIDELITY_LEVELS
+from twin.world.dome.testbed import edge_scene, sensor_down
 from twin.sensing.perception import benchmark_perception
 from twin.runs.runner import run_chunk, worker_environment
 from twin.runs.parallel import default_workers, map_ordered
@@ -157,6 +159,48 @@ def _print_rows(title: str, rows: list[dict]) -> None:
     print("  ".join(k.ljust(w) for k, w in zip(keys, widths)))
     for r in rows:
         print("  ".join(fmt(r.get(k, "")).ljust(w) for k, w in zip(keys, widths)))
+
+
+def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose: bool = True) -> list[dict]:
+    """ms of physics per settled frame for each fidelity level, best of `repeats`.
+
+    A contour-following sequence on the edge scene with the contour protocol's defaults
+    (twin.core.scenario.ContourProtocol: depth d, step e, speed): press to d at the edge, then
+    eight steps of e along the edge, then lift off. Each frame = move + settle, timed as
+    wall time of the whole SensorPhysics calls (stepping, pin read-out, checks, skin
+    layer). Returns one dict per level: level, ms_per_frame (best), steps_per_frame
+    (mean), ms_per_step.
+    """
+
+    contour = ContourProtocol()
+    depth, step = contour.depth_mm, contour.step_mm
+    poses = ([sensor_down(0, 0, depth)] + [sensor_down(0, step * k, depth) for k in range(1, 9)]
+             + [sensor_down(0, 8 * step, -2)])
+    rows = []
+    for level in levels or list(FIDELITY_LEVELS):
+        params = FIDELITY_LEVELS[level]
+        best = np.inf
+        for _ in range(repeats):
+            model, data, handles, physics = edge_scene(params, scenario=f"benchmark-{level}")
+            t0 = time.perf_counter()
+            for pose in poses:
+                physics.move(pose, contour.speed_mm_s)
+                physics.settle()
+            elapsed = time.perf_counter() - t0
+            if elapsed < best:
+                best, steps = elapsed, physics.steps
+        row = {
+            "level": level,
+            "ms_per_frame": 1e3 * best / len(poses),
+            "steps_per_frame": steps / len(poses),
+            "ms_per_step": 1e3 * best / steps,
+        }
+        rows.append(row)
+        if verbose:
+            print(f"{level:10s} {row['ms_per_frame']:7.1f} ms/frame  {row['steps_per_frame']:5.1f} steps/frame  "
+                  f"{row['ms_per_step']:.3f} ms/step")
+    return rows
+
 
 
 def run_bench(what: str = "all", quick: bool = False, out: Path | None = None, workers: int | None = None,

@@ -88,8 +88,7 @@ import numpy as np
 
 from twin.world import gl  # headless GL before anything imports mujoco
 from twin.world.dome.flex import FIDELITY_LEVELS
-from twin.runs.runner import chunk_moves
-from twin.sensing.pins import PinReader
+from twin.runs.runner import chunk_moves, chunk_samples
 from twin.runs.sim_env import SimEnvironment
 from twin.control.contour import ContourFollower
 from twin.runs.contour import contour_metrics
@@ -103,6 +102,7 @@ import matplotlib
 import matplotlib.pyplot as plt
 import matplotlib.ticker
 from twin.core.scenario import scenario_from_dict
+from twin.core.sensor import CameraModel
 
 if TYPE_CHECKING:
     from twin.core.scenario import Scenario
@@ -272,7 +272,7 @@ def _rescale_pins(pins_px: np.ndarray, width: int) -> np.ndarray:
     """Pins (px) at image width `width` → px at REFERENCE_RESOLUTION (pixel centres at integers)."""
     if int(width) == REFERENCE_RESOLUTION[0]:
         return np.asarray(pins_px, float)
-    return (np.asarray(pins_px, float) + 0.5) * (REFERENCE_RESOLUTION[0] / float(width)) - 0.5
+    return CameraModel(*REFERENCE_RESOLUTION).rescale_px(pins_px, width)
 
 
 STAGES: tuple[str, ...] = ("physics", "render", "track", "perception")
@@ -340,17 +340,8 @@ def _open_loop(env, moves, stages: _Stages, settling: bool = False) -> dict:
     settling = settling and isinstance(env, SimEnvironment)
     pins, truth, found, labels, converged = [], [], [], [], []
     for chunk in chunk_moves(moves):
-        reader = PinReader(env.reset())
-        for move in chunk:
-            if not move.record:
-                env.move_to(move.pose, move.speed_mm_s)
-                continue
-            with stages.clock("physics"):
-                env.move_to(move.pose, move.speed_mm_s)
-            with stages.clock("render"):
-                obs = env.observe()
-            with stages.clock("track"):
-                p, f, _ = reader.read(obs)
+        for sample in chunk_samples(env, chunk, stages.clock):
+            obs, p, f, move = sample.observation, sample.pins_px, sample.found, sample.move
             pins.append(np.asarray(p, float))
             truth.append(np.asarray(obs.truth["pins_px"], float))
             found.append(np.ones(len(p), bool) if f is None else np.asarray(f, bool))

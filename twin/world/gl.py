@@ -3,7 +3,7 @@
 EGL (Mesa llvmpipe on CPU, or a GPU driver) is the default; OSMesa is the fallback when
 no EGL library can be loaded. `TWIN_GL` or `MUJOCO_GL` (egl | osmesa) force a choice.
 Both MuJoCo and PyOpenGL read their backend from the environment at import time, so
-the two variables must agree and be set first (DESIGN §5).
+the two variables must agree and be set first.
 """
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Scene assembly: a scenario in, compiled MuJoCo models out, with only what its effects
-need (DESIGN §3).
+need.
 
 The **physics scene** is built in the tool frame (twin.world.dome.flex.add_stimulus_carrier says
 why): the TacTip sits still at the origin and the object rides a free "stimulus carrier"

@@ -1,6 +1,6 @@
 """The compliant TacTip dome: a MuJoCo flex with the 127 pin tips as vertices.
 
-Model (DESIGN §5). The dome is a *solid* hemisphere of gel under the skin, meshed into
+Model. The dome is a *solid* hemisphere of gel under the skin, meshed into
 tetrahedra whose vertices include the 127 pin tips, and simulated as one 3-D flex with
 ``dof="trilinear"``: the degrees of freedom live on a coarse background grid of nodes
 (``cellcount`` cells, (cx+1)(cy+1)(cz+1) nodes) and every mesh vertex — the pin tips
@@ -113,7 +113,7 @@ class DomeParams:
       surface_spacing (m): spacing of the collision vertices on the outer surface. The
         edge of a box is resolved to about this length.
       cellcount: trilinear background grid (cells along tool x, y, z). 4×4×2 = 10 mm cells
-        in a 40 × 40 × 20 mm box (DESIGN §5); the pin field is as smooth as this grid.
+        in a 40 × 40 × 20 mm box; the pin field is as smooth as this grid.
         5×5×2 (young 4.5e4 for the same 4.3 N) is as fast and 0.2 px closer to the
         reference, but a 90° turn of the sensor turned its pin pattern by 60° instead
         of 90° (tests/test_dome.py), so 4×4×2 stays the default.
@@ -436,7 +436,7 @@ def _ghost_pins(params: DomeParams) -> str:
 
 
 def configure_options(spec: mujoco.MjSpec, params: DomeParams) -> None:
-    """Set the solver options the dome needs on the whole scene (DESIGN §5).
+    """Set the solver options the dome needs on the whole scene.
 
     impratio (frictional/normal impedance ratio, elliptic cones only) makes static
     friction "harder": MuJoCo's soft friction otherwise lets a sheared dome creep back,

@@ -15,7 +15,7 @@ dome's velocities are zeroed before every step, so each implicit step is a dampe
 iteration towards the equilibrium that the move left the skin near; friction keeps the
 shear the path put in (the stuck contacts hold it), and a frame settles in a few steps.
 
-Flex runs in MuJoCo can go wrong without NaN (DESIGN §5), so *every* step is checked and
+Flex runs in MuJoCo can go wrong without NaN, so *every* step is checked and
 any failure raises `PhysicsError` naming the scenario, the step, the pose and what failed:
   * a MuJoCo warning counter increased (mjData.warning);
   * NaN/Inf in qpos, qvel or the pin tips;
@@ -65,10 +65,6 @@ from twin.core.errors import PhysicsError
 from twin.core.poses import Pose, invert_transform, make_transform
 from twin.world.dome.skin import SkinLayer, skin_layer
 from twin.core.sensor import CameraModel
-from twin.world.dome.flex import add_stimulus_carrier, add_tactip
-from twin.core.sensor import TacTipGeometry
-from twin.world.dome.flex import FIDELITY_LEVELS
-from twin.core.scenario import ContourProtocol
 
 
 @dataclass(frozen=True)
@@ -216,10 +212,8 @@ class SensorPhysics:
         self._set_carrier(self._carrier_state(self._commanded, np.zeros(3), np.zeros(3)))
         mujoco.mj_forward(model, data)
         self.rest_pins = pin_tips_tool(model, data, handles).copy()
-        k = self.camera.intrinsics
-        self._projection = (k[0, 0], k[1, 1], k[0, 2], k[1, 2], self.camera.geometry.camera_to_apex)
         self._pins = self._read_pins()
-        self._pins_px = self._project(self._pins)
+        self._pins_px = self.camera.project_tool_points(self._pins)
         self.step_seconds = 0.0  # wall time spent in physics steps (s), for benchmarks
         self._check(self._commanded)
 
@@ -408,13 +402,7 @@ class SensorPhysics:
         self._steps += 1
         self._since_frame += 1
         self._pins = self._read_pins()
-        self._pins_px = self._project(self._pins)
-
-    def _project(self, pins_tool: np.ndarray) -> np.ndarray:
-        """CameraModel.project_tool_points with the intrinsics unpacked once (px)."""
-        fx, fy, cx, cy, z0 = self._projection
-        z = pins_tool[:, 2] + z0
-        return np.column_stack([fx * pins_tool[:, 0] / z + cx, fy * pins_tool[:, 1] / z + cy])
+        self._pins_px = self.camera.project_tool_points(self._pins)
 
     def _check(self, pose: np.ndarray | None, at: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         """Per-step sanity checks (module docstring); `pose` (4×4) or `at` (R, p) names the
@@ -514,74 +502,3 @@ class SensorPhysics:
             (self._steps, self._since_frame, self._pins, self._pins_px, self._warnings, self.step_seconds,
              self.skin_seconds) = saved
         return pins
-
-
-def edge_scene(params: DomeParams, friction: bool = True, object_friction: float = 1.0, scenario: str = "edge",
-               start_tool2world: np.ndarray | None = None):
-    """A minimal scene for tests and benchmarks: a 60 × 60 × 20 mm box whose top face is
-    z = 0 with a straight edge along y at x = 0 (box at x < 0), and the TacTip pointing
-    down (tool z = −world z). Returns (model, data, handles, SensorPhysics)."""
-
-    spec = mujoco.MjSpec()
-    carrier = add_stimulus_carrier(spec)
-    carrier.add_geom(name="rectangle", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.03, 0.03, 0.01],
-                     pos=[-0.03, 0.0, -0.01], friction=[object_friction, 0.005, 0.0001])
-    handles = add_tactip(spec, spec.worldbody, TacTipGeometry(), params, friction)
-    model = spec.compile()
-    data = mujoco.MjData(model)
-    handles = handles.resolve(model)
-    start = sensor_down(0.0, 0.0, -2.0) if start_tool2world is None else start_tool2world
-    return model, data, handles, SensorPhysics(model, data, handles, params, scenario, start)
-
-
-def sensor_down(x_mm: float, y_mm: float, depth_mm: float, gamma_deg: float = 0.0) -> np.ndarray:
-    """tool2world of a sensor pointing straight down (tool z = −world z), apex at
-    (x, y, −depth) mm, rotated by γ about its own axis (deg)."""
-    down = np.diag([1.0, -1.0, -1.0])
-    rot = down @ Rotation.from_euler("z", gamma_deg, degrees=True).as_matrix()
-    return make_transform(rot, np.array([x_mm, y_mm, -depth_mm]) * 1e-3)
-
-
-def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose: bool = True) -> list[dict]:
-    """ms of physics per settled frame for each fidelity level, best of `repeats`.
-
-    A contour-following sequence on the edge scene with the contour protocol's defaults
-    (twin.core.scenario.ContourProtocol: depth d, step e, speed): press to d at the edge, then
-    eight steps of e along the edge, then lift off. Each frame = move + settle, timed as
-    wall time of the whole SensorPhysics calls (stepping, pin read-out, checks, skin
-    layer). Returns one dict per level: level, ms_per_frame (best), steps_per_frame
-    (mean), ms_per_step.
-    """
-
-    contour = ContourProtocol()
-    depth, step = contour.depth_mm, contour.step_mm
-    poses = ([sensor_down(0, 0, depth)] + [sensor_down(0, step * k, depth) for k in range(1, 9)]
-             + [sensor_down(0, 8 * step, -2)])
-    rows = []
-    for level in levels or list(FIDELITY_LEVELS):
-        params = FIDELITY_LEVELS[level]
-        best = np.inf
-        for _ in range(repeats):
-            model, data, handles, physics = edge_scene(params, scenario=f"benchmark-{level}")
-            t0 = time.perf_counter()
-            for pose in poses:
-                physics.move(pose, contour.speed_mm_s)
-                physics.settle()
-            elapsed = time.perf_counter() - t0
-            if elapsed < best:
-                best, steps = elapsed, physics.steps
-        row = {
-            "level": level,
-            "ms_per_frame": 1e3 * best / len(poses),
-            "steps_per_frame": steps / len(poses),
-            "ms_per_step": 1e3 * best / steps,
-        }
-        rows.append(row)
-        if verbose:
-            print(f"{level:10s} {row['ms_per_frame']:7.1f} ms/frame  {row['steps_per_frame']:5.1f} steps/frame  "
-                  f"{row['ms_per_step']:.3f} ms/step")
-    return rows
-
-
-if __name__ == "__main__":
-    benchmark_physics()

@@ -36,6 +36,7 @@ from shapely.geometry import LinearRing, LineString, Polygon
 from shapely.geometry.polygon import orient
 
 from twin.core.errors import UserError
+from twin.core.poses import wrap_deg
 
 from twin.world.stimuli.outlines import (
     MM, SAGITTA_MM, SpiralParams, circle_outline, convex_partition, extrude_mesh, flower_curvature_radii,
@@ -250,12 +251,7 @@ class Stimulus:
     @property
     def start_direction_deg(self) -> float:
         """Direction of travel at the start (deg, object frame): the CCW edge tangent."""
-        return float(_wrap_deg(self.outward_normal_deg([self.start_point_mm])[0] + 90.0))
-
-
-def _wrap_deg(a: float) -> float:
-    """Angle wrapped to (−180, 180] degrees."""
-    return 180.0 - (180.0 - a) % 360.0
+        return float(wrap_deg(self.outward_normal_deg([self.start_point_mm])[0] + 90.0))
 
 
 def _default_start(outline: Polygon) -> tuple[float, float]:

@@ -1,10 +1,9 @@
-"""`twin bench throughput` runs the slide protocol end to end in one process and over all
-cores and reports consistent figures (no timing asserts: speed is printed, not tested)."""
+"""`twin bench` physics and throughput rows are consistent (no timing asserts: speed is printed, not tested)."""
 from __future__ import annotations
 
 import pytest
 
-from twin.tools.bench import bench_throughput
+from twin.tools.bench import bench_throughput, benchmark_physics
 
 
 @pytest.mark.slow
@@ -16,3 +15,9 @@ def test_throughput_rows_are_consistent() -> None:
         assert r["fps_1_process"] > 0 and r["fps_all_cores"] > 0
         assert r["fps_all_cores_steady"] >= r["fps_all_cores"]  # start-up removed, never added
         assert r["ms_per_frame_1_process"] == pytest.approx(1e3 / r["fps_1_process"])
+
+
+def test_physics_rows_are_consistent() -> None:
+    (row,) = benchmark_physics(["fast"], repeats=1, verbose=False)
+    assert set(row) == {"level", "ms_per_frame", "steps_per_frame", "ms_per_step"}
+    assert row["level"] == "fast" and row["ms_per_frame"] > 0 and row["steps_per_frame"] >= 1
