@@ -18,6 +18,7 @@ from twin.core.errors import UnreachablePoseError, UserError
 from twin.core.poses import Pose, object_to_work_deg, object_to_work_xy, work_to_object_xy
 from twin.core.scenario import Scenario, hover_over
 from twin.sensing.pins import PinReader
+from twin.world.scene import load_scenario_stimulus
 
 #: The loop is closed (or the spiral's end reached) when the sensor comes within this
 #: distance (mm) of the first contact point (the end point) after having travelled at
@@ -41,7 +42,8 @@ class ContourStep:
     labels: dict
 
 
-def _no_clock(stage: str):
+def no_clock(stage: str):
+    """A stage clock that measures nothing (the default of every timed loop)."""
     return nullcontext()
 
 
@@ -55,10 +57,11 @@ class ContourFollower:
     "perception" and "physics" (moves), for benchmarks.
     """
 
-    def __init__(self, env: Environment, scenario: Scenario, model, stimulus, clock=_no_clock,
+    def __init__(self, env: Environment, scenario: Scenario, model, stimulus=None, clock=no_clock,
                  controller=None) -> None:
         if scenario.work_frame != "object":
             raise UserError(f"{scenario.source}: contour following needs work_frame: object")
+        stimulus = load_scenario_stimulus(scenario) if stimulus is None else stimulus
         self.env, self.scenario, self.model, self.stimulus, self.clock = env, scenario, model, stimulus, clock
         spec = scenario.protocol.controller if controller is None else controller
         self.controller = load_controller(spec, scenario.protocol, scenario.source_dir)

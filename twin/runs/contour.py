@@ -12,7 +12,7 @@ import numpy as np
 from tqdm import tqdm
 
 from twin.control.contour import COVERAGE_RADIUS_MM, ContourFollower
-from twin.core.poses import work_to_object_xy
+from twin.core.poses import work_to_object_xy, wrap_deg
 from twin.core.scenario import Scenario
 from twin.runs.backends import make_environment
 from twin.runs.record import RunRecorder, load_run
@@ -60,7 +60,7 @@ def contour_metrics(run, stimulus) -> dict:
     lab = {k: np.array([s["labels"][k] for s in samples]) for k in
            ("perceived_normal_deg", "true_normal_deg", "lateral_hat_mm", "true_lateral_mm", "ok")}
     ok = lab["ok"].astype(bool)
-    d_angle = (lab["perceived_normal_deg"] - lab["true_normal_deg"] + 180.0) % 360.0 - 180.0
+    d_angle = wrap_deg(lab["perceived_normal_deg"] - lab["true_normal_deg"])
     path_dist = stimulus.distance_to_contour(xy_obj)
     trace = stimulus.trace_path(1.0)
     gaps = np.min(np.linalg.norm(trace[:, None, :] - xy_obj[None, :, :], axis=2), axis=1) if len(xy_obj) else np.inf

@@ -3,7 +3,8 @@
 | space        | shape   | unit | meaning                                                   |
 |--------------|---------|------|-----------------------------------------------------------|
 | observation  | (254,)  | px   | pin displacements from the no-contact pins, (u1, v1, …)   |
-| action       | (2,)    | mm   | sensor step (Δx, Δy) in the work frame, each in ±max_step |
+| action       | (2,)    | –    | sensor step (Δx, Δy) in the work frame as a fraction of   |
+|              |         |      | max_step_mm (each in [−1, 1]; the step is action × max_step_mm) |
 
 Reward per step: progress along the true contour (mm, counter-clockwise) minus
 `lateral_weight` × |signed distance to the contour − l_d| (mm). The episode terminates
@@ -24,7 +25,6 @@ import gymnasium as gym
 import numpy as np
 
 from twin.core.poses import Pose, object_to_work_xy, work_to_object_xy
-from twin.core.resources import scenario_path
 from twin.core.scenario import Scenario, hover_over, load_scenario
 from twin.runs.backends import make_environment
 from twin.sensing.pins import PinReader
@@ -40,9 +40,7 @@ class ContourFollowingEnv(gym.Env):
     def __init__(self, scenario: Scenario | str | Path = "contour_rectangle", max_step_mm: float = 5.0,
                  lateral_weight: float = 0.5, max_distance_mm: float = 15.0, render_mode: str | None = None) -> None:
         if not isinstance(scenario, Scenario):
-            path = Path(scenario)
-            scenario = load_scenario(path if path.suffix else scenario_path(str(scenario)))
-
+            scenario = load_scenario(scenario)
         if scenario.protocol.kind != "contour":
             raise ValueError(f"{scenario.source}: the Gymnasium environment needs a contour protocol")
         self.scenario = scenario
@@ -54,7 +52,7 @@ class ContourFollowingEnv(gym.Env):
         self.max_distance_mm = max_distance_mm
         self.render_mode = render_mode
         self.observation_space = gym.spaces.Box(-200.0, 200.0, shape=(254,), dtype=np.float32)
-        self.action_space = gym.spaces.Box(-max_step_mm, max_step_mm, shape=(2,), dtype=np.float32)
+        self.action_space = gym.spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
         self._reader = None
         self._last = None
 
@@ -84,7 +82,7 @@ class ContourFollowingEnv(gym.Env):
         return self._pins(self._last), {"pose": self._pose}
 
     def step(self, action):
-        a = np.clip(np.asarray(action, float), -self.max_step_mm, self.max_step_mm)
+        a = np.clip(np.asarray(action, float), -1.0, 1.0) * self.max_step_mm
         p = self.protocol
         self._pose = Pose(self._pose.x + a[0], self._pose.y + a[1], self._pose.z, 0, 0, p.orientation_deg)
         self.env.move_to(self._pose, p.speed_mm_s)

@@ -9,12 +9,14 @@ Samples are recorded in protocol order as chunks complete.
 from __future__ import annotations
 
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
+from twin.control.contour import no_clock
 from twin.core.environment import Environment, Observation
 from twin.runs.backends import make_environment
 from twin.sensing.pins import PinReader
@@ -50,20 +52,31 @@ def run_chunk(scenario: Scenario, seed: int, moves: list[Move], sink=None) -> li
     """Run one chunk in a fresh environment state (reset). Each sample goes to `sink` as
     soon as it is observed (serial runs record as they go); the samples not sunk are
     returned (parallel workers send their chunk back when it is done)."""
-    env = worker_environment(scenario, seed)
-    reader = PinReader(env.reset())
     samples = []
-    for move in moves:
-        env.move_to(move.pose, move.speed_mm_s)
-        if move.record:
-            obs = env.observe()
-            pins, found, ms = reader.read(obs)
-            sample = Sample(move, obs, pins, found, ms)
-            if sink is None:
-                samples.append(sample)
-            else:
-                sink(sample)
+    for sample in chunk_samples(worker_environment(scenario, seed), moves):
+        if sink is None:
+            samples.append(sample)
+        else:
+            sink(sample)
     return samples
+
+
+def chunk_samples(env: Environment, moves: list[Move], clock=no_clock) -> Iterator[Sample]:
+    """The one open-loop chunk loop: reset (the tracker's reference), then each move; a
+    recorded move yields its Sample right after it is observed. `clock(stage)` is charged
+    with "physics" (the move into a recorded frame), "render" (observe) and "track"."""
+    reader = PinReader(env.reset())
+    for move in moves:
+        if not move.record:
+            env.move_to(move.pose, move.speed_mm_s)
+            continue
+        with clock("physics"):
+            env.move_to(move.pose, move.speed_mm_s)
+        with clock("render"):
+            obs = env.observe()
+        with clock("track"):
+            pins, found, ms = reader.read(obs)
+        yield Sample(move, obs, pins, found, ms)
 
 
 _ENV_CACHE: dict = {}

@@ -55,7 +55,7 @@ class SimEnvironment(Environment):
         self.arm = ArmDynamics(kinematics(), TOOL2FLANGE, self._q) if self.scenario.has("arm_dynamics") else None
         self.physics = SensorPhysics(self.scene.model, self.scene.data, self.scene.tactip, self.scene.dome_params,
                                      self.scenario.name, start, stimulus2world=self.scene.object2world,
-                                     work2world=self.scene.work2world)
+                                     work2world=self.scene.work2world, camera=self.camera)
         self._frame = None
 
     @property
