@@ -58,4 +58,4 @@ def test_generated_tactip_assets_equal_a_fresh_generation(tmp_path):
 
     for fresh in write_tactip_assets(tmp_path):
         stored = ROOT / "assets" / "tactip" / fresh.name
-        assert stored.read_text() == fresh.read_text(), f"{stored} is stale: run `python -m twin.tools.assets tactip`"
+        assert stored.read_text() == fresh.read_text(), f"{stored} is stale: run `python -m twin.tools.assets`"

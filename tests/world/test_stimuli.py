@@ -85,10 +85,10 @@ def test_stored_assets_equal_fresh_generation(tmp_path):
     written = generate_assets(tmp_path)
     fresh = {p.relative_to(tmp_path) for p in written}
     stored = {p.relative_to(DEFAULT_ASSET_DIR) for p in DEFAULT_ASSET_DIR.rglob("*") if p.is_file()}
-    assert fresh <= stored, "assets missing: run `python -m twin.tools.assets stimuli`"
+    assert fresh <= stored, "assets missing: run `python -m twin.tools.assets`"
     for rel in sorted(fresh):
         assert (tmp_path / rel).read_bytes() == (DEFAULT_ASSET_DIR / rel).read_bytes(), (
-            f"{rel} is stale: run `python -m twin.tools.assets stimuli`")
+            f"{rel} is stale: run `python -m twin.tools.assets`")
     stl = (DEFAULT_ASSET_DIR / "flower" / "flower.stl").read_bytes()
     assert b"MIT" in stl[:80] and not stl.startswith(b"solid")
     assert "Copyright (c) 2026 tactip-twin contributors" in (DEFAULT_ASSET_DIR / "LICENSE").read_text()

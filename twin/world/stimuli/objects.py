@@ -16,7 +16,7 @@ spiral is traced from its outer end inwards along the band's outer edge and stop
 `Stimulus.end_point_mm` (`is_open`).
 
 Dimensions are not given in the paper; every number below is an estimate explained in
-`assets/stimuli/README.md` (written by `python -m twin.tools.assets stimuli`).
+`assets/stimuli/README.md` (written by `python -m twin.tools.assets`).
 """
 from __future__ import annotations
 
