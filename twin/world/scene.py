@@ -135,26 +135,42 @@ def _add_tactip_visual(body: mujoco.MjsBody, geometry: TacTipGeometry) -> None:
                   rgba=[0.05, 0.05, 0.05, 1], contype=0, conaffinity=0, mass=0)
 
 
+class Overview:
+    """The lab for pictures: table, IRB120, TacTip and object, compiled once; `pose_sensor`
+    re-poses the arm by inverse kinematics (no recompilation), so a sequence of poses
+    costs one IK solve and one forward pass each."""
+
+    def __init__(self, scenario: Scenario) -> None:
+        stimulus = load_scenario_stimulus(scenario)
+        self.object2world, self.work2world = object_and_work_frames(scenario, stimulus)
+        spec = mujoco.MjSpec()
+        spec.modelname = f"overview_{scenario.name}"
+        spec.visual.global_.offwidth, spec.visual.global_.offheight = 1280, 960
+        spec.worldbody.add_light(pos=[0.3, -0.3, 1.5], dir=[-0.2, 0.2, -1], diffuse=[0.7, 0.7, 0.7])
+        spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=list(TABLE_HALF_SIZE),
+                                pos=[0.35, 0, -TABLE_HALF_SIZE[2]], rgba=[0.55, 0.45, 0.35, 1], contype=0, conaffinity=0)
+        obj = spec.worldbody.add_body(name="object", pos=self.object2world[:3, 3],
+                                      quat=matrix_to_quat_wxyz(self.object2world[:3, :3]))
+        _add_object(spec, obj, stimulus, collide=False, friction=False)
+        arm = mujoco.MjSpec.from_file(str(IRB120_XML))
+        _add_tactip_visual(arm.body("flange"), TacTipGeometry())
+        spec.worldbody.add_frame().attach_body(arm.body("base"), "arm_", "")
+        self.model = spec.compile()
+        self.data = mujoco.MjData(self.model)
+        self._qpos = [self.model.jnt_qposadr[self.model.joint(f"arm_joint{i}").id] for i in range(1, 7)]
+        self._q: np.ndarray | None = None
+
+    def pose_sensor(self, pose: Pose) -> None:
+        """Put the sensor at `pose` (work frame, mm/deg); the IK starts from the last
+        solution, so consecutive poses keep the same arm configuration."""
+        tool2world = self.work2world @ pose.to_matrix()
+        self._q = kinematics().inverse(tool2world, TOOL2FLANGE, q_seed=self._q)
+        self.data.qpos[self._qpos] = self._q
+        mujoco.mj_forward(self.model, self.data)
+
+
 def build_overview(scenario: Scenario, pose: Pose) -> tuple[mujoco.MjModel, mujoco.MjData]:
-    """The lab for pictures: table, IRB120 posed by IK with the sensor at `pose` (work
-    frame, mm/deg), TacTip, object."""
-    stimulus = load_scenario_stimulus(scenario)
-    object2world, work2world = object_and_work_frames(scenario, stimulus)
-    tool2world = work2world @ pose.to_matrix()
-    spec = mujoco.MjSpec()
-    spec.modelname = f"overview_{scenario.name}"
-    spec.visual.global_.offwidth, spec.visual.global_.offheight = 1280, 960
-    spec.worldbody.add_light(pos=[0.3, -0.3, 1.5], dir=[-0.2, 0.2, -1], diffuse=[0.7, 0.7, 0.7])
-    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=list(TABLE_HALF_SIZE), pos=[0.35, 0, -TABLE_HALF_SIZE[2]],
-                            rgba=[0.55, 0.45, 0.35, 1], contype=0, conaffinity=0)
-    obj = spec.worldbody.add_body(name="object", pos=object2world[:3, 3], quat=matrix_to_quat_wxyz(object2world[:3, :3]))
-    _add_object(spec, obj, stimulus, collide=False, friction=False)
-    arm = mujoco.MjSpec.from_file(str(IRB120_XML))
-    _add_tactip_visual(arm.body("flange"), TacTipGeometry())
-    spec.worldbody.add_frame().attach_body(arm.body("base"), "arm_", "")
-    model = spec.compile()
-    data = mujoco.MjData(model)
-    adr = [model.jnt_qposadr[model.joint(f"arm_joint{i}").id] for i in range(1, 7)]
-    data.qpos[adr] = kinematics().inverse(tool2world, TOOL2FLANGE)
-    mujoco.mj_forward(model, data)
-    return model, data
+    """The overview scene (`Overview`) with the sensor at `pose` (work frame, mm/deg)."""
+    overview = Overview(scenario)
+    overview.pose_sensor(pose)
+    return overview.model, overview.data
