@@ -109,8 +109,9 @@ class OverviewRenderer:
 
     def __init__(self, model: mujoco.MjModel, width: int = 960, height: int = 720,
                  lookat: np.ndarray | None = None, distance: float = 1.2,
-                 azimuth: float = 135.0, elevation: float = -25.0) -> None:
-        """lookat (m, world), distance (m), azimuth and elevation (deg): the free camera."""
+                 azimuth: float = 135.0, elevation: float = -25.0, shadows: bool = True) -> None:
+        """lookat (m, world), distance (m), azimuth and elevation (deg): the free camera.
+        shadows: off saves most of a frame's time on a software (llvmpipe) renderer."""
         model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
         model.vis.global_.offheight = max(model.vis.global_.offheight, height)
         self.camera = mujoco.MjvCamera()
@@ -119,6 +120,7 @@ class OverviewRenderer:
             self.camera.lookat[:] = lookat
         self.camera.distance, self.camera.azimuth, self.camera.elevation = distance, azimuth, elevation
         self._renderer = mujoco.Renderer(model, height, width)
+        self._renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
 
     def render(self, data: mujoco.MjData) -> np.ndarray:
         self._renderer.update_scene(data, self.camera)
