@@ -4,6 +4,9 @@ runs with their pin fields in two colours; `twin view` without a display exits 2
 from __future__ import annotations
 
 import json
+import shutil
+import subprocess
+import time
 
 import cv2
 import numpy as np
@@ -101,3 +104,20 @@ def test_run_and_compare_videos_from_the_command_line(tmp_path, capsys, monkeypa
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     assert main(["view", str(tmp_path / "a.yaml")]) == 2
     assert "twin view needs a display" in capsys.readouterr().err
+
+
+@pytest.mark.skipif(shutil.which("Xvfb") is None, reason="needs Xvfb (apt-get install xvfb) for a display")
+def test_view_runs_a_scenario_on_a_virtual_display(tmp_path, capsys, monkeypatch) -> None:
+    """`twin view` opens mujoco.viewer on a display, shows every sample and closes cleanly."""
+    display = ":93"
+    server = subprocess.Popen(["Xvfb", display, "-screen", "0", "1280x800x24"], stderr=subprocess.DEVNULL)
+    try:
+        time.sleep(1.0)
+        monkeypatch.setenv("DISPLAY", display)
+        path = tmp_path / "render.yaml"
+        path.write_text(yaml.safe_dump({**TAPS, "protocol": {"kind": "render", "poses": [[0, 0, -5, 0, 0, 0], [0, 0, 2, 0, 0, 0]]}}))
+        assert main(["view", str(path), "--no-wait"]) == 0
+        assert "showed 2 samples" in capsys.readouterr().out
+    finally:
+        server.terminate()
+        server.wait()

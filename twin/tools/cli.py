@@ -76,7 +76,7 @@ def _cmd_video(args: argparse.Namespace) -> int:
 
 def _cmd_view(args: argparse.Namespace) -> int:
 
-    shown = view_scenario(load_scenario(args.scenario), seed=args.seed)
+    shown = view_scenario(load_scenario(args.scenario), seed=args.seed, wait=not args.no_wait)
     print(f"showed {shown} samples")
     return 0
 
@@ -176,6 +176,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("view", help="run a scenario in MuJoCo's interactive viewer (needs a display)")
     p.add_argument("scenario")
     p.add_argument("--seed", type=int, default=None)
+    p.add_argument("--no-wait", action="store_true", help="close the window when the scenario ends")
     p.set_defaults(func=_cmd_view)
 
     p = sub.add_parser("evaluate", help="the paper's offline test: Table I from a tap run and a slides run")
