@@ -4,8 +4,10 @@ runs with their pin fields in two colours; `twin view` without a display exits 2
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import subprocess
+import sys
 import time
 
 import cv2
@@ -107,17 +109,19 @@ def test_run_and_compare_videos_from_the_command_line(tmp_path, capsys, monkeypa
 
 
 @pytest.mark.skipif(shutil.which("Xvfb") is None, reason="needs Xvfb (apt-get install xvfb) for a display")
-def test_view_runs_a_scenario_on_a_virtual_display(tmp_path, capsys, monkeypatch) -> None:
-    """`twin view` opens mujoco.viewer on a display, shows every sample and closes cleanly."""
+def test_view_runs_a_scenario_on_a_virtual_display(tmp_path) -> None:
+    """`twin view` opens mujoco.viewer on a display, shows every sample and closes cleanly.
+    In its own process: GLFW keeps its X connection until the process ends."""
     display = ":93"
     server = subprocess.Popen(["Xvfb", display, "-screen", "0", "1280x800x24"], stderr=subprocess.DEVNULL)
     try:
         time.sleep(1.0)
-        monkeypatch.setenv("DISPLAY", display)
         path = tmp_path / "render.yaml"
         path.write_text(yaml.safe_dump({**TAPS, "protocol": {"kind": "render", "poses": [[0, 0, -5, 0, 0, 0], [0, 0, 2, 0, 0, 0]]}}))
-        assert main(["view", str(path), "--no-wait"]) == 0
-        assert "showed 2 samples" in capsys.readouterr().out
+        done = subprocess.run([sys.executable, "-m", "twin.tools.cli", "view", str(path), "--no-wait"],
+                              env={**os.environ, "DISPLAY": display}, capture_output=True, text=True, timeout=120)
+        assert done.returncode == 0, done.stderr
+        assert "showed 2 samples" in done.stdout
     finally:
         server.terminate()
         server.wait()

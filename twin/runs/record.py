@@ -165,7 +165,12 @@ class Run:
     @property
     def pins_px(self) -> np.ndarray:
         """(N, 127, 2) px; NaN where a sample has no pins."""
-        return np.array([np.full((127, 2), np.nan) if s["pins_px"] is None else s["pins_px"] for s in self.samples])
+        return np.array([self.sample_pins(k) for k in range(len(self.samples))]).reshape(-1, 127, 2)
+
+    def sample_pins(self, index: int) -> np.ndarray:
+        """(127, 2) px of one sample; NaN when it has none."""
+        pins = self.samples[index]["pins_px"]
+        return np.full((127, 2), np.nan) if pins is None else np.asarray(pins, float)
 
     @property
     def rest_pins_px(self) -> np.ndarray:
@@ -174,7 +179,7 @@ class Run:
         rest = self.meta.get("rest_pins_px")
         if rest is not None:
             return np.asarray(rest, float)
-        return self.pins_px[0] if self.samples else np.full((127, 2), np.nan)
+        return self.sample_pins(0) if self.samples else np.full((127, 2), np.nan)
 
     @property
     def targets(self) -> np.ndarray:

@@ -209,9 +209,8 @@ class VideoWriter:
 def run_frame(run: Run, k: int, scene: ScenePanel, path: PathPanel, rest_px: np.ndarray) -> np.ndarray:
     """Video frame of sample k: camera frame with pins | rig over path (RGB uint8)."""
     s = run.samples[k]
-    pins = None if s["pins_px"] is None else np.asarray(s["pins_px"], float)
     found = None if s["found"] is None else np.asarray(s["found"], bool)
-    left = sensor_panel(run.frame(k), run.resolution, pins, rest_px, found)
+    left = sensor_panel(run.frame(k), run.resolution, run.sample_pins(k), rest_px, found)
     write_text(left, [f"t {s['time']:.2f} s   sample {k + 1}/{len(run.samples)}", _pose_text(s["pose"])])
     write_text(left, [percept_text(s["labels"])], "bottom-left")
     write_text(left, [f"pins, displacement ×{DISPLACEMENT_GAIN:g}"], "bottom-right")
@@ -231,10 +230,11 @@ def write_run_video(run_dir: Path, out: Path | None = None) -> Path:
     scenario = run_scenario_of(run)
     outline = np.asarray(load_scenario_stimulus(scenario).outline.exterior.coords)
     scene, path = ScenePanel(scenario), PathPanel(run, outline)
+    rest = run.rest_pins_px
     try:
         with VideoWriter(out) as writer:
             for k in range(len(run.samples)):
-                writer.add(run_frame(run, k, scene, path, run.rest_pins_px))
+                writer.add(run_frame(run, k, scene, path, rest))
     finally:
         scene.close()
     return out
@@ -247,23 +247,21 @@ def compare_frame(a: Run, b: Run, i: int, j: int, n: int, total: int) -> np.ndar
     panels = []
     overlay = np.zeros((h, w, 3), np.uint8)
     for run, k, colour, tag in ((a, i, PAIR_COLOURS[0], "A"), (b, j, PAIR_COLOURS[1], "B")):
-        s = run.samples[k]
-        pins = None if s["pins_px"] is None else np.asarray(s["pins_px"], float)
-        panel = sensor_panel(run.frame(k), run.resolution, None, run.rest_pins_px, height=h)
+        s, rest = run.samples[k], run.rest_pins_px
+        panel = sensor_panel(run.frame(k), run.resolution, None, rest, height=h)
         scale = h / run.resolution[1]
-        if pins is not None:
-            draw_pin_field(panel, pins, run.rest_pins_px, scale, colour=colour, arrow_colour=colour)
-            draw_pin_field(overlay, pins, run.rest_pins_px, scale, colour=colour, arrow_colour=colour)
+        for image in (panel, overlay):
+            draw_pin_field(image, run.sample_pins(k), rest, scale, colour=colour, arrow_colour=colour)
         meta = run.meta
         write_text(panel, [f"{tag}: {meta['scenario']['name']} ({meta['backend']}, {meta['scenario']['fidelity']})",
                            f"sample {k + 1}  t {s['time']:.2f} s"], colour=colour)
         write_text(panel, [percept_text(s["labels"])], "bottom-left")
         panels.append(panel[:, :w] if panel.shape[1] >= w else np.pad(panel, ((0, 0), (0, w - panel.shape[1]), (0, 0))))
-    pa, pb = (np.asarray(r.samples[k]["pins_px"] or np.full((127, 2), np.nan), float) for r, k in ((a, i), (b, j)))
-    rms = float(np.sqrt(np.nanmean(np.sum((pa - pb) ** 2, axis=1)))) if np.isfinite(pa).any() and np.isfinite(pb).any() else float("nan")
+    d2 = np.sum((a.sample_pins(i) - b.sample_pins(j)) ** 2, axis=1)
+    rms = float(np.sqrt(np.mean(d2[np.isfinite(d2)]))) if np.isfinite(d2).any() else float("nan")
     write_text(overlay, [f"pair {n + 1}/{total}", "target " + _pose_text(a.samples[i]["target"]),
                          f"pin RMS difference {rms:.2f} px"])
-    write_text(overlay, ["A", ], "bottom-left", colour=PAIR_COLOURS[0])
+    write_text(overlay, ["A"], "bottom-left", colour=PAIR_COLOURS[0])
     write_text(overlay, [f"B   (displacement ×{DISPLACEMENT_GAIN:g})"], "bottom-right", colour=PAIR_COLOURS[1])
     return np.hstack([*panels, overlay])
 
