@@ -66,6 +66,8 @@ class ContourFollower:
         spec = scenario.protocol.controller if controller is None else controller
         self.controller = load_controller(spec, scenario.protocol, scenario.source_dir)
         self.stop_reason = "not started"
+        #: (127, 2) px: the pins at rest (the tracker's reference), once iteration has begun
+        self.rest_pins_px: np.ndarray | None = None
 
     def __iter__(self) -> Iterator[ContourStep]:
         env, p, stimulus, clock = self.env, self.scenario.protocol, self.stimulus, self.clock
@@ -73,6 +75,7 @@ class ContourFollower:
         end_xy = None if stimulus.end_point_mm is None else object_to_work_xy(stimulus.end_point_mm)[0]
         resolution = (env.camera.width, env.camera.height)
         reader = PinReader(env.reset())
+        self.rest_pins_px = reader.rest_px
         start = Pose(start_xy[0], start_xy[1], p.depth_mm, 0.0, 0.0, p.orientation_deg)
         env.move_to(hover_over(start.x, start.y, p.orientation_deg), p.speed_mm_s)
         with clock("physics"):

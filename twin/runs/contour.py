@@ -41,6 +41,7 @@ def run_contour(scenario: Scenario, out: Path, seed: int | None = None, progress
         with recorder:
             for step in tqdm(follower, desc=scenario.name, unit="step", total=scenario.protocol.max_steps,
                              disable=not progress):
+                recorder.set_rest_pins(follower.rest_pins_px)
                 recorder.add(step.observation, step.target, step.labels, step.pins_px, step.found)
             recorder.meta["stop_reason"] = follower.stop_reason
             recorder.meta["wall_time_s"] = time.perf_counter() - wall0
@@ -82,14 +83,23 @@ def contour_metrics(run, stimulus) -> dict:
     }
 
 
+def object_path(samples: list[dict]) -> tuple[np.ndarray, np.ndarray | None]:
+    """The sensor's measured path (N, 2) mm in the object frame seen from above, and the
+    perceived edge normals (N,) deg in that frame (None when the samples carry none:
+    open-loop protocols)."""
+    xy = work_to_object_xy(np.array([[s["pose"][0], s["pose"][1]] for s in samples]).reshape(-1, 2))
+    if not samples or "perceived_normal_deg" not in samples[0]["labels"]:
+        return xy, None
+    return xy, -np.array([s["labels"]["perceived_normal_deg"] for s in samples])  # work → object angle
+
+
 def plot_contour(run, stimulus, out: Path) -> Path:
     """The paper's Figs. 7–8: the object's outline, the sensor path and the perceived
     edge normals (grey), in the object frame seen from above (mm)."""
 
     matplotlib.use("Agg")
 
-    xy = work_to_object_xy(np.array([[s["pose"][0], s["pose"][1]] for s in run.samples]))
-    normals = -np.array([s["labels"]["perceived_normal_deg"] for s in run.samples])  # work → object angle
+    xy, normals = object_path(run.samples)
     fig, ax = plt.subplots(figsize=(5, 5), dpi=120)
     outline = np.asarray(stimulus.outline.exterior.coords)
     ax.fill(outline[:, 0], outline[:, 1], color="0.92", zorder=0)

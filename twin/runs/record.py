@@ -3,7 +3,8 @@
 A run directory holds
   run.json        metadata: scenario (as validated), seed, backend, package versions,
                   camera model, start/end time, status ("running", "completed",
-                  "interrupted", "failed") and the error if any
+                  "interrupted", "failed") and the error if any; rest_pins_px (127×2 px:
+                  the pins of the no-contact reference the tracker starts from)
   samples.jsonl   one JSON object per sample, appended and flushed immediately:
                   index, time (s), target and measured pose (mm/deg, work frame),
                   labels (protocol-specific: theta_deg, lateral_mm, depth_mm,
@@ -91,6 +92,14 @@ class RunRecorder:
         tmp.write_text(json.dumps(jsonable(self.meta), indent=1))
         tmp.replace(self.out_dir / "run.json")
 
+    def set_rest_pins(self, pins_px: np.ndarray | None) -> None:
+        """Record the run's pins at rest (127×2 px) once, in run.json at once (an
+        interrupted run keeps them)."""
+        if pins_px is None or "rest_pins_px" in self.meta:
+            return
+        self.meta["rest_pins_px"] = np.asarray(pins_px, float)
+        self._write_meta()
+
     def add(self, observation: Observation, target: Pose, labels: dict, pins_px: np.ndarray | None = None,
             found: np.ndarray | None = None) -> int:
         """Record one sample; returns its index."""
@@ -156,7 +165,21 @@ class Run:
     @property
     def pins_px(self) -> np.ndarray:
         """(N, 127, 2) px; NaN where a sample has no pins."""
-        return np.array([np.full((127, 2), np.nan) if s["pins_px"] is None else s["pins_px"] for s in self.samples])
+        return np.array([self.sample_pins(k) for k in range(len(self.samples))]).reshape(-1, 127, 2)
+
+    def sample_pins(self, index: int) -> np.ndarray:
+        """(127, 2) px of one sample; NaN when it has none."""
+        pins = self.samples[index]["pins_px"]
+        return np.full((127, 2), np.nan) if pins is None else np.asarray(pins, float)
+
+    @property
+    def rest_pins_px(self) -> np.ndarray:
+        """(127, 2) px: the pins at rest; runs recorded before rest pins were kept fall back
+        on their first sample's pins."""
+        rest = self.meta.get("rest_pins_px")
+        if rest is not None:
+            return np.asarray(rest, float)
+        return self.sample_pins(0) if self.samples else np.full((127, 2), np.nan)
 
     @property
     def targets(self) -> np.ndarray:

@@ -35,6 +35,7 @@ class Sample:
     pins_px: np.ndarray
     found: np.ndarray | None
     track_ms: float
+    rest_px: np.ndarray | None = None  # (127, 2) px: the chunk's pins at rest (tracker reference)
 
 
 def chunk_moves(moves: list[Move]) -> list[list[Move]]:
@@ -76,7 +77,7 @@ def chunk_samples(env: Environment, moves: list[Move], clock=no_clock) -> Iterat
             obs = env.observe()
         with clock("track"):
             pins, found, ms = reader.read(obs)
-        yield Sample(move, obs, pins, found, ms)
+        yield Sample(move, obs, pins, found, ms, reader.rest_px)
 
 
 _ENV_CACHE: dict = {}
@@ -113,6 +114,7 @@ def record_protocol(scenario: Scenario, out: Path, seed: int | None = None, work
         bar = tqdm(total=n_samples, desc=scenario.name, unit="frame", disable=not progress)
 
         def record(s: Sample) -> None:
+            recorder.set_rest_pins(s.rest_px)
             recorder.add(s.observation, s.move.pose, s.move.labels, s.pins_px, s.found)
             bar.update(1)
 

@@ -37,6 +37,9 @@ class PinReader:
 
     def __init__(self, reference: Observation) -> None:
         self.tracker = PinTracker(reference.frame) if reference.frame is not None else None
+        #: (127, 2) px: the pins at rest (found in the reference frame, or projected), None
+        #: when the reference carries neither
+        self.rest_px = self.tracker.reference_pins_px if self.tracker is not None else reference.pins_px
 
     def read(self, obs: Observation) -> PinReading:
         if obs.frame is None or self.tracker is None:

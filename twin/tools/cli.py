@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 from pathlib import Path
 
 from twin.world import gl  # noqa: F401  (headless GL before anything imports mujoco)
@@ -23,6 +24,8 @@ from twin.tools.compare import compare_runs
 from twin.tools.figures import write_shear_figure
 from twin.tools.demo import run_demo
 from twin.tools.bench import run_bench
+from twin.tools.video import write_compare_video, write_run_video
+from twin.tools.view import view_scenario
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
@@ -52,9 +55,29 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if args.hardware_config:
         scenario = scenario.with_changes(hardware_config=str(Path(args.hardware_config).resolve()))
     out = Path(args.out) if args.out else Path("runs") / f"{scenario.name}_seed{args.seed if args.seed is not None else scenario.seed}"
+    t0 = time.perf_counter()
     run_dir = run_scenario(scenario, out, seed=args.seed, workers=args.workers, cluster=args.cluster,
                            progress=not args.quiet)
+    run_s = time.perf_counter() - t0
     print(f"recorded {run_dir}")
+    if args.video:
+        t1 = time.perf_counter()
+        video = write_run_video(run_dir)
+        video_s = time.perf_counter() - t1
+        print(f"wrote {video} in {video_s:.1f} s ({video_s / run_s:.2f}× the run's {run_s:.1f} s)")
+    return 0
+
+
+def _cmd_video(args: argparse.Namespace) -> int:
+
+    print(f"wrote {write_run_video(Path(args.run), Path(args.out) if args.out else None)}")
+    return 0
+
+
+def _cmd_view(args: argparse.Namespace) -> int:
+
+    shown = view_scenario(load_scenario(args.scenario), seed=args.seed, wait=not args.no_wait)
+    print(f"showed {shown} samples")
     return 0
 
 
@@ -93,6 +116,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     if "path_distance" in r:
         print(f"path distance: mean {r['path_distance']['mean_mm']:.2f} mm, Hausdorff {r['path_distance']['hausdorff_mm']:.2f} mm")
     print(f"wrote {args.out}/comparison.json and plots")
+    if args.video:
+        print(f"wrote {write_compare_video(Path(args.run_a), Path(args.run_b), Path(args.out) / 'comparison.mp4')}")
     return 0
 
 
@@ -107,7 +132,7 @@ def _cmd_figure(args: argparse.Namespace) -> int:
 
 def _cmd_demo(args: argparse.Namespace) -> int:
 
-    return run_demo(Path(args.out), seed=args.seed)
+    return run_demo(Path(args.out), seed=args.seed, video=args.video)
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
@@ -140,7 +165,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
     p.add_argument("--cluster", default=None, help="Ray address ('local' starts one); needs the ray extra")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--video", action="store_true", help="also write RUN/video.mp4: frame, pins, rig and path per sample")
     p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("video", help="write the MP4 of a recorded run (one frame per sample)")
+    p.add_argument("run", help="run directory")
+    p.add_argument("--out", default=None, help="MP4 file (default RUN/video.mp4)")
+    p.set_defaults(func=_cmd_video)
+
+    p = sub.add_parser("view", help="run a scenario in MuJoCo's interactive viewer (needs a display)")
+    p.add_argument("scenario")
+    p.add_argument("--seed", type=int, default=None)
+    p.add_argument("--no-wait", action="store_true", help="close the window when the scenario ends")
+    p.set_defaults(func=_cmd_view)
 
     p = sub.add_parser("evaluate", help="the paper's offline test: Table I from a tap run and a slides run")
     p.add_argument("--train", required=True, help="tap run directory")
@@ -160,6 +197,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("run_b")
     p.add_argument("--out", required=True)
     p.add_argument("--model", default=None, help="perception model file to score labelled runs (taps, slides)")
+    p.add_argument("--video", action="store_true", help="also write OUT/comparison.mp4: the paired samples side by side")
     p.set_defaults(func=_cmd_compare)
 
     p = sub.add_parser("figure", help="the paper's Fig. 2: pin traces tapping vs sliding across the edge in 8 directions")
@@ -172,6 +210,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("demo", help="the main job: the six-object contour-following demo")
     p.add_argument("--out", default="out/demo")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--video", action="store_true", help="also write OUT/<run>/video.mp4 for each object")
     p.set_defaults(func=_cmd_demo)
 
     p = sub.add_parser("bench", help="print speed figures and sweep what accuracy costs in time")

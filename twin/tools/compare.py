@@ -32,6 +32,19 @@ def pair_samples(a: Run, b: Run) -> list[tuple[int, int]]:
     return pairs
 
 
+def paired_runs(a: Run, b: Run) -> tuple[list[tuple[int, int]], str]:
+    """The sample pairs (i in a, j in b) two runs are compared on, and how they were
+    paired: closed-loop (contour) runs by step, since their targets differ; the others by
+    target pose (pair_samples). Raises UserError when they share none."""
+    if a.meta["scenario"]["protocol"]["kind"] == "contour":
+        pairs, pairing = [(i, i) for i in range(min(len(a.samples), len(b.samples)))], "by step (closed loop: targets differ)"
+    else:
+        pairs, pairing = pair_samples(a, b), "by target pose"
+    if not pairs:
+        raise UserError(f"{a.path} and {b.path} share no target poses: are they runs of the same scenario?")
+    return pairs, pairing
+
+
 def _displacements(run: Run) -> np.ndarray:
     pins = run.pins_px
     return pins - pins[0]
@@ -85,17 +98,10 @@ def compare_runs(dir_a: Path, dir_b: Path, out: Path, max_ssim_frames: int = 200
             metrics = run.path / "metrics.json"
             if metrics.exists():
                 result[f"metrics_{tag}"] = json.loads(metrics.read_text())
-        pairs = [(i, i) for i in range(min(len(a.samples), len(b.samples)))]
-        result["pairing"] = "by step (closed loop: targets differ)"
-    else:
-        pairs = pair_samples(a, b)
-        result["pairing"] = "by target pose"
-        if model_path is not None:
-
-            model = PerceptionModel.load(model_path)
-            result["perception_a"], result["perception_b"] = perception_error(a, model), perception_error(b, model)
-    if not pairs:
-        raise UserError(f"{dir_a} and {dir_b} share no target poses: are they runs of the same scenario?")
+    elif model_path is not None:
+        model = PerceptionModel.load(model_path)
+        result["perception_a"], result["perception_b"] = perception_error(a, model), perception_error(b, model)
+    pairs, result["pairing"] = paired_runs(a, b)
     ia, ib = (np.array(x) for x in zip(*pairs))
     pins_a, pins_b = a.pins_px[ia], b.pins_px[ib]
     diff = np.linalg.norm(pins_a - pins_b, axis=2)

@@ -12,6 +12,7 @@ from twin.runs.sim_env import render_scenario_view
 from twin.runs.contour import run_contour
 from twin.runs.parallel import map_ordered
 from twin.runs.training import cached_tap_model
+from twin.tools.video import write_run_video
 import shutil
 
 OBJECTS = ("rectangle", "large_circle", "small_circle", "flower", "spiral", "tape_measure")
@@ -20,10 +21,13 @@ COLUMNS = (("object", "{}"), ("completed", "{}"), ("steps", "{}"), ("orientation
            ("coverage", "{:.2f}"), ("sim_time_s", "{:.1f}"), ("wall_time_s", "{:.1f}"))
 
 
-def trace_contour(scenario, out: Path, model) -> dict:
-    """Trace one contour scenario into `out` with `model`; returns its metrics.json."""
+def trace_contour(scenario, out: Path, model, video: bool = False) -> dict:
+    """Trace one contour scenario into `out` with `model` (and write its video.mp4 when
+    `video`); returns its metrics.json."""
 
     run_contour(scenario, out, model=model, progress=False)
+    if video:
+        write_run_video(out)
     return json.loads((out / "metrics.json").read_text())
 
 
@@ -34,7 +38,9 @@ def format_metrics(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def run_demo(out: Path, seed: int = 0, objects: tuple[str, ...] = OBJECTS, workers: int | None = None) -> int:
+def run_demo(out: Path, seed: int = 0, objects: tuple[str, ...] = OBJECTS, workers: int | None = None,
+             video: bool = False) -> int:
+    """Trace `objects` (video: one MP4 per run, twin.tools.video); exit code 0 when all complete."""
 
     out.mkdir(parents=True, exist_ok=True)
     scenarios = [load_scenario(scenario_path(f"contour_{name}")).with_changes(seed=seed) for name in objects]
@@ -49,7 +55,7 @@ def run_demo(out: Path, seed: int = 0, objects: tuple[str, ...] = OBJECTS, worke
         if run_dir.exists():
 
             shutil.rmtree(run_dir)
-        jobs.append((s, run_dir, model))
+        jobs.append((s, run_dir, model, video))
     rows = list(map_ordered(trace_contour, jobs, workers=workers))
     wall = time.perf_counter() - t1
     print(format_metrics(rows))
@@ -58,5 +64,5 @@ def run_demo(out: Path, seed: int = 0, objects: tuple[str, ...] = OBJECTS, worke
     print(f"{done}/{len(rows)} contours completed; mean orientation RMS {mean_rms:.1f}° (paper, real rig: 12.2°); "
           f"all objects in {wall:.1f} s wall time")
     (out / "metrics.json").write_text(json.dumps({"objects": rows, "wall_time_s": wall}, indent=1))
-    print(f"wrote {out}/contour_<object>/contour.png, metrics.json and {out}/rig_overview.png")
+    print(f"wrote {out}/contour_<object>/contour.png{', video.mp4' if video else ''}, metrics.json and {out}/rig_overview.png")
     return 0 if done == len(rows) else 1

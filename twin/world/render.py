@@ -103,17 +103,42 @@ class PinRenderer:
         self._renderer.close()
 
 
+class OverviewRenderer:
+    """Renders a whole scene from a free camera (RGB uint8, height × width px), keeping
+    one GL context for every frame: for sequences of the same scene (videos, the viewer)."""
+
+    def __init__(self, model: mujoco.MjModel, width: int = 960, height: int = 720,
+                 lookat: np.ndarray | None = None, distance: float = 1.2,
+                 azimuth: float = 135.0, elevation: float = -25.0, shadows: bool = True) -> None:
+        """lookat (m, world), distance (m), azimuth and elevation (deg): the free camera.
+        shadows: off saves most of a frame's time on a software (llvmpipe) renderer."""
+        model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
+        model.vis.global_.offheight = max(model.vis.global_.offheight, height)
+        self.camera = mujoco.MjvCamera()
+        mujoco.mjv_defaultFreeCamera(model, self.camera)
+        if lookat is not None:
+            self.camera.lookat[:] = lookat
+        self.camera.distance, self.camera.azimuth, self.camera.elevation = distance, azimuth, elevation
+        self._renderer = mujoco.Renderer(model, height, width)
+        self._renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
+
+    def render(self, data: mujoco.MjData) -> np.ndarray:
+        self._renderer.update_scene(data, self.camera)
+        return self._renderer.render()
+
+    def close(self) -> None:
+        self._renderer.close()
+
+    def __enter__(self) -> "OverviewRenderer":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
 def render_overview(model: mujoco.MjModel, data: mujoco.MjData, width: int = 960, height: int = 720,
                     lookat: np.ndarray | None = None, distance: float = 1.2,
                     azimuth: float = 135.0, elevation: float = -25.0) -> np.ndarray:
-    """Overview image of a whole scene from a free camera (RGB uint8)."""
-    model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
-    model.vis.global_.offheight = max(model.vis.global_.offheight, height)
-    cam = mujoco.MjvCamera()
-    mujoco.mjv_defaultFreeCamera(model, cam)
-    if lookat is not None:
-        cam.lookat[:] = lookat
-    cam.distance, cam.azimuth, cam.elevation = distance, azimuth, elevation
-    with mujoco.Renderer(model, height, width) as renderer:
-        renderer.update_scene(data, cam)
-        return renderer.render()
+    """One overview image of a whole scene from a free camera (RGB uint8)."""
+    with OverviewRenderer(model, width, height, lookat, distance, azimuth, elevation) as renderer:
+        return renderer.render(data)

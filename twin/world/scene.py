@@ -39,6 +39,7 @@ FLANGE_TO_APEX = 0.101
 TOOL2FLANGE = make_transform(np.eye(3), np.array([0.0, 0.0, FLANGE_TO_APEX]))
 TABLE_HALF_SIZE = (0.6, 0.5, 0.02)  # m
 FLIP_X = np.diag([1.0, -1.0, -1.0])  # work frame = object frame turned 180° about x (z into the object)
+SCREEN_HEIGHT_M, SCREEN_DISTANCE_M = 0.4, 0.3  # Overview's screen: height, distance beyond the object (m)
 OBJECT_PRIORITY = 1  # object geoms win the friction mix against the skin (contact μ = the object's)
 
 
@@ -135,26 +136,73 @@ def _add_tactip_visual(body: mujoco.MjsBody, geometry: TacTipGeometry) -> None:
                   rgba=[0.05, 0.05, 0.05, 1], contype=0, conaffinity=0, mass=0)
 
 
+class Overview:
+    """The lab for pictures: table, IRB120, TacTip and object, compiled once; `pose_sensor`
+    re-poses the arm by inverse kinematics (no recompilation), so a sequence of poses
+    costs one IK solve and one forward pass each."""
+
+    def __init__(self, scenario: Scenario, screen_px: tuple[int, int] | None = None,
+                 screen_azimuth_deg: float = 120.0) -> None:
+        """screen_px: (width, height) of an RGB texture shown on a screen standing beyond
+        the object as seen from a free camera at `screen_azimuth_deg` (deg), facing it
+        (`screen_texture`): where `twin view` shows the sensor's frame."""
+        stimulus = load_scenario_stimulus(scenario)
+        self.object2world, self.work2world = object_and_work_frames(scenario, stimulus)
+        spec = mujoco.MjSpec()
+        spec.modelname = f"overview_{scenario.name}"
+        spec.visual.global_.offwidth, spec.visual.global_.offheight = 1280, 960
+        spec.worldbody.add_light(pos=[0.3, -0.3, 1.5], dir=[-0.2, 0.2, -1], diffuse=[0.7, 0.7, 0.7])
+        spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=list(TABLE_HALF_SIZE),
+                                pos=[0.35, 0, -TABLE_HALF_SIZE[2]], rgba=[0.55, 0.45, 0.35, 1], contype=0, conaffinity=0)
+        obj = spec.worldbody.add_body(name="object", pos=self.object2world[:3, 3],
+                                      quat=matrix_to_quat_wxyz(self.object2world[:3, :3]))
+        _add_object(spec, obj, stimulus, collide=False, friction=False)
+        arm = mujoco.MjSpec.from_file(str(IRB120_XML))
+        _add_tactip_visual(arm.body("flange"), TacTipGeometry())
+        spec.worldbody.add_frame().attach_body(arm.body("base"), "arm_", "")
+        if screen_px is not None:
+            self._add_screen(spec, *screen_px, screen_azimuth_deg)
+        self.model = spec.compile()
+        self.data = mujoco.MjData(self.model)
+        self.screen_texture_id = self.model.texture("screen").id if screen_px is not None else None
+        self._qpos = [self.model.jnt_qposadr[self.model.joint(f"arm_joint{i}").id] for i in range(1, 7)]
+        self._q: np.ndarray | None = None
+
+    def _add_screen(self, spec: mujoco.MjSpec, width: int, height: int, azimuth_deg: float) -> None:
+        """A SCREEN_HEIGHT_M-high screen of aspect width:height, SCREEN_DISTANCE_M beyond
+        and to the right of the object as seen by a free camera at `azimuth_deg`, facing it."""
+        spec.add_texture(name="screen", type=mujoco.mjtTexture.mjTEXTURE_2D, width=width, height=height, nchannel=3,
+                         data=[0] * (width * height * 3))
+        material = spec.add_material(name="screen", emission=1.0, specular=0.0)
+        material.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "screen"
+        a = np.radians(azimuth_deg)
+        forward = np.array([np.cos(a), np.sin(a), 0.0])  # the camera's view direction, horizontal
+        up = np.array([0.0, 0.0, 1.0])
+        axes = np.column_stack([np.cross(forward, up), up, -forward])  # plane x (right), y (up), normal
+        half_h = SCREEN_HEIGHT_M / 2
+        centre = (self.object2world[:3, 3] + SCREEN_DISTANCE_M * (forward + axes[:, 0])  # beyond and to the right
+                  + np.array([0.0, 0.0, half_h + 0.05]))
+        spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[half_h * width / height, half_h, 0.01],
+                                pos=centre, quat=matrix_to_quat_wxyz(axes), material="screen",
+                                contype=0, conaffinity=0)
+
+    def screen_texture(self, image: np.ndarray) -> None:
+        """Show an RGB image (height, width, 3) uint8 of the screen's size on the screen
+        (the model's texture data; a viewer re-uploads it with update_texture)."""
+        adr = self.model.tex_adr[self.screen_texture_id]
+        self.model.tex_data[adr: adr + image.size] = np.ascontiguousarray(image).ravel()
+
+    def pose_sensor(self, pose: Pose) -> None:
+        """Put the sensor at `pose` (work frame, mm/deg); the IK starts from the last
+        solution, so consecutive poses keep the same arm configuration."""
+        tool2world = self.work2world @ pose.to_matrix()
+        self._q = kinematics().inverse(tool2world, TOOL2FLANGE, q_seed=self._q)
+        self.data.qpos[self._qpos] = self._q
+        mujoco.mj_forward(self.model, self.data)
+
+
 def build_overview(scenario: Scenario, pose: Pose) -> tuple[mujoco.MjModel, mujoco.MjData]:
-    """The lab for pictures: table, IRB120 posed by IK with the sensor at `pose` (work
-    frame, mm/deg), TacTip, object."""
-    stimulus = load_scenario_stimulus(scenario)
-    object2world, work2world = object_and_work_frames(scenario, stimulus)
-    tool2world = work2world @ pose.to_matrix()
-    spec = mujoco.MjSpec()
-    spec.modelname = f"overview_{scenario.name}"
-    spec.visual.global_.offwidth, spec.visual.global_.offheight = 1280, 960
-    spec.worldbody.add_light(pos=[0.3, -0.3, 1.5], dir=[-0.2, 0.2, -1], diffuse=[0.7, 0.7, 0.7])
-    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=list(TABLE_HALF_SIZE), pos=[0.35, 0, -TABLE_HALF_SIZE[2]],
-                            rgba=[0.55, 0.45, 0.35, 1], contype=0, conaffinity=0)
-    obj = spec.worldbody.add_body(name="object", pos=object2world[:3, 3], quat=matrix_to_quat_wxyz(object2world[:3, :3]))
-    _add_object(spec, obj, stimulus, collide=False, friction=False)
-    arm = mujoco.MjSpec.from_file(str(IRB120_XML))
-    _add_tactip_visual(arm.body("flange"), TacTipGeometry())
-    spec.worldbody.add_frame().attach_body(arm.body("base"), "arm_", "")
-    model = spec.compile()
-    data = mujoco.MjData(model)
-    adr = [model.jnt_qposadr[model.joint(f"arm_joint{i}").id] for i in range(1, 7)]
-    data.qpos[adr] = kinematics().inverse(tool2world, TOOL2FLANGE)
-    mujoco.mj_forward(model, data)
-    return model, data
+    """The overview scene (`Overview`) with the sensor at `pose` (work frame, mm/deg)."""
+    overview = Overview(scenario)
+    overview.pose_sensor(pose)
+    return overview.model, overview.data
