@@ -9,7 +9,8 @@ cd "$(dirname "$0")/.."
 
 UV_VERSION=0.13.9
 GL_PACKAGES=(libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 libgl1 libglx0 libosmesa6
-             libglu1-mesa libxcursor1 libxft2 libxinerama1 libxrender1 libgomp1)  # second line: gmsh's shared library
+             libglu1-mesa libxcursor1 libxft2 libxinerama1 libxrender1 libgomp1   # gmsh's shared library
+             xvfb)  # a virtual display, so the suite tests `twin view` headless
 job=${1:-}
 case "$job" in demo|test) shift ;; *) echo "usage: bash .ci/bootstrap.sh demo|test [args]" >&2; exit 2 ;; esac
 

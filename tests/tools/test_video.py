@@ -108,7 +108,8 @@ def test_run_and_compare_videos_from_the_command_line(tmp_path, capsys, monkeypa
     assert "twin view needs a display" in capsys.readouterr().err
 
 
-@pytest.mark.skipif(shutil.which("Xvfb") is None, reason="needs Xvfb (apt-get install xvfb) for a display")
+@pytest.mark.skipif(shutil.which("Xvfb") is None,
+                    reason="needs Xvfb (apt-get install xvfb; the README's test command installs it)")
 def test_view_runs_a_scenario_on_a_virtual_display(tmp_path) -> None:
     """`twin view` opens mujoco.viewer on a display, shows every sample and closes cleanly.
     In its own process: GLFW keeps its X connection until the process ends."""
