@@ -27,27 +27,27 @@ import math
 import numbers
 from typing import Annotated
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
+from pydantic import Field, ValidationInfo, field_validator, model_validator
 
 from twin.core.errors import SafetyError
 from twin.core.poses import Pose
+from twin.core.validation import StrictModel, bounded
 
-Range = Annotated[tuple[float, float], Field(description="[min, max], inclusive")]
+Range = Annotated[tuple[Annotated[float, Field(ge=-1000, le=1000)], Annotated[float, Field(ge=-1000, le=1000)]],
+                  Field(description="[min, max], inclusive (mm or deg; each in [-1000, 1000])")]
 
 
-class SafetyLimits(BaseModel):
+class SafetyLimits(StrictModel):
     """Limits every command is checked against (see the module table for units)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     x_mm: Range = (-80.0, 80.0)
     y_mm: Range = (-80.0, 80.0)
     z_mm: Range = (-60.0, 6.0)
-    max_depth_mm: float = Field(default=6.0, ge=0.0, le=20.0)
+    max_depth_mm: float = bounded(0, 20, "mm", "deepest indentation = max z", 6.0)
     alpha_deg: Range = (-20.0, 20.0)
     beta_deg: Range = (-20.0, 20.0)
-    max_linear_speed_mm_s: float = Field(default=50.0, gt=0.0, le=250.0)
-    max_angular_speed_deg_s: float = Field(default=30.0, gt=0.0, le=180.0)
+    max_linear_speed_mm_s: float = bounded(0, 250, "mm/s", "highest TCP speed", 50.0, open_lo=True)
+    max_angular_speed_deg_s: float = bounded(0, 180, "deg/s", "highest reorientation speed", 30.0, open_lo=True)
 
     @field_validator("x_mm", "y_mm", "z_mm", "alpha_deg", "beta_deg")
     @classmethod

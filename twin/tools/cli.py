@@ -15,7 +15,7 @@ from twin.runs.parallel import one_blas_thread
 from twin.core.scenario import load_scenario
 from twin.core.scenario import START_POSE
 from twin.world.scene import build_scene
-from twin.runs.sim_env import render_scenario_view
+from twin.runs.sim_env import check_reachable, render_scenario_view
 from twin.runs.run import run_scenario
 from twin.tools.evaluate import evaluate, format_table
 from hardware.virtual_controller import serve_robot
@@ -29,11 +29,11 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
     for path in args.scenarios:
         scenario = load_scenario(path)
+        reach = ""
         if args.compile and scenario.backend == "sim":
-
-            build_scene(scenario, START_POSE)
+            reach = f", {check_reachable(scenario, build_scene(scenario, START_POSE))} poses in reach"
         print(f"{path}: ok ({scenario.protocol.kind}, object {scenario.object.name or scenario.object.stl or scenario.object.outline}, "
-              f"effects {', '.join(scenario.effects) or 'none'})")
+              f"effects {', '.join(scenario.effects) or 'none'}{reach})")
     return 0
 
 
