@@ -89,7 +89,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
 
 def _cmd_serve_robot(args: argparse.Namespace) -> int:
 
-    serve_robot(args.host, args.port, realtime_factor=args.realtime)
+    serve_robot(args.host, args.port, realtime_factor=args.realtime, idle_timeout_s=args.idle_timeout,
+                stall_timeout_s=args.stall_timeout)
     return 0
 
 
@@ -174,6 +175,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--host", default="127.0.0.1")
     p.add_argument("--port", type=int, default=5000)
     p.add_argument("--realtime", type=float, default=0.0, help="1 = moves take their real duration; 0 = instant")
+    p.add_argument("--idle-timeout", type=float, default=300.0, metavar="S",
+                   help="drop a client that sends nothing for S seconds (default 300)")
+    p.add_argument("--stall-timeout", type=float, default=5.0, metavar="S",
+                   help="drop a client that stops S seconds into a command (default 5)")
     p.set_defaults(func=_cmd_serve_robot)
 
     p = sub.add_parser("compare", help="compare two runs of one scenario (sim vs sim, sim vs real)")
