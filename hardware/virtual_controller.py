@@ -255,7 +255,7 @@ class VirtualRobotServer:
         except OSError as err:
             self._listener.close()
             raise UserError(f"virtual robot: cannot listen on {host}:{port}: {err}") from None
-        self._listener.listen(1)
+        self._listener.listen(8)  # clients wait in the queue (served one at a time) instead of SYN retries
         self._listener.settimeout(_POLL_S)
         self.host, self.port = self._listener.getsockname()[:2]
 
@@ -466,10 +466,11 @@ def _is_loopback(host: str) -> bool:
 
 
 def serve_robot(host: str = "127.0.0.1", port: int = DEFAULT_PORT, *, realtime_factor: float = 0.0,
-                backend: ArmBackend | None = None, idle_timeout_s: float = 300.0, stall_timeout_s: float = 5.0) -> None:
+                backend: ArmBackend | None = None, idle_timeout_s: float = 300.0, stall_timeout_s: float = 5.0,
+                log_limit: int | None = 10_000) -> None:
     """Run the virtual controller in the foreground until Ctrl-C or SIGTERM (for the CLI)."""
     server = VirtualRobotServer(host, port, backend, realtime_factor=realtime_factor, idle_timeout_s=idle_timeout_s,
-                                stall_timeout_s=stall_timeout_s)
+                                stall_timeout_s=stall_timeout_s, log_limit=log_limit)
     print(f"virtual IRB120 controller (RAPID server protocol) listening on {server.address}; Ctrl-C stops it", flush=True)
     try:
         server.serve_forever()

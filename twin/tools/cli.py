@@ -90,7 +90,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
 def _cmd_serve_robot(args: argparse.Namespace) -> int:
 
     serve_robot(args.host, args.port, realtime_factor=args.realtime, idle_timeout_s=args.idle_timeout,
-                stall_timeout_s=args.stall_timeout)
+                stall_timeout_s=args.stall_timeout, log_limit=args.log_limit)
     return 0
 
 
@@ -179,6 +179,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="drop a client that sends nothing for S seconds (default 300)")
     p.add_argument("--stall-timeout", type=float, default=5.0, metavar="S",
                    help="drop a client that stops S seconds into a command (default 5)")
+    p.add_argument("--log-limit", type=int, default=10_000, metavar="N",
+                   help="keep the last N commands and moves in memory (default 10000)")
     p.set_defaults(func=_cmd_serve_robot)
 
     p = sub.add_parser("compare", help="compare two runs of one scenario (sim vs sim, sim vs real)")
