@@ -9,34 +9,27 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import Field, field_validator
 
 from hardware.safety import SafetyLimits
-from twin.core.validation import read_yaml, validate_mapping
+from twin.core.validation import PoseList, StrictModel, bounded, read_yaml, validate_mapping
 from twin.core.poses import Pose
 
-PoseList = Annotated[list[float], Field(min_length=6, max_length=6)]
-
-
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
-
-
-class RobotConfig(_Strict):
+class RobotConfig(StrictModel):
     """The IRB120's RAPID server and the frames/speeds it is set up with."""
 
     host: str = "127.0.0.1"
-    port: int = Field(default=5000, ge=1, le=65535)
+    port: int = bounded(1, 65535, "TCP port", "RAPID server port", 5000)
     client: Literal["cri", "native"] = "cri"
-    connect_timeout_s: float = Field(default=3.0, gt=0, le=60)
-    reply_timeout_s: float = Field(default=5.0, gt=0, le=120)
+    connect_timeout_s: float = bounded(0, 60, "s", "connection timeout", 3.0, open_lo=True)
+    reply_timeout_s: float = bounded(0, 120, "s", "reply timeout", 5.0, open_lo=True)
     #: TCP (dome apex) in the flange frame tool0: x, y, z mm; α, β, γ deg (extrinsic XYZ).
     #: Default = the twin's mount (twin.world.scene.FLANGE_TO_APEX, 101 mm); measure your rig's.
     tcp_mm_deg: PoseList = [0.0, 0.0, 101.0, 0.0, 0.0, 0.0]
     #: work frame in the robot base frame: x, y, z mm; α, β, γ deg (extrinsic XYZ)
     work_frame_mm_deg: PoseList = [400.0, 0.0, 50.0, 180.0, 0.0, 0.0]
-    linear_speed_mm_s: float = Field(default=20.0, gt=0, le=250)
-    angular_speed_deg_s: float = Field(default=20.0, gt=0, le=180)
+    linear_speed_mm_s: float = bounded(0, 250, "mm/s", "TCP speed", 20.0, open_lo=True)
+    angular_speed_deg_s: float = bounded(0, 180, "deg/s", "reorientation speed", 20.0, open_lo=True)
     #: no-contact start pose for `reset()`, work frame (mm/deg)
     start_pose_mm_deg: PoseList = [0.0, 0.0, -10.0, 0.0, 0.0, 0.0]
 
@@ -53,27 +46,25 @@ class RobotConfig(_Strict):
         return Pose.from_array(self.start_pose_mm_deg)
 
 
-class CameraConfig(_Strict):
+class CameraConfig(StrictModel):
     """The TacTip camera: a V4L2 index, or a video file / URL standing in for it."""
 
-    source: int | str = 0
-    width: int = Field(default=640, ge=64, le=4096)
-    height: int = Field(default=480, ge=48, le=4096)
+    source: Annotated[int, Field(ge=0, le=63, description="V4L2 device index /dev/videoN (index; [0, 63])")] | str = 0
+    width: int = bounded(64, 4096, "px", "image width", 640)
+    height: int = bounded(48, 4096, "px", "image height", 480)
     #: manual exposure in V4L2 units of 100 µs (e.g. 156 = 15.6 ms); null = camera's auto
-    exposure: float | None = Field(default=None, gt=0, le=10000)
-    warmup: int = Field(default=8, ge=0, le=200)
+    exposure: float | None = bounded(0, 10000, "100 µs", "manual exposure, null = auto", None, open_lo=True)
+    warmup: int = bounded(0, 200, "frames", "frames dropped after opening", 8)
 
     @field_validator("source")
     @classmethod
     def _source(cls, v: int | str) -> int | str:
-        if isinstance(v, int) and v < 0:
-            raise ValueError(f"a device index is ≥ 0, got {v}")
         if isinstance(v, str) and not v.strip():
             raise ValueError("empty camera source")
         return v
 
 
-class HardwareConfig(_Strict):
+class HardwareConfig(StrictModel):
     """Everything the hardware environment needs."""
 
     robot: RobotConfig = RobotConfig()

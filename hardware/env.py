@@ -8,8 +8,12 @@
 | pins_px           | None (the tracker finds the pins in `frame`)                           |
 | truth             | {} (no ground truth on the real rig)                                  |
 
-Every move is checked against the safety limits *before* anything is sent; a refused
-pose or speed raises `SafetyError` and the robot receives nothing.
+Every move is checked against the safety limits *before* anything is sent, its whole
+path included (`SafetyLimits.check_path`, from the last pose commanded, or the measured
+one); a refused pose, path or speed raises `SafetyError` and the robot receives nothing.
+One exception, logged: a robot found outside the limits (parked elsewhere when the run
+starts) may only be sent to the config's start pose, and that approach is not covered by
+the limits — keep the controller's own world zones set.
 """
 from __future__ import annotations
 
@@ -17,9 +21,9 @@ import logging
 
 from hardware.camera import TactipCamera
 from hardware.config import HardwareConfig, load_hardware_config
-from hardware.robot import RobotDriver
+from hardware.robot import RobotCommandRefused, RobotDriver
 from twin.core.environment import Environment, Observation
-from twin.core.errors import UserError
+from twin.core.errors import SafetyError, UserError
 from twin.core.poses import Pose
 from twin.core.sensor import CameraModel
 
@@ -64,6 +68,7 @@ class HardwareEnvironment(Environment):
             self.close()
             raise
         self._speed_mm_s = r.linear_speed_mm_s
+        self._at: Pose | None = None  # the pose last reached by a move (work frame), None = ask the robot
 
     @classmethod
     def from_scenario(cls, scenario, config_path: str | None = None) -> "HardwareEnvironment":
@@ -88,10 +93,26 @@ class HardwareEnvironment(Environment):
         speed = self.config.robot.linear_speed_mm_s if speed_mm_s is None else speed_mm_s
         self.safety.check_speed(speed)
         robot = self._robot()
+        start = self._at if self._at is not None else robot.get_pose()
+        if self.safety.allows(start):
+            self.safety.check_path(start, pose)
+        elif pose != self.config.robot.start_pose:
+            raise SafetyError(f"the robot is at {start}, outside the safety limits: from there it may only be sent "
+                              f"to the start pose (robot.start_pose_mm_deg; reset())")
+        else:
+            log.warning("the robot is at %s, outside the safety limits: approaching the start pose %s in a straight "
+                        "line, a path the limits do not cover", start, pose)
         if speed != self._speed_mm_s:
             robot.set_speed(speed, self.config.robot.angular_speed_deg_s)
             self._speed_mm_s = speed
-        robot.move_linear(pose)
+        try:
+            robot.move_linear(pose)
+        except RobotCommandRefused:
+            raise  # refused before moving: the robot is where it was
+        except BaseException:
+            self._at = None  # where the robot stopped is unknown: ask it next time
+            raise
+        self._at = pose
 
     def observe(self) -> Observation:
         """Measured pose (controller) and a frame captured after this call."""

@@ -163,6 +163,66 @@ def decode_request(data: bytes) -> tuple[Command, tuple[float, ...]]:
     return command, decode_request_payload(command, data[CODE_SIZE:])
 
 
+@dataclass(frozen=True)
+class Request:
+    """One complete request: its command and arguments (wire units)."""
+
+    command: Command
+    args: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class DecodeError:
+    """Bytes that are not a request; `discarded` bytes were dropped with them."""
+
+    message: str
+    discarded: int
+
+
+#: the longest request (MOVE_CIRCULAR), bytes: the most a decoder ever holds between feeds
+MAX_REQUEST_SIZE = CODE_SIZE + max(layout.size for layout in REQUEST_LAYOUT.values())
+
+
+class RequestDecoder:
+    """Incremental decoder of a request stream: `feed` any bytes as they arrive (split
+    anywhere) and get the complete requests, and errors as values. Never raises; holds at
+    most MAX_REQUEST_SIZE - 1 bytes between feeds.
+
+    The protocol has no framing, so after an unknown command code the decoder cannot
+    find the next request: it drops everything it holds (the server also drains the
+    socket and answers ERROR, as for any unknown code)."""
+
+    def __init__(self) -> None:
+        self._buf = bytearray()
+
+    @property
+    def pending(self) -> int:
+        """Bytes of an incomplete request held back (0 = between requests)."""
+        return len(self._buf)
+
+    def reset(self) -> None:
+        self._buf.clear()
+
+    def feed(self, data: bytes) -> list[Request | DecodeError]:
+        self._buf += data
+        out: list[Request | DecodeError] = []
+        while len(self._buf) >= CODE_SIZE:
+            (code,) = _CODE.unpack_from(self._buf, 0)
+            try:
+                command = Command(code)
+            except ValueError:
+                out.append(DecodeError(f"unknown command code {code}", len(self._buf)))
+                self._buf.clear()
+                break
+            layout = REQUEST_LAYOUT[command]
+            if len(self._buf) < CODE_SIZE + layout.size:
+                break
+            args = layout.unpack_from(self._buf, CODE_SIZE)
+            del self._buf[:CODE_SIZE + layout.size]
+            out.append(Request(command, args))
+        return out
+
+
 # ---------------------------------------------------------------------------- replies
 def encode_reply(command: Command, ok: bool = True, values: tuple[float, ...] | str = ()) -> bytes:
     """Bytes of one reply: status, then (only when OK) the values or GET_INFO's text."""

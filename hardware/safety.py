@@ -14,9 +14,12 @@ finite (NaN, ±inf) is refused with a `SafetyError` naming the field, value and 
 | max_angular_speed_deg_s   | deg/s | highest reorientation speed that may be commanded      |
 
 γ (the sensor's rotation about its own axis, the paper's θ) is free but must be finite.
-A straight move between two poses inside the box stays inside it (the box is convex);
-the α/β interpolation of the controller can leave the α/β box by a fraction of a degree
-on long reorientations.
+A straight move between two poses inside the box stays inside it (the box and the depth
+limit are convex), but the controller interpolates the orientation (slerp, the short
+way), and α, β along that arc are not the linear blend of their end values: a move
+between two legal tilts with a large turn of γ can leave the α/β box on the way.
+`check_path` checks the whole arc (sampled every 0.25°, extremes near a limit refined to
+1e-9 deg) and refuses such a move; split it (turn γ first, then tilt).
 
 These limits are a second line of defence: keep the controller's own world zones (the
 RAPID server defines a workspace box) configured as well.
@@ -27,27 +30,31 @@ import math
 import numbers
 from typing import Annotated
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
+import numpy as np
+from scipy.optimize import minimize_scalar
+from scipy.spatial.transform import Rotation
+
+from pydantic import Field, ValidationInfo, field_validator, model_validator
 
 from twin.core.errors import SafetyError
-from twin.core.poses import Pose
+from twin.core.poses import EULER_AXES, Pose
+from twin.core.validation import StrictModel, bounded
 
-Range = Annotated[tuple[float, float], Field(description="[min, max], inclusive")]
+Range = Annotated[tuple[Annotated[float, Field(ge=-1000, le=1000)], Annotated[float, Field(ge=-1000, le=1000)]],
+                  Field(description="[min, max], inclusive (mm or deg; each in [-1000, 1000])")]
 
 
-class SafetyLimits(BaseModel):
+class SafetyLimits(StrictModel):
     """Limits every command is checked against (see the module table for units)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     x_mm: Range = (-80.0, 80.0)
     y_mm: Range = (-80.0, 80.0)
     z_mm: Range = (-60.0, 6.0)
-    max_depth_mm: float = Field(default=6.0, ge=0.0, le=20.0)
+    max_depth_mm: float = bounded(0, 20, "mm", "deepest indentation = max z", 6.0)
     alpha_deg: Range = (-20.0, 20.0)
     beta_deg: Range = (-20.0, 20.0)
-    max_linear_speed_mm_s: float = Field(default=50.0, gt=0.0, le=250.0)
-    max_angular_speed_deg_s: float = Field(default=30.0, gt=0.0, le=180.0)
+    max_linear_speed_mm_s: float = bounded(0, 250, "mm/s", "highest TCP speed", 50.0, open_lo=True)
+    max_angular_speed_deg_s: float = bounded(0, 180, "deg/s", "highest reorientation speed", 30.0, open_lo=True)
 
     @field_validator("x_mm", "y_mm", "z_mm", "alpha_deg", "beta_deg")
     @classmethod
@@ -104,6 +111,36 @@ class SafetyLimits(BaseModel):
             if value > limit:
                 raise SafetyError(f"{name} = {value!r} {unit} exceeds the limit {limit} {unit} ({field})")
 
+    def check_path(self, start: Pose, end: Pose) -> None:
+        """Raise SafetyError unless the straight move start → end stays inside the limits
+        all along: both ends (`check_pose`) and every orientation on the slerp between
+        them (α, β within their ranges; `PATH_STEP_DEG`, `PATH_TOL_DEG`)."""
+        self.check_pose(start)
+        self.check_pose(end)
+        r0 = Rotation.from_euler(EULER_AXES, [start.alpha, start.beta, start.gamma], degrees=True)
+        turn = (Rotation.from_euler(EULER_AXES, [end.alpha, end.beta, end.gamma], degrees=True) * r0.inv()).as_rotvec()
+        n = max(2, math.ceil(math.degrees(float(np.linalg.norm(turn))) / PATH_STEP_DEG) + 1)
+        s = np.linspace(0.0, 1.0, n)
+
+        def tilt(si) -> np.ndarray:  # (len, 2) α, β (deg) at path fractions si
+            return (Rotation.from_rotvec(np.outer(np.atleast_1d(si), turn)) * r0).as_euler(EULER_AXES, degrees=True)[:, :2]
+
+        ab = tilt(s)
+        for k, (name, (lo, hi)) in enumerate((("alpha", self.alpha_deg), ("beta", self.beta_deg))):
+            for sign, bound in ((1.0, hi), (-1.0, lo)):
+                i = int(np.argmax(sign * ab[:, k]))
+                worst = float(ab[i, k])
+                if sign * (worst - bound) > -PATH_REFINE_DEG:  # near the limit: refine between the neighbours
+                    found = minimize_scalar(lambda x: -sign * tilt(x)[0, k], bounds=(s[max(i - 1, 0)], s[min(i + 1, n - 1)]),
+                                            method="bounded", options={"xatol": 1e-12})
+                    worst = float(tilt(found.x)[0, k]) if sign * tilt(found.x)[0, k] > sign * worst else worst
+                if sign * (worst - bound) > PATH_TOL_DEG:
+                    field = f"safety.{name}_deg"
+                    raise SafetyError(
+                        f"move {_fmt(start)} → {_fmt(end)}: {name} reaches {worst:.6g} deg on the way "
+                        f"(the controller slerps the orientation), beyond the limit {bound} deg ({field}); "
+                        "split the move: turn γ first, then tilt")
+
     def allows(self, pose: Pose) -> bool:
         """True if `check_pose` would pass."""
         try:
@@ -119,6 +156,14 @@ class SafetyLimits(BaseModel):
             raise SafetyError(f"pose {_fmt(pose)}: {name} = {value!r} {unit} is below the limit {lo} {unit} ({field})")
         if value > hi:
             raise SafetyError(f"pose {_fmt(pose)}: {name} = {value!r} {unit} is above the limit {hi} {unit} ({field})")
+
+
+#: path sampling of `check_path`: every PATH_STEP_DEG of rotation; a sampled α/β within
+#: PATH_REFINE_DEG of a limit is refined to its true extreme; PATH_TOL_DEG absorbs
+#: rounding only (a move whose ends sit on a limit and turns γ keeps α, β to ~1e-13 deg)
+PATH_STEP_DEG = 0.25
+PATH_REFINE_DEG = 0.01
+PATH_TOL_DEG = 1e-9
 
 
 def _fmt(pose: Pose) -> str:

@@ -12,7 +12,13 @@ joints) and moves a simulated arm through a pluggable backend:
 * anything implementing `ArmBackend` (e.g. the full MuJoCo scene) — four methods in SI.
 
 One client at a time, like the RAPID server; a client that disconnects (or sends CLOSE)
-frees the server for the next. Loopback only unless `allow_remote=True`.
+frees the server for the next, and so does one that stalls mid-command for
+`stall_timeout_s` or sends nothing for `idle_timeout_s` (dropped with the reason logged).
+Requests are decoded incrementally (`hardware.protocol.RequestDecoder`): any bytes, split
+anywhere, give requests or ERROR replies, never an exception. What it keeps is bounded:
+the command and move logs hold the last `log_limit` entries, and each client's refusals
+are logged up to `MAX_LOGGED_REFUSALS`, then counted. Loopback only unless
+`allow_remote=True`.
 
 Differences from the real controller, on purpose: moves are checked *before* moving
 (the robot would stop mid-path), MOVE_CIRCULAR is answered with ERROR (not simulated),
@@ -28,6 +34,7 @@ import math
 import socket
 import threading
 import time
+from collections import Counter, deque
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -35,16 +42,14 @@ import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
 from hardware.protocol import (
-    CODE_SIZE,
     DEFAULT_PORT,
     Command,
+    DecodeError,
     ProtocolError,
+    RequestDecoder,
     Zone,
-    decode_request_payload,
     encode_reply,
     matrix_to_wire,
-    parse_command_code,
-    request_payload_size,
     wire_to_matrix,
 )
 from twin.core.errors import UnreachablePoseError, UserError
@@ -57,6 +62,9 @@ log = logging.getLogger(__name__)
 IRB120_MAX_JOINT_SPEED_DEG_S = np.array([250.0, 250.0, 250.0, 320.0, 320.0, 420.0])
 
 _POLL_S = 0.05  # how often blocking socket calls look at the stop flag
+#: refusals logged per client; further ones are only counted (a client sending garbage
+#: cannot fill the log)
+MAX_LOGGED_REFUSALS = 20
 
 
 class ArmBackend(Protocol):
@@ -171,6 +179,21 @@ class CommandRecord:
     args: tuple[float, ...]
 
 
+@dataclass(frozen=True)
+class MoveRecord:
+    """One move request as the controller received it, before executing it: where the
+    TCP was (`start`) and where it was sent (`end`), both (x, y, z mm, qw, qx, qy, qz) in
+    the work object; the speeds in force (mm/s, deg/s); whether it was carried out. The
+    controller moves the TCP on the straight line between them, slerping the orientation."""
+
+    start: tuple[float, ...]
+    end: tuple[float, ...]
+    linear_speed_mm_s: float
+    angular_speed_deg_s: float
+    command: Command
+    accepted: bool
+
+
 class VirtualRobotServer:
     """TCP server answering the RAPID server protocol with a simulated arm.
 
@@ -180,7 +203,9 @@ class VirtualRobotServer:
     | work_object      | (x, y, z mm, qw, qx, qy, qz) work frame in the base frame |
     | speed            | (linear mm/s, angular deg/s); controller default (100, 50) |
     | zone             | `hardware.protocol.Zone`                                 |
-    | command_log      | every request received, `CommandRecord`s                 |
+    | command_log      | the last `log_limit` requests received, `CommandRecord`s |
+    | moves            | the last `log_limit` moves received, `MoveRecord`s        |
+    | counts           | how many requests of each command arrived (all of them)  |
 
     Use as a context manager (starts a background thread, shuts down on exit), or call
     `start()`/`shutdown()`, or `serve_forever()` in the calling thread. The socket is
@@ -196,6 +221,9 @@ class VirtualRobotServer:
         allow_remote: bool = False,
         realtime_factor: float = 0.0,
         info: str = "virtual IRB120, tactip-twin, RAPID server protocol",
+        idle_timeout_s: float = 300.0,
+        stall_timeout_s: float = 5.0,
+        log_limit: int | None = 10_000,
     ) -> None:
         if not allow_remote and not _is_loopback(host):
             raise UserError(f"virtual robot: host {host!r} is not a loopback address; pass allow_remote=True to serve on it")
@@ -206,7 +234,15 @@ class VirtualRobotServer:
         self.work_object: tuple[float, ...] = (0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
         self.speed: tuple[float, float] = (100.0, 50.0)
         self.zone = Zone(True, 0.3, 0.3, 0.03)
-        self.command_log: list[CommandRecord] = []
+        for name, value in (("idle_timeout_s", idle_timeout_s), ("stall_timeout_s", stall_timeout_s)):
+            if not (math.isfinite(value) and value > 0):
+                raise UserError(f"virtual robot: {name} must be a positive number of seconds, got {value!r}")
+        self.idle_timeout_s = float(idle_timeout_s)
+        self.stall_timeout_s = float(stall_timeout_s)
+        self.command_log: deque[CommandRecord] = deque(maxlen=log_limit)
+        self.moves: deque[MoveRecord] = deque(maxlen=log_limit)
+        self.counts: Counter[Command] = Counter()
+        self.dropped: deque[str] = deque(maxlen=100)  # why the last clients were dropped
         self.last_error: str | None = None
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -219,7 +255,7 @@ class VirtualRobotServer:
         except OSError as err:
             self._listener.close()
             raise UserError(f"virtual robot: cannot listen on {host}:{port}: {err}") from None
-        self._listener.listen(1)
+        self._listener.listen(8)  # clients wait in the queue (served one at a time) instead of SYN retries
         self._listener.settimeout(_POLL_S)
         self.host, self.port = self._listener.getsockname()[:2]
 
@@ -250,7 +286,7 @@ class VirtualRobotServer:
                     conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
                     self._client = conn
                     try:
-                        self._serve_client(conn)
+                        self._serve_client(conn, peer)
                     except (ConnectionError, OSError) as err:
                         log.info("virtual robot %s: client %s gone: %s", self.address, peer, err)
                     finally:
@@ -280,40 +316,69 @@ class VirtualRobotServer:
     def count(self, command: Command) -> int:
         """How many `command` requests have arrived so far."""
         with self._lock:
-            return sum(1 for r in self.command_log if r.command == command)
+            return self.counts[command]
 
     # ------------------------------------------------------------------ one client
-    def _serve_client(self, conn: socket.socket) -> None:
-        while not self._stop.is_set():
-            code = self._recv_exactly(conn, CODE_SIZE)
-            if code is None:
-                return  # client closed, or shutdown
-            try:
-                command = parse_command_code(code)
-            except ProtocolError as err:
-                self._drain(conn)
-                self.last_error = str(err)
-                log.warning("virtual robot %s: %s", self.address, err)
-                conn.sendall(encode_reply(Command.SET_TOOL, ok=False))  # bare ERROR status
-                continue
-            payload = self._recv_exactly(conn, request_payload_size(command))
-            if payload is None:
-                return
-            args = decode_request_payload(command, payload)
-            with self._lock:
-                self.command_log.append(CommandRecord(time.monotonic(), command, args))
-            if command is Command.CLOSE:
-                return
-            reply, duration = self._execute(command, args)
-            if duration > 0 and self.realtime_factor > 0 and self._stop.wait(duration * self.realtime_factor):
-                return  # shut down mid-move: the client gets no reply
-            conn.sendall(reply)
+    def _serve_client(self, conn: socket.socket, peer) -> None:
+        decoder = RequestDecoder()
+        refusals = 0
+        last_byte = time.monotonic()
+        conn.settimeout(_POLL_S)
+        try:
+            while not self._stop.is_set():
+                try:
+                    chunk = conn.recv(4096)
+                except (TimeoutError, socket.timeout):
+                    quiet = time.monotonic() - last_byte
+                    if decoder.pending and quiet > self.stall_timeout_s:
+                        return self._drop(peer, f"stalled mid-command ({decoder.pending} bytes of a request, "
+                                                f"nothing more for {quiet:.1f} s > stall timeout {self.stall_timeout_s:g} s)")
+                    if not decoder.pending and quiet > self.idle_timeout_s:
+                        return self._drop(peer, f"idle for {quiet:.1f} s > idle timeout {self.idle_timeout_s:g} s")
+                    continue
+                if not chunk:
+                    return  # client closed
+                last_byte = time.monotonic()
+                for item in decoder.feed(chunk):
+                    if isinstance(item, DecodeError):
+                        refusals += 1
+                        self._refused(refusals, f"{item.message} ({item.discarded} bytes dropped)")
+                        self._drain(conn)  # the rest of a malformed request: no framing to resync on
+                        decoder.reset()
+                        conn.sendall(encode_reply(Command.SET_TOOL, ok=False))  # bare ERROR status
+                        break
+                    with self._lock:
+                        self.command_log.append(CommandRecord(time.monotonic(), item.command, item.args))
+                        self.counts[item.command] += 1
+                    if item.command is Command.CLOSE:
+                        return
+                    reply, duration, error = self._execute(item.command, item.args)
+                    if error:
+                        refusals += 1
+                        self._refused(refusals, error)
+                    if duration > 0 and self.realtime_factor > 0 and self._stop.wait(duration * self.realtime_factor):
+                        return  # shut down mid-move: the client gets no reply
+                    conn.sendall(reply)
+        finally:
+            if refusals > MAX_LOGGED_REFUSALS:
+                log.warning("virtual robot %s: client %s: %d refusals in all (%d not logged)", self.address, peer,
+                            refusals, refusals - MAX_LOGGED_REFUSALS)
 
-    def _execute(self, command: Command, args: tuple[float, ...]) -> tuple[bytes, float]:
-        """(reply bytes, simulated duration s) of one request."""
+    def _drop(self, peer, reason: str) -> None:
+        self.dropped.append(f"{peer}: {reason}")
+        log.warning("virtual robot %s: dropped client %s: %s", self.address, peer, reason)
+
+    def _refused(self, n: int, error: str) -> None:
+        self.last_error = error
+        if n <= MAX_LOGGED_REFUSALS:
+            log.warning("virtual robot %s: refused %s%s", self.address, error,
+                        " (further refusals from this client are counted, not logged)" if n == MAX_LOGGED_REFUSALS else "")
+
+    def _execute(self, command: Command, args: tuple[float, ...]) -> tuple[bytes, float, str | None]:
+        """(reply bytes, simulated duration s, why it was refused or None) of one request."""
         try:
             if command is Command.GET_INFO:
-                return encode_reply(command, True, self.info_text), 0.0
+                return encode_reply(command, True, self.info_text), 0.0, None
             if command is Command.SET_TOOL:
                 self._check_frame(args)
                 self.tool = tuple(args)
@@ -325,27 +390,46 @@ class VirtualRobotServer:
                     raise ProtocolError(f"speeds must be > 0, got {args}")
                 self.speed = (float(args[0]), float(args[1]))
             elif command is Command.SET_ZONE:
+                if not all(math.isfinite(v) and v >= 0 for v in args[1:]):
+                    raise ProtocolError(f"zone sizes must be finite and ≥ 0, got {args[1:]}")
                 self.zone = Zone(bool(args[0]), *(float(a) for a in args[1:]))
             elif command is Command.GET_JOINTS:
-                return encode_reply(command, True, tuple(np.degrees(self.backend.get_joints()))), 0.0
+                return encode_reply(command, True, tuple(np.degrees(self.backend.get_joints()))), 0.0, None
             elif command is Command.GET_POSE:
-                tool2work = invert_transform(self._work2world) @ self.backend.get_pose(self._tool2flange)
-                return encode_reply(command, True, matrix_to_wire(tool2work)), 0.0
-            elif command is Command.MOVE_LINEAR:
-                self._check_frame(args)
-                tool2world = self._work2world @ wire_to_matrix(args)
-                duration = self.backend.move_linear(tool2world, self._tool2flange, *self._speeds_si)
-                return encode_reply(command, True), duration
-            elif command is Command.MOVE_JOINTS:
-                duration = self.backend.move_joints(np.radians(args), self._tool2flange, *self._speeds_si)
-                return encode_reply(command, True), duration
+                return encode_reply(command, True, self._tool_in_work()), 0.0, None
+            elif command in (Command.MOVE_LINEAR, Command.MOVE_JOINTS):
+                return encode_reply(command, True), self._move(command, args), None
             elif command is Command.MOVE_CIRCULAR:
                 raise ProtocolError("MOVE_CIRCULAR is not simulated by the virtual controller")
-            return encode_reply(command, True), 0.0
+            return encode_reply(command, True), 0.0, None
         except (UnreachablePoseError, ProtocolError) as err:
-            self.last_error = f"{command.name}: {err}"
-            log.warning("virtual robot %s: refused %s", self.address, self.last_error)
-            return encode_reply(command, False), 0.0
+            return encode_reply(command, False), 0.0, f"{command.name}: {err}"
+
+    def _tool_in_work(self) -> tuple[float, ...]:
+        """The TCP's pose in the work object now (wire units)."""
+        return matrix_to_wire(invert_transform(self._work2world) @ self.backend.get_pose(self._tool2flange))
+
+    def _move(self, command: Command, args: tuple[float, ...]) -> float:
+        """Record the move (`moves`), then carry it out; its simulated duration (s)."""
+        start = self._tool_in_work()
+        record = dict(start=start, linear_speed_mm_s=self.speed[0], angular_speed_deg_s=self.speed[1], command=command)
+        try:
+            if command is Command.MOVE_LINEAR:
+                end = tuple(float(a) for a in args)
+                self._check_frame(args)
+                duration = self.backend.move_linear(self._work2world @ wire_to_matrix(args), self._tool2flange,
+                                                    *self._speeds_si)
+            else:
+                end = ()
+                duration = self.backend.move_joints(np.radians(args), self._tool2flange, *self._speeds_si)
+                end = self._tool_in_work()
+        except BaseException:
+            with self._lock:
+                self.moves.append(MoveRecord(end=end, accepted=False, **record))
+            raise
+        with self._lock:
+            self.moves.append(MoveRecord(end=end, accepted=True, **record))
+        return duration
 
     @staticmethod
     def _check_frame(args: tuple[float, ...]) -> None:
@@ -365,22 +449,6 @@ class VirtualRobotServer:
     def _speeds_si(self) -> tuple[float, float]:
         return self.speed[0] * 1e-3, math.radians(self.speed[1])
 
-    def _recv_exactly(self, conn: socket.socket, n: int) -> bytes | None:
-        """n bytes, or None if the client closed or the server is shutting down."""
-        buf = bytearray()
-        conn.settimeout(_POLL_S)
-        while len(buf) < n:
-            if self._stop.is_set():
-                return None
-            try:
-                chunk = conn.recv(n - len(buf))
-            except (TimeoutError, socket.timeout):
-                continue
-            if not chunk:
-                return None
-            buf += chunk
-        return bytes(buf)
-
     @staticmethod
     def _drain(conn: socket.socket) -> None:
         """Discard what is left of a malformed request."""
@@ -397,9 +465,12 @@ def _is_loopback(host: str) -> bool:
         return False
 
 
-def serve_robot(host: str = "127.0.0.1", port: int = DEFAULT_PORT, *, realtime_factor: float = 0.0, backend: ArmBackend | None = None) -> None:
-    """Run the virtual controller in the foreground until Ctrl-C (for the CLI)."""
-    server = VirtualRobotServer(host, port, backend, realtime_factor=realtime_factor)
+def serve_robot(host: str = "127.0.0.1", port: int = DEFAULT_PORT, *, realtime_factor: float = 0.0,
+                backend: ArmBackend | None = None, idle_timeout_s: float = 300.0, stall_timeout_s: float = 5.0,
+                log_limit: int | None = 10_000) -> None:
+    """Run the virtual controller in the foreground until Ctrl-C or SIGTERM (for the CLI)."""
+    server = VirtualRobotServer(host, port, backend, realtime_factor=realtime_factor, idle_timeout_s=idle_timeout_s,
+                                stall_timeout_s=stall_timeout_s, log_limit=log_limit)
     print(f"virtual IRB120 controller (RAPID server protocol) listening on {server.address}; Ctrl-C stops it", flush=True)
     try:
         server.serve_forever()

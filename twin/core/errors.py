@@ -36,3 +36,8 @@ class HardwareError(TwinError):
 
 class LostPinsError(TwinError):
     """Too many pins could not be tracked in a frame: the run stops (records kept)."""
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (job schedulers, Ray, `timeout`, `kill`): handled like Ctrl-C — the run
+    stops, keeps everything recorded and is marked "interrupted"; the CLI exits 143."""

@@ -5,12 +5,12 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Literal, Union
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from twin.core.poses import Pose
 from twin.core.resources import scenario_path
 from twin.core.sensor import CameraModel
-from twin.core.validation import read_yaml, validate_mapping
+from twin.core.validation import PoseList, StrictModel, bounded, bounded_list, read_yaml, validate_mapping
 
 EFFECTS = ("contact", "friction", "arm_dynamics", "render", "camera_noise", "lighting")
 #: Approach choreography shared by every protocol (work frame, README "Conventions"):
@@ -26,22 +26,15 @@ def hover_over(x_mm: float, y_mm: float, gamma_deg: float) -> Pose:
     return Pose(x_mm, y_mm, HOVER_Z_MM, 0.0, 0.0, gamma_deg)
 BUILTIN_OBJECTS = ("rectangle", "large_circle", "small_circle", "flower", "spiral", "tape_measure")
 
-PoseList = Annotated[list[float], Field(min_length=6, max_length=6)]
-
-
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-class ObjectSpec(_Strict):
+class ObjectSpec(StrictModel):
     """The stimulus: a built-in name, a user STL, or a user outline CSV extruded."""
 
     name: str | None = None
     stl: str | None = None
     outline: str | None = None
-    thickness_mm: float | None = Field(default=None, gt=0, le=200)
+    thickness_mm: float | None = bounded(0, 200, "mm", "outline extrusion height", None, open_lo=True)
     material: str | None = None
-    friction: float | None = Field(default=None, ge=0, le=3)
+    friction: float | None = bounded(0, 3, "dimensionless", "sliding friction coefficient", None)
 
     @model_validator(mode="after")
     def _one_source(self) -> "ObjectSpec":
@@ -55,31 +48,33 @@ class ObjectSpec(_Strict):
         return self
 
 
-class Placement(_Strict):
+class Placement(StrictModel):
     """Where the object's reference point sits on the table (robot base frame)."""
 
-    position_mm: Annotated[list[float], Field(min_length=2, max_length=2)] = [400.0, 0.0]
-    yaw_deg: float = 0.0
+    position_mm: bounded_list(-1000, 1000, "mm", length=2) = [400.0, 0.0]
+    yaw_deg: float = bounded(-360, 360, "deg", "object yaw about the table normal", 0.0)
 
 
-class CameraSpec(_Strict):
-    width: int = Field(default=640, ge=64, le=4096)
-    height: int = Field(default=480, ge=48, le=4096)
-    fov_y_deg: float = Field(default=56.0, gt=10, lt=150)
-    msaa: int = Field(default=0, ge=0, le=16)
-    noise_std: float = Field(default=2.0, ge=0, le=50, description="grey levels, with camera_noise")
+class CameraSpec(StrictModel):
+    width: int = bounded(64, 4096, "px", "image width", 640)
+    height: int = bounded(48, 4096, "px", "image height", 480)
+    fov_y_deg: float = Field(default=56.0, gt=10, lt=150, description="vertical field of view (deg; (10, 150))")
+    msaa: int = bounded(0, 16, "samples per px", "anti-aliasing", 0)
+    noise_std: float = bounded(0, 50, "grey levels", "pixel noise sigma, with camera_noise", 2.0)
 
 
-class PhysicsOverrides(_Strict):
+class PhysicsOverrides(StrictModel):
     """Overrides of the fidelity level's dome parameters (twin.world.dome.flex.DomeParams), for sweeps."""
 
-    cellcount: Annotated[list[int], Field(min_length=3, max_length=3)] | None = None
-    timestep_s: float | None = Field(default=None, gt=0, le=0.05)
-    settle_px: float | None = Field(default=None, gt=0, le=5)
-    surface_spacing_mm: float | None = Field(default=None, ge=0.5, le=10)
-    skin_spacing_mm: float | None = Field(default=None, description="skin layer node spacing (twin.world.dome.skin); 0 = off")
-    membrane_young_mpa: float | None = Field(default=None, ge=0, le=10,
-                                             description="skin membrane's Young's modulus (twin.world.dome.flex); 0 = off")
+    cellcount: Annotated[list[Annotated[int, Field(ge=2, le=12)]], Field(
+        min_length=3, max_length=3, description="dome grid cells along x, y, z (cells; each in [2, 12])")] | None = None
+    timestep_s: float | None = bounded(0, 0.05, "s", "physics time step", None, open_lo=True)
+    settle_px: float | None = bounded(0, 5, "px", "settle tolerance", None, open_lo=True)
+    surface_spacing_mm: float | None = bounded(0.5, 10, "mm", "collision surface spacing", None)
+    skin_spacing_mm: float | None = bounded(0, 5, "mm", "skin layer node spacing (twin.world.dome.skin), 0 = off, "
+                                            "else ≥ 0.5", None)
+    membrane_young_mpa: float | None = bounded(0, 10, "MPa", "skin membrane's Young's modulus (twin.world.dome.flex), "
+                                               "0 = off", None)
 
     @field_validator("skin_spacing_mm")
     @classmethod
@@ -97,70 +92,70 @@ class PhysicsOverrides(_Strict):
         return {k: v for k, v in changes.items() if v is not None}
 
 
-class SensorSpec(_Strict):
+class SensorSpec(StrictModel):
     camera: CameraSpec = CameraSpec()
 
 
-class RenderProtocol(_Strict):
+class RenderProtocol(StrictModel):
     """Observe at a list of poses (no-contact frame by default)."""
 
     kind: Literal["render"] = "render"
-    poses: list[PoseList] = [[0.0, 0.0, HOVER_Z_MM, 0.0, 0.0, 0.0]]
-    speed_mm_s: float = Field(default=DEFAULT_SPEED_MM_S, gt=0, le=250)
+    poses: Annotated[list[PoseList], Field(min_length=1, max_length=10_000)] = [[0.0, 0.0, HOVER_Z_MM, 0.0, 0.0, 0.0]]
+    speed_mm_s: float = bounded(0, 250, "mm/s", "TCP speed", DEFAULT_SPEED_MM_S, open_lo=True)
 
 
-class _StraightEdgeProtocol(_Strict):
+class _StraightEdgeProtocol(StrictModel):
     """Fields shared by the paper's two data sets on the rectangle's straight edge."""
 
-    orientations_deg: list[float] = [float(a) for a in range(-160, 181, 20)]
-    lateral_mm: list[float] = [9.9, 6, 4, 2, 0, -2, -4, -6]
-    edge_point_mm: Annotated[list[float], Field(min_length=2, max_length=2)] = [60.0, 0.0]
-    edge_normal_deg: float = 0.0
-    approach_mm: float = Field(default=-HOVER_Z_MM, gt=0, le=50)
-    speed_mm_s: float = Field(default=DEFAULT_SPEED_MM_S, gt=0, le=250)
-    free_speed_mm_s: float = Field(default=50.0, gt=0, le=250, description="moves above the object, out of contact")
+    orientations_deg: bounded_list(-360, 360, "deg", max_length=360) = [float(a) for a in range(-160, 181, 20)]
+    lateral_mm: bounded_list(-50, 50, "mm", max_length=100) = [9.9, 6, 4, 2, 0, -2, -4, -6]
+    edge_point_mm: bounded_list(-500, 500, "mm", length=2) = [60.0, 0.0]
+    edge_normal_deg: float = bounded(-360, 360, "deg", "edge's outward normal", 0.0)
+    approach_mm: float = bounded(0, 50, "mm", "hover height above the surface", -HOVER_Z_MM, open_lo=True)
+    speed_mm_s: float = bounded(0, 250, "mm/s", "TCP speed in contact", DEFAULT_SPEED_MM_S, open_lo=True)
+    free_speed_mm_s: float = bounded(0, 250, "mm/s", "moves above the object, out of contact", 50.0, open_lo=True)
 
 
 class TapProtocol(_StraightEdgeProtocol):
     """The paper's tap training set (§III-A2)."""
 
     kind: Literal["taps"] = "taps"
-    depths_mm: list[float] = [2.0, 4.0]
+    depths_mm: bounded_list(-50, 6, "mm", max_length=20) = [2.0, 4.0]
 
 
 class SlideProtocol(_StraightEdgeProtocol):
     """The paper's multi-directional sliding set (§III-C)."""
 
     kind: Literal["slides"] = "slides"
-    directions_deg: list[float] = [float(a) for a in range(0, 360, 45)]
-    depth_mm: float = Field(default=3.0, ge=0, le=6)
+    directions_deg: bounded_list(-360, 360, "deg", max_length=72) = [float(a) for a in range(0, 360, 45)]
+    depth_mm: float = bounded(0, 6, "mm", "indentation while sliding", 3.0)
 
 
-class ContourProtocol(_Strict):
+class ContourProtocol(StrictModel):
     """Contour following with the paper's controller (§III-D)."""
 
     kind: Literal["contour"] = "contour"
-    depth_mm: float = Field(default=3.0, ge=0, le=6)
-    step_mm: float = Field(default=3.0, gt=0, le=20)
-    gain: float = Field(default=0.35, ge=0, le=2)
-    lateral_target_mm: float = Field(default=0.0, ge=-10, le=10)
-    max_steps: int = Field(default=400, ge=1, le=100000)
+    depth_mm: float = bounded(0, 6, "mm", "indentation", 3.0)
+    step_mm: float = bounded(0, 20, "mm", "step along the edge", 3.0, open_lo=True)
+    gain: float = bounded(0, 2, "dimensionless", "lateral correction gain K", 0.35)
+    lateral_target_mm: float = bounded(-10, 10, "mm", "desired lateral position l_d", 0.0)
+    max_steps: int = bounded(1, 100_000, "steps", "step budget", 400)
     model: str | None = None
     controller: str = "paper"
-    orientation_deg: float = 0.0
-    speed_mm_s: float = Field(default=DEFAULT_SPEED_MM_S, gt=0, le=250)
+    orientation_deg: float = bounded(-360, 360, "deg", "sensor orientation γ at the start", 0.0)
+    speed_mm_s: float = bounded(0, 250, "mm/s", "TCP speed", DEFAULT_SPEED_MM_S, open_lo=True)
 
 
 Protocol = Annotated[Union[RenderProtocol, TapProtocol, SlideProtocol, ContourProtocol], Field(discriminator="kind")]
 
 
-class Scenario(_Strict):
+class Scenario(StrictModel):
     """One run. See scenarios/README.md for every field with units."""
 
     name: str
     description: str = ""
     backend: Literal["sim", "hardware"] = "sim"
-    seed: int = Field(default=0, ge=0)
+    seed: int = bounded(0, 2**32 - 1, "dimensionless", "random seed", 0)
     object: ObjectSpec
     placement: Placement = Placement()
     work_frame: Literal["object"] | PoseList = "object"

@@ -23,11 +23,13 @@ import matplotlib.pyplot as plt
 
 
 def run_contour(scenario: Scenario, out: Path, seed: int | None = None, progress: bool = True, model=None,
-                controller=None) -> Path:
+                controller=None, resume: bool = False) -> Path:
     """Trace the scenario's object and record the run in `out` (with metrics.json and
     contour.png). `model` is a fitted PerceptionModel; default: scenario's `model` file,
     else the cached model trained on the tap set (twin.runs.training). `controller`: an
-    object replacing the scenario's `protocol.controller` (twin.control.controllers)."""
+    object replacing the scenario's `protocol.controller` (twin.control.controllers).
+    `resume`: continue the unfinished run in `out`, replaying its recorded steps unrecorded
+    (the closed loop is deterministic on the simulator)."""
     seed = scenario.seed if seed is None else seed
     if model is None:
         model = model_for_scenario(scenario)
@@ -35,13 +37,16 @@ def run_contour(scenario: Scenario, out: Path, seed: int | None = None, progress
     wall0 = time.perf_counter()
     env = make_environment(scenario, seed)
     follower = ContourFollower(env, scenario, model, stimulus, controller=controller)
-    recorder = RunRecorder(out, scenario, seed, scenario.backend, scenario.camera_model(),
-                           extra={"model": model.info.get("path", "in memory")})
+    recorder = RunRecorder.resume(out) if resume else RunRecorder(
+        out, scenario, seed, scenario.backend, scenario.camera_model(), extra={"model": model.info.get("path", "in memory")})
     try:
         with recorder:
-            for step in tqdm(follower, desc=scenario.name, unit="step", total=scenario.protocol.max_steps,
-                             disable=not progress):
+            done = recorder.count
+            for i, step in enumerate(tqdm(follower, desc=scenario.name, unit="step", total=scenario.protocol.max_steps,
+                                          disable=not progress)):
                 recorder.set_rest_pins(follower.rest_pins_px)
+                if i < done:
+                    continue
                 recorder.add(step.observation, step.target, step.labels, step.pins_px, step.found)
             recorder.meta["stop_reason"] = follower.stop_reason
             recorder.meta["wall_time_s"] = time.perf_counter() - wall0
@@ -69,6 +74,7 @@ def contour_metrics(run, stimulus) -> dict:
     stop = run.meta.get("stop_reason", "")
     return {
         "object": stimulus.name,
+        "run_state": run.state,
         "completed": bool(status == "completed" and stop in ("loop closed", "end of contour")),
         "stop_reason": stop,
         "steps": len(samples),

@@ -37,8 +37,12 @@ def map_ordered(fn: Callable, jobs: list[tuple], workers: int | None = None, clu
     with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=context,
                              initializer=one_blas_thread) as pool:
         futures = [pool.submit(fn, *job) for job in jobs]
-        for future in futures:
-            yield future.result()
+        try:
+            for future in futures:
+                yield future.result()
+        except BaseException:  # SIGINT/SIGTERM or a failed job: drop the queued jobs, not run them
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
 
 
 def one_blas_thread() -> None:

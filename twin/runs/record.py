@@ -2,9 +2,10 @@
 
 A run directory holds
   run.json        metadata: scenario (as validated), seed, backend, package versions,
-                  camera model, start/end time, status ("running", "completed",
-                  "interrupted", "failed") and the error if any; rest_pins_px (127×2 px:
-                  the pins of the no-contact reference the tracker starts from)
+                  camera model, start/end time, the recording process (host, pid),
+                  status ("running", "completed", "interrupted", "failed"), the error
+                  if any, the resumes (sample index and time of each); rest_pins_px
+                  (127×2 px: the pins of the no-contact reference the tracker starts from)
   samples.jsonl   one JSON object per sample, appended and flushed immediately:
                   index, time (s), target and measured pose (mm/deg, work frame),
                   labels (protocol-specific: theta_deg, lateral_mm, depth_mm,
@@ -12,13 +13,25 @@ A run directory holds
                   found (127 bools or null), frame (file name or null), truth (sim only)
   frames/NNNNNN.png   the camera frame of a sample, when rendered or filmed
 An interrupted run keeps every sample written so far; `load_run` reads any of them.
+
+The final status is the run's end marker: it is written when the run ends in any way
+the process sees (completed, failed, SIGINT, SIGTERM). A run killed outright (SIGKILL,
+power loss) keeps "running" with the pid of a process that is gone: `Run.state` then
+reads "killed", and readers say the run did not finish. Frames are written to a
+temporary name and renamed, so a frame file that exists is complete; a sample line is
+complete when it ends in a newline. `RunRecorder.resume` reopens a run after its last
+complete sample (twin.runs.run.resume_run).
 """
 from __future__ import annotations
 
 import json
+import os
 import platform
+import signal
+import socket
 import time
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
@@ -62,12 +75,18 @@ class RunRecorder:
     """Appends samples to a run directory; use as a context manager so the status is
     finalised even when the run is interrupted or fails."""
 
-    def __init__(self, out_dir: Path, scenario, seed: int, backend: str, camera=None, extra: dict | None = None) -> None:
+    def __init__(self, out_dir: Path, scenario, seed: int, backend: str, camera=None, extra: dict | None = None,
+                 resume: bool = False) -> None:
         self.out_dir = Path(out_dir)
         self.frames_dir = self.out_dir / "frames"
+        self._images = ThreadPoolExecutor(max_workers=1)  # PNG encoding overlaps the simulation
+        self._pending = []
+        if resume:
+            self._reopen()
+            return
         self.out_dir.mkdir(parents=True, exist_ok=True)
         if (self.out_dir / "samples.jsonl").exists():
-            raise UserError(f"{self.out_dir}: already holds a run; choose another --out")
+            raise UserError(f"{self.out_dir}: already holds a run; choose another --out (or --resume it)")
         self.meta = {
             "format_version": FORMAT_VERSION,
             "scenario": scenario.model_dump(),
@@ -79,13 +98,42 @@ class RunRecorder:
                                                    "intrinsics": camera.intrinsics.tolist()},
             "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
             "status": "running",
+            "process": _this_process(),
             **(extra or {}),
         }
         self._write_meta()
         self._samples = open(self.out_dir / "samples.jsonl", "w")
-        self._images = ThreadPoolExecutor(max_workers=1)  # PNG encoding overlaps the simulation
-        self._pending = []
         self.count = 0
+
+    @classmethod
+    def resume(cls, out_dir: Path) -> "RunRecorder":
+        """Reopen an unfinished run for appending after its last complete sample (a torn
+        last line, and samples whose frame file is missing, are dropped)."""
+        return cls(out_dir, None, 0, "", resume=True)
+
+    def _reopen(self) -> None:
+        run = load_run(self.out_dir)
+        if run.state == "running":
+            raise UserError(f"{self.out_dir}: this run is still being recorded by process {run.meta['process']['pid']}")
+        if run.state == "completed":
+            raise UserError(f"{self.out_dir}: this run is complete; nothing to resume")
+        keep = len(run.samples)
+        while keep and run.samples[keep - 1]["frame"] is not None and not (self.out_dir / run.samples[keep - 1]["frame"]).is_file():
+            keep -= 1
+        path = self.out_dir / "samples.jsonl"
+        with open(path, "rb") as fh:
+            lines = fh.read().split(b"\n")
+        with open(path, "wb") as fh:
+            fh.write(b"".join(line + b"\n" for line in lines[:keep]))
+        self.meta = run.meta
+        self.meta.setdefault("resumes", []).append({"at_sample": keep, "previous_status": run.state,
+                                                    "time": time.strftime("%Y-%m-%dT%H:%M:%S%z")})
+        self.meta.update(status="running", process=_this_process())
+        for key in ("error", "finished", "samples"):
+            self.meta.pop(key, None)
+        self._write_meta()
+        self._samples = open(path, "a")
+        self.count = keep
 
     def _write_meta(self) -> None:
         tmp = self.out_dir / "run.json.tmp"
@@ -108,9 +156,8 @@ class RunRecorder:
         if observation.frame is not None:
             self.frames_dir.mkdir(exist_ok=True)
             frame_name = f"frames/{index:06d}.png"
-            path = str(self.out_dir / frame_name)
             bgr = observation.frame[..., ::-1]
-            self._pending.append(self._images.submit(cv2.imwrite, path, bgr, [cv2.IMWRITE_PNG_COMPRESSION, 1]))
+            self._pending.append(self._images.submit(_write_png, self.out_dir / frame_name, bgr))
         pins = pins_px if pins_px is not None else observation.pins_px
         row = {
             "index": index,
@@ -123,9 +170,11 @@ class RunRecorder:
             "frame": frame_name,
             "truth": observation.truth,
         }
-        self._samples.write(json.dumps(jsonable(row)) + "\n")
-        self._samples.flush()
-        self.count += 1
+        line = json.dumps(jsonable(row)) + "\n"
+        with _signals_held():  # a Ctrl-C or SIGTERM lands after the line and its count, not between
+            self._samples.write(line)
+            self._samples.flush()
+            self.count += 1
         return index
 
     def close(self, status: str = "completed", error: str | None = None, summary: dict | None = None) -> None:
@@ -149,9 +198,45 @@ class RunRecorder:
         if exc_type is None:
             self.close("completed")
         elif issubclass(exc_type, KeyboardInterrupt):
-            self.close("interrupted", "KeyboardInterrupt")
+            self.close("interrupted", str(exc) or "SIGINT")
         else:
             self.close("failed", f"{exc_type.__name__}: {exc}")
+
+
+@contextmanager
+def _signals_held():
+    """Hold SIGINT and SIGTERM back (delivered on exit) for a few statements that must not be split."""
+    held = {signal.SIGINT, signal.SIGTERM}
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+def _write_png(path: Path, bgr: np.ndarray) -> None:
+    """Write a frame under a temporary name, then rename: a frame file that exists is whole."""
+    tmp = path.with_suffix(".tmp.png")
+    if not cv2.imwrite(str(tmp), bgr, [cv2.IMWRITE_PNG_COMPRESSION, 1]):
+        raise OSError(f"could not write {path}")
+    os.replace(tmp, path)
+
+
+def _this_process() -> dict:
+    return {"host": socket.gethostname(), "pid": os.getpid()}
+
+
+def _alive(process: dict | None) -> bool:
+    """True if `process` (host, pid) is a live process on this host."""
+    if not process or process.get("host") != socket.gethostname():
+        return False
+    try:
+        os.kill(int(process["pid"]), 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 @dataclass
@@ -189,6 +274,28 @@ class Run:
     def poses(self) -> np.ndarray:
         return np.array([s["pose"] for s in self.samples])
 
+    @property
+    def state(self) -> str:
+        """"completed", "interrupted", "failed", "running" (its process is alive) or
+        "killed" (status still "running" but the recording process is gone: no end marker)."""
+        status = self.meta.get("status", "running")
+        if status != "running":
+            return status
+        return "running" if _alive(self.meta.get("process")) else "killed"
+
+    @property
+    def finished(self) -> bool:
+        """True only for a run that recorded its whole protocol."""
+        return self.state == "completed"
+
+    def unfinished_note(self) -> str | None:
+        """A line saying this run did not finish (None if it did), for readers to print."""
+        if self.finished:
+            return None
+        why = {"killed": "killed before it finished (no end marker)", "running": "still being recorded"}
+        return (f"{self.path}: run did not finish ({why.get(self.state, self.state)}; {len(self.samples)} samples); "
+                f"continue it with: twin run --resume {self.path}")
+
     def label(self, key: str) -> np.ndarray:
         return np.array([s["labels"].get(key, np.nan) for s in self.samples])
 
@@ -207,22 +314,23 @@ class Run:
 
 
 def load_run(path: str | Path) -> Run:
-    """Read a run directory (complete or interrupted)."""
+    """Read a run directory (complete, interrupted or killed): only complete sample lines
+    (ending in a newline) are read; a line cut by a kill is left out."""
     path = Path(path)
     meta_file = path / "run.json"
     if not meta_file.is_file():
         raise UserError(f"{path}: not a run directory (no run.json)")
-    meta = json.loads(meta_file.read_text())
+    try:
+        meta = json.loads(meta_file.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        raise UserError(f"{meta_file}: not valid JSON ({err})") from None
     samples = []
     samples_file = path / "samples.jsonl"
     if samples_file.exists():
-        for n, line in enumerate(samples_file.read_text().splitlines(), 1):
-            if not line.strip():
-                continue
+        complete = samples_file.read_bytes().split(b"\n")[:-1]  # after the last newline: a torn line or nothing
+        for n, line in enumerate(complete, 1):
             try:
                 samples.append(json.loads(line))
-            except json.JSONDecodeError:
-                if n == len(samples_file.read_text().splitlines()):
-                    break  # a line cut by an interruption
+            except (json.JSONDecodeError, UnicodeDecodeError):
                 raise UserError(f"{samples_file}: line {n} is not valid JSON") from None
     return Run(path, meta, samples)

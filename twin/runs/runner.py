@@ -49,12 +49,15 @@ def chunk_moves(moves: list[Move]) -> list[list[Move]]:
     return chunks
 
 
-def run_chunk(scenario: Scenario, seed: int, moves: list[Move], sink=None) -> list[Sample]:
+def run_chunk(scenario: Scenario, seed: int, moves: list[Move], sink=None, skip: int = 0) -> list[Sample]:
     """Run one chunk in a fresh environment state (reset). Each sample goes to `sink` as
     soon as it is observed (serial runs record as they go); the samples not sunk are
-    returned (parallel workers send their chunk back when it is done)."""
+    returned (parallel workers send their chunk back when it is done). The first `skip`
+    samples are observed (the replay of a resumed run) but not returned."""
     samples = []
-    for sample in chunk_samples(worker_environment(scenario, seed), moves):
+    for i, sample in enumerate(chunk_samples(worker_environment(scenario, seed), moves)):
+        if i < skip:
+            continue
         if sink is None:
             samples.append(sample)
         else:
@@ -99,9 +102,24 @@ def close_worker_envs() -> None:
     _ENV_CACHE.clear()
 
 
+def remaining_chunks(chunks: list[list[Move]], done: int) -> list[tuple[list[Move], int]]:
+    """(chunk, samples of it already recorded) of every chunk not fully recorded when
+    `done` samples of the protocol are."""
+    left = []
+    for chunk in chunks:
+        n = sum(m.record for m in chunk)
+        if done >= n:
+            done -= n
+            continue
+        left.append((chunk, done))
+        done = 0
+    return left
+
+
 def record_protocol(scenario: Scenario, out: Path, seed: int | None = None, workers: int | None = None,
-                    cluster: str | None = None, progress: bool = True) -> Path:
-    """Run and record an open-loop scenario (render, taps, slides); returns the run directory."""
+                    cluster: str | None = None, progress: bool = True, resume: bool = False) -> Path:
+    """Run and record an open-loop scenario (render, taps, slides); returns the run
+    directory. `resume`: continue the unfinished run in `out` (twin.runs.run.resume_run)."""
 
     seed = scenario.seed if seed is None else seed
     if scenario.protocol.kind == "contour":
@@ -110,8 +128,11 @@ def record_protocol(scenario: Scenario, out: Path, seed: int | None = None, work
     chunks = chunk_moves(moves)
     n_samples = sum(m.record for m in moves)
     wall = time.perf_counter()
-    with RunRecorder(out, scenario, seed, scenario.backend, scenario.camera_model()) as recorder:
-        bar = tqdm(total=n_samples, desc=scenario.name, unit="frame", disable=not progress)
+    recorder = RunRecorder.resume(out) if resume else RunRecorder(out, scenario, seed, scenario.backend,
+                                                                  scenario.camera_model())
+    with recorder:
+        jobs = remaining_chunks(chunks, recorder.count)
+        bar = tqdm(total=n_samples, initial=recorder.count, desc=scenario.name, unit="frame", disable=not progress)
 
         def record(s: Sample) -> None:
             recorder.set_rest_pins(s.rest_px)
@@ -121,10 +142,10 @@ def record_protocol(scenario: Scenario, out: Path, seed: int | None = None, work
         serial = scenario.backend != "sim" or (cluster is None and (workers or default_workers()) <= 1)
         try:
             if serial:  # record each sample as it is observed
-                for chunk in chunks:
-                    run_chunk(scenario, seed, chunk, sink=record)
+                for chunk, skip in jobs:
+                    run_chunk(scenario, seed, chunk, sink=record, skip=skip)
             else:  # record each chunk as its worker finishes it, in protocol order
-                for chunk_samples in map_ordered(run_chunk, [(scenario, seed, c) for c in chunks],
+                for chunk_samples in map_ordered(run_chunk, [(scenario, seed, c, None, skip) for c, skip in jobs],
                                                  workers=workers, cluster=cluster):
                     for s in chunk_samples:
                         record(s)

@@ -12,7 +12,7 @@ import mujoco
 
 from twin.world.arm import ArmDynamics
 from twin.core.environment import Environment, Observation
-from twin.core.errors import UserError
+from twin.core.errors import UnreachablePoseError, UserError
 from twin.world.dome.physics import SensorPhysics
 from twin.core.poses import Pose, invert_transform
 from twin.world.render import PinRenderer, render_overview
@@ -108,6 +108,26 @@ class SimEnvironment(Environment):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+
+
+def check_reachable(scenario: Scenario, scene: Scene) -> int:
+    """Check every pose the scenario's protocol will command (contour following: its start
+    pose) against the arm's reach and joint limits, as the run would, seeding each solve
+    with the previous joints; returns how many were checked. UnreachablePoseError naming
+    the scenario file, the protocol field and the pose otherwise."""
+    poses = [START_POSE]
+    if scenario.protocol.kind != "contour":
+        poses += [m.pose for m in protocol_moves(scenario.protocol)]
+    q = None
+    for i, pose in enumerate(poses):
+        try:
+            q = kinematics().inverse(scene.work2world @ pose.to_matrix(), TOOL2FLANGE, q_seed=q)
+        except UnreachablePoseError as err:
+            where = ("the start pose" if i == 0 else f"field protocol.poses.{i - 1}" if scenario.protocol.kind == "render"
+                     else f"move {i} of the protocol ({scenario.protocol.kind}, from its fields)")
+            raise UnreachablePoseError(f"{scenario.source}: {where}, pose {pose.as_array().round(3).tolist()} "
+                                       f"(mm, deg, work frame): {err}") from None
+    return len(poses)
 
 
 def first_pose(scenario: Scenario) -> Pose:

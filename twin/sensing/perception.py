@@ -76,6 +76,7 @@ import time
 from dataclasses import asdict, dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from sklearn.exceptions import ConvergenceWarning
@@ -85,9 +86,11 @@ from sklearn.gaussian_process.kernels import ConstantKernel, Kernel, Matern, Whi
 from twin.core.errors import UserError
 from twin.core.poses import wrap_deg
 from twin.core.sensor import N_PINS, CameraModel
+from twin.core.validation import StrictModel, bounded, bounded_list, validate_mapping
 import platform
 import sklearn
 from importlib.metadata import version
+from pydantic import Field
 from twin.sensing.tracker import PinTracker, detect_pins, reference_pins_from_frame, render_pins_frame
 
 FORMAT = "tactip-twin/perception-model"
@@ -96,6 +99,46 @@ N_DIMS = 2 * N_PINS
 GP_NAMES = ("cos", "sin", "lat")
 NO_CONTACT = "no contact"
 SHIFT_MODES = ("pooled", "per_orientation", "none")
+
+
+class GPConfigHeader(StrictModel):
+    """`GPConfig` as stored in a model file's header (bounds on scaled inputs and
+    normalised targets, dimensionless)."""
+
+    length_scale_bounds: bounded_list(1e-9, 1e9, "dimensionless", length=2)
+    constant_bounds: bounded_list(1e-9, 1e9, "dimensionless", length=2)
+    noise_bounds: bounded_list(1e-12, 1e3, "dimensionless", length=2)
+    length_scale_init: float = bounded(1e-9, 1e9, "dimensionless", "initial length scale")
+    noise_init: float = bounded(1e-12, 1e3, "dimensionless", "initial noise level")
+    n_restarts: int = bounded(0, 100, "restarts", "optimiser restarts")
+    alpha: float = bounded(0, 1, "dimensionless", "kernel jitter")
+    max_alpha: float = bounded(0, 1, "dimensionless", "largest kernel jitter")
+
+
+class ModelHeader(StrictModel):
+    """The JSON header of a perception model file (`PerceptionModel.save`)."""
+
+    format: Literal["tactip-twin/perception-model"]
+    format_version: Literal[1]
+    created_utc: str
+    software: dict[str, str]
+    method: Literal["pca", "baseline"]
+    source: str
+    camera_resolution: Annotated[list[Annotated[int, Field(ge=16, le=8192)]], Field(
+        min_length=2, max_length=2, description="training camera width, height (px; each in [16, 8192])")]
+    n_pins: Literal[127]
+    data_layout: str
+    n_components: int = bounded(1, 2 * N_PINS, "components", "PCA components")
+    gp_config: GPConfigHeader
+    gp_alpha: dict[Literal["cos", "sin", "lat"], Annotated[float, Field(ge=0, le=1, description="dimensionless; [0, 1]")]]
+    max_missing_fraction: float = bounded(0, 1, "dimensionless", "largest fraction of missing pins")
+    lateral_keep_fraction: float = bounded(0, 1, "dimensionless", "pruning keeps at least this fraction")
+    no_contact_lateral_mm: float = bounded(-50, 50, "mm", "no-contact label threshold")
+    no_contact_px: float = bounded(0, 1000, "px", "no-contact pin distance", 0.3)
+    depth_shift_mode: Literal["pooled", "per_orientation", "none"] = "per_orientation"
+    input_scale: float = bounded(0, 1e9, "1/px", "input scaling", open_lo=True)
+    contact_threshold: float = bounded(0, 1e9, "px", "contact threshold")
+    info: dict[str, Any] = {}
 
 
 # ----------------------------------------------------------------------------- helpers
@@ -706,26 +749,30 @@ class PerceptionModel:
             header = json.loads(bytes(data["header"]).decode("utf-8"))
         except (ValueError, KeyError, OSError) as exc:
             raise UserError(f"{path}: not a perception model file ({exc})") from exc
+        if not isinstance(header, dict):
+            raise UserError(f"{path}: the header is not a JSON object")
         if header.get("format") != FORMAT:
             raise UserError(f"{path}: format {header.get('format')!r}, expected {FORMAT!r}")
         if header.get("format_version") != FORMAT_VERSION:
             raise UserError(f"{path}: format_version {header.get('format_version')}, this twin reads {FORMAT_VERSION}")
         if header.get("n_pins") != N_PINS:
             raise UserError(f"{path}: model has {header.get('n_pins')} pins, expected {N_PINS}")
-        cfg = header["gp_config"]
-        gp_cfg = GPConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in cfg.items()})
+        h: ModelHeader = validate_mapping(ModelHeader, header, str(path), "perception model header")
+        for name in data.files:
+            if name != "header" and data[name].dtype.kind == "f" and not np.all(np.isfinite(data[name])):
+                raise UserError(f"{path}: array {name!r} holds NaN or ±inf")
+        gp_cfg = GPConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in h.gp_config.model_dump().items()})
         model = cls(
-            method=header["method"], gp=gp_cfg, max_missing_fraction=header["max_missing_fraction"],
-            lateral_keep_fraction=header["lateral_keep_fraction"],
-            no_contact_lateral_mm=header["no_contact_lateral_mm"], n_components=header["n_components"],
-            no_contact_px=header.get("no_contact_px", 0.3),
-            depth_shift_mode=header.get("depth_shift_mode", "per_orientation"),
+            method=h.method, gp=gp_cfg, max_missing_fraction=h.max_missing_fraction,
+            lateral_keep_fraction=h.lateral_keep_fraction,
+            no_contact_lateral_mm=h.no_contact_lateral_mm, n_components=h.n_components,
+            no_contact_px=h.no_contact_px, depth_shift_mode=h.depth_shift_mode,
         )
-        model.resolution = tuple(int(a) for a in header["camera_resolution"])
-        model.source = header["source"]
-        model.input_scale = float(header["input_scale"])
-        model.contact_threshold = float(header["contact_threshold"])
-        model.info = header["info"] | {"loaded_from": str(path), "created_utc": header["created_utc"]}
+        model.resolution = tuple(h.camera_resolution)
+        model.source = h.source
+        model.input_scale = h.input_scale
+        model.contact_threshold = h.contact_threshold
+        model.info = h.info | {"loaded_from": str(path), "created_utc": h.created_utc}
         model.reference_pins_px = data["reference_pins_px"]
         model.pca_mean = data["pca_mean"]
         model.pca_components = data["pca_components"]
@@ -737,7 +784,7 @@ class PerceptionModel:
             x = data[f"gp_{k}_x"]
             kernel = make_kernel(x.shape[1], ard, gp_cfg)
             model._gp_y[k] = data[f"gp_{k}_y"]
-            model._gps[k] = rebuild_gp(x, model._gp_y[k], kernel, data[f"gp_{k}_theta"], header["gp_alpha"][k])
+            model._gps[k] = rebuild_gp(x, model._gp_y[k], kernel, data[f"gp_{k}_theta"], h.gp_alpha[k])
         model._train = {k[len("train_"):]: data[k] for k in data.files if k.startswith("train_")}
         return model
 

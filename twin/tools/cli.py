@@ -1,23 +1,26 @@
 """`twin` command line. Every sub-command is a thin layer over a module function.
 
 Exit codes: 0 success, 1 the run failed (e.g. PhysicsError, HardwareError),
-2 user error (bad scenario, file, pose or argument), 130 interrupted.
+2 user error (bad scenario, file, pose or argument), 130 interrupted by SIGINT (Ctrl-C),
+143 stopped by SIGTERM; an interrupted run keeps what it recorded (`twin run --resume`).
 """
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
+import threading
 import time
 from pathlib import Path
 
 from twin.world import gl  # noqa: F401  (headless GL before anything imports mujoco)
-from twin.core.errors import TwinError, UserError
+from twin.core.errors import Terminated, TwinError, UserError
 from twin.runs.parallel import one_blas_thread
 from twin.core.scenario import load_scenario
 from twin.core.scenario import START_POSE
 from twin.world.scene import build_scene
-from twin.runs.sim_env import render_scenario_view
-from twin.runs.run import run_scenario
+from twin.runs.sim_env import check_reachable, render_scenario_view
+from twin.runs.run import resume_run, run_scenario
 from twin.tools.evaluate import evaluate, format_table
 from hardware.virtual_controller import serve_robot
 from twin.tools.compare import compare_runs
@@ -32,11 +35,11 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
     for path in args.scenarios:
         scenario = load_scenario(path)
+        reach = ""
         if args.compile and scenario.backend == "sim":
-
-            build_scene(scenario, START_POSE)
+            reach = f", {check_reachable(scenario, build_scene(scenario, START_POSE))} poses in reach"
         print(f"{path}: ok ({scenario.protocol.kind}, object {scenario.object.name or scenario.object.stl or scenario.object.outline}, "
-              f"effects {', '.join(scenario.effects) or 'none'})")
+              f"effects {', '.join(scenario.effects) or 'none'}{reach})")
     return 0
 
 
@@ -49,11 +52,22 @@ def _cmd_render(args: argparse.Namespace) -> int:
 
 def _cmd_run(args: argparse.Namespace) -> int:
 
-    scenario = load_scenario(args.scenario)
-    if args.backend:
+    if args.scenario is None and args.resume is None:
+        raise UserError("twin run: give a SCENARIO to run, or --resume DIR to continue a run")
+    scenario = None if args.scenario is None else load_scenario(args.scenario)
+    if scenario is not None and args.backend:
         scenario = scenario.with_changes(backend=args.backend)
-    if args.hardware_config:
+    if scenario is not None and args.hardware_config:
         scenario = scenario.with_changes(hardware_config=str(Path(args.hardware_config).resolve()))
+    if args.resume is not None:
+        if args.out is not None:
+            raise UserError("twin run: --resume continues a run in its own directory; leave out --out")
+        run_dir = resume_run(Path(args.resume), scenario, seed=args.seed, workers=args.workers, cluster=args.cluster,
+                             progress=not args.quiet)
+        print(f"recorded {run_dir}")
+        if args.video:
+            print(f"wrote {write_run_video(run_dir)}")
+        return 0
     out = Path(args.out) if args.out else Path("runs") / f"{scenario.name}_seed{args.seed if args.seed is not None else scenario.seed}"
     t0 = time.perf_counter()
     run_dir = run_scenario(scenario, out, seed=args.seed, workers=args.workers, cluster=args.cluster,
@@ -81,9 +95,15 @@ def _cmd_view(args: argparse.Namespace) -> int:
     return 0
 
 
+def _warn_unfinished(notes: list[str]) -> None:
+    for note in notes:
+        print(f"warning: {note}", file=sys.stderr)
+
+
 def _cmd_evaluate(args: argparse.Namespace) -> int:
 
     result = evaluate(Path(args.train), Path(args.test), Path(args.out), seed=args.seed)
+    _warn_unfinished(result["unfinished"])
     print(format_table(result["table_i_rms_orientation_deg"]))
     for name, v in result["lateral_rms_mm"].items():
         print(f"lateral RMS error, {name}: {v:.2f} mm (paper: 2.15 mm)")
@@ -94,7 +114,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
 
 def _cmd_serve_robot(args: argparse.Namespace) -> int:
 
-    serve_robot(args.host, args.port, realtime_factor=args.realtime)
+    serve_robot(args.host, args.port, realtime_factor=args.realtime, idle_timeout_s=args.idle_timeout,
+                stall_timeout_s=args.stall_timeout, log_limit=args.log_limit)
     return 0
 
 
@@ -102,6 +123,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
     r = compare_runs(Path(args.run_a), Path(args.run_b), Path(args.out),
                      model_path=Path(args.model) if args.model else None)
+    _warn_unfinished(r["unfinished"])
     print(f"{r['n_pairs']} paired samples ({r['pairing']})")
     print(f"pin RMS difference: {r['pin_rms_difference_px']:.3f} px")
     c = r["pin_displacement_correlation"]
@@ -156,8 +178,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--view", choices=("sensor", "scene"), default="sensor")
     p.set_defaults(func=_cmd_render)
 
-    p = sub.add_parser("run", help="run a scenario and record it")
-    p.add_argument("scenario")
+    p = sub.add_parser("run", help="run a scenario and record it, or continue an unfinished run (--resume)")
+    p.add_argument("scenario", nargs="?", default=None, help="scenario file or shipped name (optional with --resume)")
+    p.add_argument("--resume", default=None, metavar="DIR",
+                   help="continue an interrupted or killed run after its last complete sample (same scenario and seed)")
     p.add_argument("--out", default=None, help="run directory (default runs/<name>_seed<N>)")
     p.add_argument("--seed", type=int, default=None)
     p.add_argument("--backend", choices=("sim", "hardware"), default=None)
@@ -190,6 +214,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--host", default="127.0.0.1")
     p.add_argument("--port", type=int, default=5000)
     p.add_argument("--realtime", type=float, default=0.0, help="1 = moves take their real duration; 0 = instant")
+    p.add_argument("--idle-timeout", type=float, default=300.0, metavar="S",
+                   help="drop a client that sends nothing for S seconds (default 300)")
+    p.add_argument("--stall-timeout", type=float, default=5.0, metavar="S",
+                   help="drop a client that stops S seconds into a command (default 5)")
+    p.add_argument("--log-limit", type=int, default=10_000, metavar="N",
+                   help="keep the last N commands and moves in memory (default 10000)")
     p.set_defaults(func=_cmd_serve_robot)
 
     p = sub.add_parser("compare", help="compare two runs of one scenario (sim vs sim, sim vs real)")
@@ -224,20 +254,36 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: exit codes (README "What you can run")
+EXIT_OK, EXIT_FAILED, EXIT_USER_ERROR, EXIT_SIGINT, EXIT_SIGTERM = 0, 1, 2, 130, 143
+
+
+def _raise_terminated(signum, frame) -> None:
+    raise Terminated("SIGTERM")
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     one_blas_thread()
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _raise_terminated) if main_thread else None
     try:
         return int(args.func(args) or 0)
+    except Terminated:
+        print("stopped by SIGTERM; everything recorded so far is kept", file=sys.stderr)
+        return EXIT_SIGTERM
     except UserError as err:
         print(f"error: {err}", file=sys.stderr)
-        return 2
+        return EXIT_USER_ERROR
     except TwinError as err:
         print(f"failed: {type(err).__name__}: {err}", file=sys.stderr)
-        return 1
+        return EXIT_FAILED
     except KeyboardInterrupt:
         print("interrupted; everything recorded so far is kept", file=sys.stderr)
-        return 130
+        return EXIT_SIGINT
+    finally:
+        if main_thread:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

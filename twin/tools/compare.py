@@ -91,7 +91,9 @@ def compare_runs(dir_a: Path, dir_b: Path, out: Path, max_ssim_frames: int = 200
         raise UserError(f"{dir_a} ({kind}) and {dir_b} ({b.meta['scenario']['protocol']['kind']}) are different protocols")
     result: dict = {"run_a": str(dir_a), "run_b": str(dir_b), "backend_a": a.meta["backend"], "backend_b": b.meta["backend"],
                     "fidelity_a": a.meta["scenario"]["fidelity"], "fidelity_b": b.meta["scenario"]["fidelity"],
-                    "scenario_a": name_a, "scenario_b": name_b, "protocol": kind}
+                    "scenario_a": name_a, "scenario_b": name_b, "protocol": kind,
+                    "state_a": a.state, "state_b": b.state,
+                    "unfinished": [n for n in (a.unfinished_note(), b.unfinished_note()) if n]}
     if kind == "contour":
         result["path_distance"] = _path_distance(a, b)
         for tag, run in (("a", a), ("b", b)):

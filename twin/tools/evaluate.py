@@ -73,6 +73,8 @@ def evaluate(train_dir: Path, test_dir: Path, out: Path, seed: int = 0) -> dict:
     pca = models["PCA + GP"]
     result = {
         "train_run": str(train_dir), "test_run": str(test_dir), "n_train": len(train.samples), "n_test": len(test.samples),
+        "run_states": {"train": train.state, "test": test.state},
+        "unfinished": [n for n in (train.unfinished_note(), test.unfinished_note()) if n],
         "table_i_rms_orientation_deg": table,
         "orientation_rms_deg": {n: _rms(angle_error_deg(p.theta_deg, test.label("theta_deg"))) for n, p in preds.items()},
         "lateral_rms_mm": {n: _rms(p.lateral_mm - lateral) for n, p in preds.items()},
