@@ -22,6 +22,9 @@ from twin.core.scenario import RenderProtocol, Scenario, SlideProtocol, TapProto
 from twin.tools.cli import main
 
 N_EXAMPLES = int(os.environ.get("TWIN_FUZZ_EXAMPLES", "30"))
+#: the report below must run in the fuzz test's process (the README's command uses --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("scenario_fuzz")
+
 OUTCOMES: Counter = Counter()
 _ids = itertools.count()
 
