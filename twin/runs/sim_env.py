@@ -104,6 +104,12 @@ class SimEnvironment(Environment):
         self.timings["render"] += time.perf_counter() - t0
         return Observation(time=frame.time, pose=pose, frame=image, truth=truth)
 
+    def converged_pins_px(self) -> np.ndarray:
+        """Sim-only truth, (127, 2) px: the last frame's pins settled to convergence, to
+        measure how far a frame's settling stops from its equilibrium (`twin bench sweep`).
+        Call right after a move; the simulation goes on as if it had not been called."""
+        return self.camera.project_tool_points(self.physics.converged_pins())
+
     def close(self) -> None:
         if self._renderer is not None:
             self._renderer.close()

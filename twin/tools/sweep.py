@@ -81,13 +81,13 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from types import SimpleNamespace
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from twin.world import gl  # headless GL before anything imports mujoco
 from twin.world.dome.flex import FIDELITY_LEVELS
+from twin.runs.record import Run
 from twin.runs.runner import chunk_moves, chunk_samples
 from twin.runs.sim_env import SimEnvironment
 from twin.control.contour import ContourFollower
@@ -347,7 +347,7 @@ def _open_loop(env, moves, stages: _Stages, settling: bool = False) -> dict:
             found.append(np.ones(len(p), bool) if f is None else np.asarray(f, bool))
             labels.append(move.labels)
             if settling:
-                converged.append(env.camera.project_tool_points(env.physics.converged_pins()))
+                converged.append(env.converged_pins_px())
     return {"pins": np.array(pins), "truth": np.array(truth), "found": np.array(found), "labels": labels,
             "converged": np.array(converged) if settling else None}
 
@@ -361,7 +361,7 @@ def _contour(env, scenario, model, stages: _Stages) -> dict:
     follower = ContourFollower(env, scenario, model, stimulus, clock=stages.clock)
     samples = [{"pose": [float(v) for v in step.observation.pose.as_array()], "time": float(step.observation.time),
                 "labels": step.labels} for step in follower]
-    run = SimpleNamespace(samples=samples, meta={"status": "completed", "stop_reason": follower.stop_reason})
+    run = Run(Path(f"<sweep {scenario.name}>"), {"status": "completed", "stop_reason": follower.stop_reason}, samples)
     return contour_metrics(run, stimulus)
 
 
