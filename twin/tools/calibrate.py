@@ -528,6 +528,9 @@ def _uncertainty(ev: Evaluator, values: dict[str, float], tips: np.ndarray) -> d
                   # how much the pin RMS (px, Euclidean per pin) changes per unit of the parameter
                   "pin_rms_px_per_unit": float(np.linalg.norm(jac[:, i]) * space.settings.noise_px * np.sqrt(2.0 / max(1, r.size))),
                   "bounds": [p[n].lower, p[n].upper], "identifiable": bool(identifiable),
+                  # the bias that would move the pins by the fit's pin RMS: what a single frame resolves
+                  "resolution": float(np.sqrt(s2) * space.settings.noise_px * np.sqrt(2.0) /
+                                      max(np.linalg.norm(jac[:, i]) * space.settings.noise_px * np.sqrt(2.0 / max(1, r.size)), 1e-300)),
                   "at_bound": bool(min(values[n] - p[n].lower, p[n].upper - values[n]) < 1e-6 * space.range[n])}
     return {"parameters": out, "singular_values": singular.tolist(), "reduced_chi2": s2,
             "condition_number": float(singular.max() / max(singular.min(), 1e-300))}
