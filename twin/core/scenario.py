@@ -7,8 +7,10 @@ from typing import Annotated, Literal, Union
 
 from pydantic import Field, field_validator, model_validator
 
+from twin.core.errors import UserError
 from twin.core.poses import Pose
 from twin.core.resources import scenario_path
+from twin.core.calibration import Calibration, load_calibration
 from twin.core.sensor import CameraModel
 from twin.core.validation import PoseList, StrictModel, bounded, bounded_list, read_yaml, validate_mapping
 
@@ -94,6 +96,8 @@ class PhysicsOverrides(StrictModel):
 
 class SensorSpec(StrictModel):
     camera: CameraSpec = CameraSpec()
+    calibration: str | Calibration | None = Field(
+        default=None, description="calibration file (twin.core.calibration; relative to the scenario) or inline mapping")
 
 
 class RenderProtocol(StrictModel):
@@ -195,9 +199,23 @@ class Scenario(StrictModel):
         return p if p.is_absolute() else (self.source_dir / p)
 
     def camera_model(self) -> CameraModel:
-        """The sensor's camera model (resolution and field of view of `sensor.camera`)."""
+        """The sensor's camera model (resolution and field of view of `sensor.camera`, with
+        the intrinsics, distortion and pose of `sensor.calibration` when it names one)."""
         c = self.sensor.camera
-        return CameraModel(width=c.width, height=c.height, fov_y_deg=c.fov_y_deg)
+        nominal = CameraModel(width=c.width, height=c.height, fov_y_deg=c.fov_y_deg)
+        calibration = self.calibration()
+        return nominal if calibration is None else calibration.camera_model(nominal)
+
+    def calibration(self) -> Calibration | None:
+        """The sensor's calibration (`sensor.calibration`: a file relative to the scenario,
+        or inline), None without one."""
+        given = self.sensor.calibration
+        if given is None or isinstance(given, Calibration):
+            return given
+        path = self.resolve(given)
+        if not path.is_file():
+            raise UserError(f"{self.source}: field 'sensor.calibration': no calibration file {str(path)!r}")
+        return load_calibration(path)
 
     def with_changes(self, **changes) -> "Scenario":
         """A copy with top-level fields replaced and re-validated (keeps the source path)."""

@@ -86,11 +86,16 @@ def hexagonal_lattice(rings: int) -> np.ndarray:
 
 @dataclass(frozen=True)
 class CameraModel:
-    """Pinhole camera inside the TacTip base (OpenCV model, no distortion).
+    """Camera inside the TacTip base (OpenCV model: pinhole, radial k1, k2 and tangential
+    p1, p2 distortion).
 
-    The camera frame is the tool frame shifted back by `geometry.camera_to_apex` along z:
-    z forward (towards the tip), u right (+x), v down (+y). Intrinsics are scaled with the
-    resolution so that the field of view stays the same.
+    Nominal camera (the defaults): the camera frame is the tool frame shifted back by
+    `geometry.camera_to_apex` along z: z forward (towards the tip), u right (+x), v down
+    (+y); no distortion; intrinsics from the field of view, scaled with the resolution so
+    that the field of view stays the same. A calibrated camera (twin.core.calibration)
+    overrides the focal length (px) and principal point (px), adds distortion and moves the
+    camera in the tool by `offset_mm` (mm, tool frame) and `rotation_deg` (deg, extrinsic
+    XYZ, camera axes relative to the nominal ones).
     """
 
     width: int = 640
@@ -98,9 +103,16 @@ class CameraModel:
     fov_y_deg: float = 56.0       # vertical field of view (deg)
     aperture_fraction: float = 0.94  # circular aperture radius / half the frame height
     geometry: TacTipGeometry = field(default_factory=TacTipGeometry)
+    focal_override_px: float | None = None            # px; None = from fov_y_deg
+    principal_point_px: tuple[float, float] | None = None   # px; None = frame centre
+    distortion: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)  # OpenCV k1, k2, p1, p2
+    offset_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)    # optical centre moved in the tool frame (mm)
+    rotation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)  # camera axes turned (extrinsic XYZ, deg)
 
     @property
     def focal_px(self) -> float:
+        if self.focal_override_px is not None:
+            return float(self.focal_override_px)
         return 0.5 * self.height / np.tan(np.radians(self.fov_y_deg) / 2)
 
     @cached_property
@@ -109,14 +121,57 @@ class CameraModel:
         f = self.focal_px
         # GL puts the optical axis on the frame centre, which is pixel (W−1)/2 in the
         # OpenCV convention (integer coordinates at pixel centres).
-        return np.array([[f, 0.0, (self.width - 1) / 2], [0.0, f, (self.height - 1) / 2], [0.0, 0.0, 1.0]])
+        cx, cy = self.principal_point_px or ((self.width - 1) / 2, (self.height - 1) / 2)
+        return np.array([[f, 0.0, cx], [0.0, f, cy], [0.0, 0.0, 1.0]])
+
+    @cached_property
+    def is_pinhole(self) -> bool:
+        """True when the camera sits at its nominal place without distortion (the fast path)."""
+        return not any(self.distortion) and not any(self.offset_mm) and not any(self.rotation_deg)
+
+    @cached_property
+    def _tool2camera(self) -> tuple[np.ndarray, np.ndarray]:
+        """(R, t): camera-frame point = R · tool point + t (m)."""
+        rx, ry, rz = np.radians(self.rotation_deg)
+        cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
+        camera2tool = (np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]]) @ np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+                       @ np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]]))
+        centre = np.array([0.0, 0.0, -self.geometry.camera_to_apex]) + np.asarray(self.offset_mm) * 1e-3
+        return camera2tool.T, -camera2tool.T @ centre
 
     def project_tool_points(self, points_tool: np.ndarray) -> np.ndarray:
         """Project (N, 3) tool-frame points (m) to (N, 2) pixels (u right, v down): the
-        one pinhole projection of the twin (the camera sits camera_to_apex behind the apex)."""
+        one projection of the twin (the nominal camera sits camera_to_apex behind the apex;
+        a calibrated one where its offset and rotation put it, through its distortion,
+        as cv2.projectPoints with (k1, k2, p1, p2))."""
         k = self.intrinsics
+        if self.is_pinhole:
+            z = points_tool[:, 2] + self.geometry.camera_to_apex
+            return np.column_stack([k[0, 0] * points_tool[:, 0] / z + k[0, 2], k[1, 1] * points_tool[:, 1] / z + k[1, 2]])
+        rot, t = self._tool2camera
+        p = points_tool @ rot.T + t
+        x, y = p[:, 0] / p[:, 2], p[:, 1] / p[:, 2]
+        k1, k2, p1, p2 = self.distortion
+        r2 = x * x + y * y
+        radial = 1.0 + r2 * (k1 + k2 * r2)
+        xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
+        yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
+        return np.column_stack([k[0, 0] * xd + k[0, 2], k[1, 1] * yd + k[1, 2]])
+
+    def nominal(self) -> "CameraModel":
+        """This camera's resolution and field of view without calibration (the GL camera
+        the renderer draws with)."""
+        return CameraModel(self.width, self.height, self.fov_y_deg, self.aperture_fraction, self.geometry)
+
+    def place_at_pixels(self, points_tool: np.ndarray, pixels: np.ndarray) -> np.ndarray:
+        """(N, 3) tool-frame points (m) moved within their depth plane so that this
+        camera's *nominal pinhole* sees them at `pixels` (N, 2): how the renderer shows
+        pins where a calibrated camera sees them (twin.runs.sim_env)."""
+        nominal = self.nominal().intrinsics
         z = points_tool[:, 2] + self.geometry.camera_to_apex
-        return np.column_stack([k[0, 0] * points_tool[:, 0] / z + k[0, 2], k[1, 1] * points_tool[:, 1] / z + k[1, 2]])
+        x = (pixels[:, 0] - nominal[0, 2]) * z / nominal[0, 0]
+        y = (pixels[:, 1] - nominal[1, 2]) * z / nominal[1, 1]
+        return np.column_stack([x, y, points_tool[:, 2]])
 
     def rescale_px(self, pins_px: np.ndarray, from_width: int) -> np.ndarray:
         """Pixel coordinates measured at another resolution of this camera (same field of

@@ -14,7 +14,7 @@ from twin.world.arm import ArmDynamics
 from twin.core.environment import Environment, Observation
 from twin.core.errors import UnreachablePoseError, UserError
 from twin.world.dome.physics import SensorPhysics
-from twin.core.poses import Pose, invert_transform
+from twin.core.poses import Pose, invert_transform, make_transform
 from twin.world.render import PinRenderer, render_overview
 from twin.core.scenario import DEFAULT_SPEED_MM_S, START_POSE, Scenario
 from twin.world.scene import TOOL2FLANGE, Scene, build_overview, build_scene, kinematics
@@ -36,11 +36,16 @@ class SimEnvironment(Environment):
         self.start_pose = start_pose
         self.scene: Scene = build_scene(scenario, start_pose)
         self.camera = self.scene.camera
+        calibration = scenario.calibration()
+        #: (127, 2) px the sensor's rest layout differs from the lattice (calibration)
+        self.rest_offsets_px = None if calibration is None else calibration.rest_offsets_px(self.camera.width)
+        #: the dome apex relative to the commanded TCP (calibration's tcp_offset_mm), 4×4 m
+        self.tcp2apex = make_transform(np.eye(3), np.zeros(3) if calibration is None else calibration.tcp_offset_m)
         self.work_frame = Pose.from_matrix(self.scene.work2world)
         self.world2work = invert_transform(self.scene.work2world)
         self._renderer = None
         if scenario.has("render"):
-            self._renderer = PinRenderer(self.camera, lighting=scenario.has("lighting"), msaa=scenario.sensor.camera.msaa)
+            self._renderer = PinRenderer(self.camera.nominal(), lighting=scenario.has("lighting"), msaa=scenario.sensor.camera.msaa)
         self._noise = scenario.sensor.camera.noise_std if scenario.has("camera_noise") else 0.0
         #: wall time (s) spent per stage since construction: physics (move + settle), render
         self.timings = {"physics": 0.0, "render": 0.0, "frames": 0}
@@ -54,14 +59,31 @@ class SimEnvironment(Environment):
         self._commanded = start
         self.arm = ArmDynamics(kinematics(), TOOL2FLANGE, self._q) if self.scenario.has("arm_dynamics") else None
         self.physics = SensorPhysics(self.scene.model, self.scene.data, self.scene.tactip, self.scene.dome_params,
-                                     self.scenario.name, start, stimulus2world=self.scene.object2world,
+                                     self.scenario.name, start @ self.tcp2apex, stimulus2world=self.scene.object2world,
                                      work2world=self.scene.work2world, camera=self.camera)
         self._frame = None
 
     @property
     def rest_pins_px(self) -> np.ndarray:
-        """(127, 2) px: the undeformed pins projected through the camera model."""
-        return self.camera.project_tool_points(self.physics.rest_pins)
+        """(127, 2) px: the undeformed pins as the camera sees them."""
+        return self.pins_px_of(self.physics.rest_pins)
+
+    @property
+    def pins_tool(self) -> np.ndarray:
+        """(127, 3) m: the pin tips of the last settled frame, tool frame."""
+        return self.observe_frame().pins_tool
+
+    def pins_px_of(self, pins_tool: np.ndarray) -> np.ndarray:
+        """(127, 2) px: pin tips (tool frame, m) through the (calibrated) camera, plus the
+        calibrated rest-layout offsets."""
+        pins_px = self.camera.project_tool_points(pins_tool)
+        return pins_px if self.rest_offsets_px is None else pins_px + self.rest_offsets_px
+
+    def observe_frame(self):
+        """The settled physics frame at the current pose (twin.world.dome.physics.Frame)."""
+        if self._frame is None:
+            self._frame = self.physics.settle()
+        return self._frame
 
     def reset(self, seed: int | None = None) -> Observation:
         """Back to the start pose with the dome at rest; `seed` reseeds the camera noise."""
@@ -77,30 +99,32 @@ class SimEnvironment(Environment):
         speed = speed_mm_s or DEFAULT_SPEED_MM_S
         t0 = time.perf_counter()
         if self.arm is None:
-            self.physics.move(target, speed)
+            self.physics.move(target @ self.tcp2apex, speed)
         else:
             # the dome follows the arm's actual tool pose, one physics step per sample
             dt = self.scene.model.opt.timestep
             previous = self._commanded
             for actual in self.arm.move(self._commanded, target, speed, dt):
                 step_mm_s = np.linalg.norm(actual[:3, 3] - previous[:3, 3]) * 1e3 / dt
-                self.physics.move(actual, max(step_mm_s * (1 + 1e-9), 1e-6))
+                self.physics.move(actual @ self.tcp2apex, max(step_mm_s * (1 + 1e-9), 1e-6))
                 previous = actual
         self._commanded = target
         self._frame = self.physics.settle()
         self.timings["physics"] += time.perf_counter() - t0
 
     def observe(self) -> Observation:
-        frame = self._frame if self._frame is not None else self.physics.settle()
-        self._frame = frame
+        frame = self.observe_frame()
         self.timings["frames"] += 1
-        pins_px = self.camera.project_tool_points(frame.pins_tool)
-        pose = Pose.from_matrix(self.world2work @ frame.tool2world)
+        pins_px = self.pins_px_of(frame.pins_tool)
+        pose = Pose.from_matrix(self.world2work @ frame.tool2world @ invert_transform(self.tcp2apex))  # the TCP's pose
         truth = {"pins_px": pins_px, "contact_force_n": frame.contact_force, "physics_steps": frame.n_steps}
         if self._renderer is None:
             return Observation(time=frame.time, pose=pose, pins_px=pins_px, truth=truth)
         t0 = time.perf_counter()
-        image = self._renderer.render(frame.pins_tool, self._noise, self.rng)
+        shown = frame.pins_tool  # a calibrated camera: the nominal GL camera sees each pin where the calibrated one does
+        if self.rest_offsets_px is not None or self.camera != self.camera.nominal():
+            shown = self.camera.place_at_pixels(frame.pins_tool, pins_px)
+        image = self._renderer.render(shown, self._noise, self.rng)
         self.timings["render"] += time.perf_counter() - t0
         return Observation(time=frame.time, pose=pose, frame=image, truth=truth)
 

@@ -27,6 +27,7 @@ from twin.tools.compare import compare_runs
 from twin.tools.figures import write_shear_figure
 from twin.tools.demo import run_demo
 from twin.tools.bench import run_bench
+from twin.tools.calibrate import calibrate, load_settings
 from twin.tools.video import write_compare_video, write_run_video
 from twin.tools.view import view_scenario
 
@@ -143,6 +144,20 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_calibrate(args: argparse.Namespace) -> int:
+
+    settings = load_settings(Path(args.settings) if args.settings else None)
+    r = calibrate([Path(r) for r in args.runs], load_scenario(args.scenario), Path(args.out), settings,
+                  workers=args.workers, cluster=args.cluster, progress=not args.quiet)
+    print(f"{r['status']} ({r['stop_reason']}); pin RMS {r['before']['overall']:.3f} -> {r['after']['overall']:.3f} px")
+    for name, u in r["uncertainty"]["parameters"].items():
+        flag = "" if u["identifiable"] else "  NOT IDENTIFIABLE: left at the default"
+        print(f"  {name} = {u['value']:.5g} ± {u['std']:.2g} (default {u['default']:.5g}){flag}")
+    print(f"wrote {r['calibration_file']} and {args.out}/report.md ({r['wall_time_s']:.1f} s, "
+          f"{r['evaluations_per_s']:.3g} evaluations/s)")
+    return 0
+
+
 def _cmd_figure(args: argparse.Namespace) -> int:
 
     numbers = write_shear_figure(Path(args.out), fidelity=args.fidelity, friction=not args.no_friction)
@@ -229,6 +244,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--model", default=None, help="perception model file to score labelled runs (taps, slides)")
     p.add_argument("--video", action="store_true", help="also write OUT/comparison.mp4: the paired samples side by side")
     p.set_defaults(func=_cmd_compare)
+
+    p = sub.add_parser("calibrate", help="fit the twin's camera, rest pins, dome material, friction and TCP to recorded runs")
+    p.add_argument("runs", nargs="+", help="recorded run directories (sim or hardware) of the scenario's sensor and object")
+    p.add_argument("--scenario", required=True, help="the twin to fit (its object, fidelity, effects)")
+    p.add_argument("--out", required=True, help="directory for calibration.yaml, the report and the checkpoint")
+    p.add_argument("--settings", default=None, help="fitted parameters, bounds, priors, weights, optimiser "
+                   "(merged over assets/tactip/calibration_settings.yaml)")
+    p.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
+    p.add_argument("--cluster", default=None, help="Ray address ('local' starts one); needs the ray extra")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_calibrate)
 
     p = sub.add_parser("figure", help="the paper's Fig. 2: pin traces tapping vs sliding across the edge in 8 directions")
     p.add_argument("which", choices=("shear",))

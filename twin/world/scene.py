@@ -26,6 +26,7 @@ from twin.world import gl  # noqa: F401
 import mujoco
 
 from twin.world.dome.flex import FIDELITY_LEVELS, DomeParams, TacTipHandles, add_stimulus_carrier, add_tactip
+from twin.world.dome.material import apply_dome_material
 from twin.core.errors import UserError
 from twin.world.kinematics import IRB120_XML, Irb120Kinematics
 from twin.core.poses import Pose, make_transform, matrix_to_quat_wxyz
@@ -66,6 +67,9 @@ def load_scenario_stimulus(scenario: Scenario) -> Stimulus:
         kwargs["material"] = o.material
     if o.friction is not None:
         kwargs["friction"] = o.friction
+    calibration = scenario.calibration()
+    if calibration is not None and calibration.friction is not None:
+        kwargs["friction"] = calibration.friction  # the sensor's fitted skin–stimulus friction
     if o.name is not None:
         return load_stimulus(o.name, **kwargs)
     path = scenario.resolve(o.stl or o.outline)
@@ -100,8 +104,11 @@ def _add_object(spec: mujoco.MjSpec, body: mujoco.MjsBody, stimulus: Stimulus, c
 
 
 def dome_params(scenario: Scenario) -> DomeParams:
-    """The scenario's fidelity level with its `physics` overrides applied."""
-    return FIDELITY_LEVELS[scenario.fidelity].with_(**scenario.physics.as_dome_changes())
+    """The scenario's fidelity level with its `physics` overrides and its calibration's
+    dome material applied."""
+    params = FIDELITY_LEVELS[scenario.fidelity].with_(**scenario.physics.as_dome_changes())
+    calibration = scenario.calibration()
+    return params if calibration is None else apply_dome_material(params, calibration.dome_material)
 
 
 def build_scene(scenario: Scenario, start_pose: Pose) -> Scene:

@@ -1,0 +1,88 @@
+"""The calibration file and the calibrated camera: the projection against OpenCV's
+cv2.projectPoints (the reference implementation of the same model), the file's bounds and
+errors, and what a scenario naming a calibration gets in the sim backend."""
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+import yaml
+
+from twin.core.calibration import DOME_MATERIAL, Calibration, load_calibration, write_calibration
+from twin.core.errors import UserError
+from twin.core.poses import Pose
+from twin.core.scenario import scenario_from_dict
+from twin.core.sensor import CameraModel
+from twin.runs.sim_env import SimEnvironment
+from twin.world.dome.flex import DomeParams
+from twin.world.dome.material import _TO_DOME, apply_dome_material, dome_material_of
+
+
+def test_projection_matches_opencv() -> None:
+    cam = CameraModel(focal_override_px=460.0, principal_point_px=(322.0, 241.0), distortion=(0.1, -0.05, 0.002, -0.001),
+                      offset_mm=(0.3, -0.2, 0.5), rotation_deg=(1.0, -2.0, 3.0))
+    points = cam.geometry.pin_tip_points()
+    rot, t = cam._tool2camera
+    expected, _ = cv2.projectPoints(points, cv2.Rodrigues(rot)[0], t, cam.intrinsics, np.array(cam.distortion))
+    assert np.abs(expected[:, 0] - cam.project_tool_points(points)).max() < 1e-9
+    # the nominal camera keeps its fast path and its pixels
+    nominal = CameraModel()
+    assert nominal == cam.nominal() and nominal.is_pinhole and not cam.is_pinhole
+    placed = cam.place_at_pixels(points, cam.project_tool_points(points))
+    assert np.abs(nominal.project_tool_points(placed) - cam.project_tool_points(points)).max() < 1e-9
+
+
+def test_file_round_trip_and_rescale(tmp_path) -> None:
+    cal = Calibration(camera={"focal_px": 460.0, "principal_point_px": [320.0, 240.0], "distortion": {"k1": 0.05}},
+                      rest_pin_offsets_px=[[0.5, -0.25]] * 127, dome_material={"young_kpa": 60.0}, friction=0.6,
+                      tcp_offset_mm=[0.1, 0.0, 0.3])
+    again = load_calibration(write_calibration(cal, tmp_path / "c.yaml"))
+    assert again == cal
+    half = again.camera_model(CameraModel(320, 240))
+    assert half.focal_px == pytest.approx(230.0) and half.intrinsics[0, 2] == pytest.approx(159.75)
+    assert again.rest_offsets_px(320)[0] == pytest.approx([0.25, -0.125])
+
+
+@pytest.mark.parametrize("data, field", [
+    ({"camera": {"focal_px": -3}}, "camera.focal_px"),
+    ({"dome_material": {"youngs": 3.0}}, "dome_material"),
+    ({"dome_material": {"poisson": 0.7}}, "dome_material"),
+    ({"rest_pin_offsets_px": [[0, 0]] * 12}, "rest_pin_offsets_px"),
+    ({"tcp_offset_mm": [0, 0, 99]}, "tcp_offset_mm.2"),
+])
+def test_bad_files_name_the_field(tmp_path, data, field) -> None:
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(UserError, match=field.replace(".", r"\.")):
+        load_calibration(path)
+
+
+def test_material_names_map_onto_the_dome() -> None:
+    assert set(_TO_DOME) == set(DOME_MATERIAL)
+    params = apply_dome_material(DomeParams(), {"young_kpa": 70.0, "poisson": 0.3, "membrane_young_mpa": 0.5})
+    assert (params.young, params.poisson, params.membrane_young) == (7e4, 0.3, 5e5)
+    assert dome_material_of(params) == {"young_kpa": 70.0, "poisson": 0.3, "membrane_young_mpa": 0.5}
+
+
+def test_sim_backend_applies_the_calibration(tmp_path) -> None:
+    base = {"name": "cal", "object": {"name": "rectangle"}, "effects": ["contact", "friction"]}
+    offsets = np.random.default_rng(0).normal(0, 1.0, (127, 2)).round(3)
+    cal = Calibration(camera={"focal_px": 470.0}, rest_pin_offsets_px=offsets.tolist(), friction=0.4,
+                      dome_material={"young_kpa": 55.0}, tcp_offset_mm=[0.0, 0.0, 0.5])
+    write_calibration(cal, tmp_path / "sensor.yaml")
+    plain = SimEnvironment(scenario_from_dict(base, str(tmp_path / "s.yaml")))
+    fitted = SimEnvironment(scenario_from_dict({**base, "sensor": {"calibration": "sensor.yaml"}}, str(tmp_path / "s.yaml")))
+    assert fitted.scene.dome_params.young == 5.5e4 and fitted.scene.stimulus.friction == 0.4
+    expected = CameraModel(focal_override_px=470.0).project_tool_points(plain.physics.rest_pins) + offsets
+    assert np.abs(fitted.rest_pins_px - expected).max() < 1e-9
+    # the apex sits 0.5 mm below the commanded TCP: commanding 3.5 mm presses as deep as 4 mm without it
+    for env, z in ((fitted, 3.5), (plain, 4.0)):
+        env.reset()
+        env.move_to(Pose(60.0, 0.0, -5.0, 0, 0, 0), 50.0)
+        env.move_to(Pose(60.0, 0.0, z, 0, 0, 0))
+    obs = fitted.observe()
+    assert obs.pose.z == pytest.approx(3.5)  # the pose reported is the TCP's, as the robot reports it
+    undo = plain.camera.project_tool_points(fitted.pins_tool)
+    assert np.abs(undo - plain.observe().pins_px).max() < 1.0  # only the dome's material differs
+    with pytest.raises(UserError, match="sensor.calibration"):
+        scenario_from_dict({**base, "sensor": {"calibration": "missing.yaml"}}, str(tmp_path / "s.yaml")).camera_model()

@@ -1,0 +1,141 @@
+"""`twin calibrate` by parameter recovery: a simulated "real" sensor with known, perturbed
+parameters (camera focal length and distortion, rest pin layout, TCP offset, friction),
+recorded with another seed, rendered with camera noise and tracked, is calibrated back
+with projected pins; plus what it refuses (exit 2), non-convergence (exit 1) and resuming."""
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from twin.core.calibration import Calibration, load_calibration
+from twin.core.scenario import scenario_from_dict
+from twin.core.sensor import CameraModel
+from twin.runs.record import load_run
+from twin.runs.run import run_scenario
+from twin.tools.calibrate import calibrate, load_settings
+from twin.tools.cli import main
+
+TRUTH = {"camera": {"focal_px": 462.0, "distortion": {"k1": 0.08}}, "tcp_offset_mm": [0.0, 0.0, 0.4], "friction": 0.5,
+         "rest_pin_offsets_px": np.random.default_rng(0).normal(0.0, 0.8, (127, 2)).round(3).tolist()}
+TWIN = {"name": "calibration_twin", "object": {"name": "rectangle"}, "seed": 0, "effects": ["contact", "friction"],
+        "protocol": {"kind": "taps"}}
+REAL_TAPS = {**TWIN, "name": "real_taps", "seed": 5, "effects": ["contact", "friction", "render", "camera_noise"],
+             "sensor": {"calibration": TRUTH},
+             "protocol": {"kind": "taps", "orientations_deg": [30], "lateral_mm": [2, -3], "depths_mm": [2.5, 4]}}
+REAL_REST = {**REAL_TAPS, "name": "real_rest", "protocol": {"kind": "render", "poses": [[60, 0, -5, 0, 0, 0], [60, 0, -5, 0, 0, 90]]}}
+FIT = {"parameters": {"camera.focal_px": {"fit": True}, "camera.k1": {"fit": True}, "material.young_kpa": {"fit": False},
+                      "friction": {"fit": True}, "tcp.z_mm": {"fit": True}},
+       "optimiser": {"popsize": 6, "max_generations": 10, "patience": 2, "tol_relative": 0.005, "seed": 3}}
+
+
+@pytest.fixture(scope="module")
+def real(tmp_path_factory) -> dict:
+    root = tmp_path_factory.mktemp("real")
+    (root / "twin.yaml").write_text(yaml.safe_dump(TWIN))
+    taps = run_scenario(scenario_from_dict(REAL_TAPS), root / "taps", workers=1, progress=False)
+    rest = run_scenario(scenario_from_dict(REAL_REST), root / "rest", workers=1, progress=False)
+    run = load_run(taps)
+    truth = np.array([s["truth"]["pins_px"] for s in run.samples])
+    floor = float(np.sqrt(np.mean(np.sum((run.pins_px - truth) ** 2, axis=2))))  # the tracker's error on noisy frames
+    return {"root": root, "runs": [taps, rest], "scenario": scenario_from_dict(TWIN, str(root / "twin.yaml")),
+            "noise_floor_px": floor}
+
+
+def _settings(tmp_path: Path, data: dict) -> Path:
+    path = tmp_path / "settings.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+@pytest.mark.slow
+def test_recovers_the_perturbed_sensor(real, tmp_path) -> None:
+    settings = load_settings(_settings(tmp_path, FIT))
+    r = calibrate(real["runs"], real["scenario"], tmp_path / "cal", settings, workers=1, progress=False)
+    floor = real["noise_floor_px"]
+    assert 0.05 < floor < 0.6
+    assert r["status"] == "converged"
+    assert r["before"]["groups"]["contact"] > 10 * floor          # the nominal twin is far from this sensor ...
+    assert r["after"]["groups"]["contact"] < 1.25 * floor         # ... the calibrated one at the noise floor
+    truth = {"camera.focal_px": 462.0, "camera.k1": 0.08, "friction": 0.5, "tcp.z_mm": 0.4}
+    for name, u in r["uncertainty"]["parameters"].items():
+        if not u["identifiable"]:
+            assert name not in ("camera.focal_px", "tcp.z_mm"), f"{name} moves every pin: it must be identifiable"
+            continue
+        # a bias that moves the pins by less than the noise floor cannot be resolved by these data
+        tolerance = floor / u["pin_rms_px_per_unit"]
+        assert abs(u["value"] - truth[name]) < tolerance, (name, u, tolerance)
+    # the rest layout is relative to the camera: where the calibrated twin puts the pins at rest is what the data fix
+    cal = load_calibration(tmp_path / "cal" / "calibration.yaml")
+    truth_cal = Calibration(**TRUTH)
+    nominal = CameraModel()
+    rest = nominal.geometry.pin_tip_points()
+    fitted_rest = cal.camera_model(nominal).project_tool_points(rest) + cal.rest_offsets_px(640)
+    true_rest = truth_cal.camera_model(nominal).project_tool_points(rest) + truth_cal.rest_offsets_px(640)
+    assert np.sqrt(np.mean(np.sum((fitted_rest - true_rest) ** 2, axis=1))) < 2 * r["after"]["groups"]["rest"] + 0.1
+    for name in ("report.md", "report.json", "residuals.png", "history.jsonl"):
+        assert (tmp_path / "cal" / name).exists()
+
+
+def test_camera_only_and_what_the_data_cannot_identify(real, tmp_path) -> None:
+    # with the rest layout fitted and no distortion, the principal point moves no displacement: not identifiable
+    data = {"parameters": {"camera.focal_px": {"fit": True}, "camera.k1": {"fit": False}, "camera.cx_px": {"fit": True},
+                           "material.young_kpa": {"fit": False}, "tcp.z_mm": {"fit": False}}}
+    r = calibrate(real["runs"], real["scenario"], tmp_path / "cam", load_settings(_settings(tmp_path, data)), workers=1,
+                  progress=False)
+    assert r["not_identifiable"] == ["camera.cx_px"] and r["simulations"] == 1  # no CMA: one simulation
+    cal = load_calibration(tmp_path / "cam" / "calibration.yaml")
+    assert cal.camera.principal_point_px == pytest.approx([319.5, 239.5])   # left at the default
+    # the TCP offset (0.4 mm deeper) is not fitted here: the focal length makes up for the larger displacements
+    # and runs into its bound, which the report says
+    assert cal.camera.focal_px == 500.0 and r["uncertainty"]["parameters"]["camera.focal_px"]["at_bound"]
+    report = (tmp_path / "cam" / "report.md").read_text()
+    assert "**no**" in report and "**at a bound**" in report
+
+
+def test_not_converged_keeps_the_best_point_and_resumes(real, tmp_path) -> None:
+    one = _settings(tmp_path, {**FIT, "optimiser": {**FIT["optimiser"], "max_generations": 1}})
+    args = ["calibrate", *map(str, real["runs"]), "--scenario", str(real["root"] / "twin.yaml"), "--out",
+            str(tmp_path / "cal"), "--settings", str(one), "--workers", "1", "--quiet"]
+    assert main(args) == 1
+    assert (tmp_path / "cal" / "best_calibration.yaml").exists()
+    history = [json.loads(line) for line in (tmp_path / "cal" / "history.jsonl").read_text().splitlines()]
+    assert {h["generation"] for h in history} == {0, 1} and len(history) == 1 + 6
+    two = _settings(tmp_path, {**FIT, "optimiser": {**FIT["optimiser"], "max_generations": 2}})
+    assert main(args[:-5] + ["--settings", str(two), "--workers", "1", "--quiet"]) == 1  # resumes at generation 2
+    history = [json.loads(line) for line in (tmp_path / "cal" / "history.jsonl").read_text().splitlines()]
+    assert [h["generation"] for h in history].count(2) == 6 and len(history) == 1 + 12
+
+
+def _copy_run(src: Path, dst: Path, edit_meta=None, edit_sample=None) -> Path:
+    shutil.copytree(src, dst)
+    if edit_meta:
+        meta = json.loads((dst / "run.json").read_text())
+        edit_meta(meta)
+        (dst / "run.json").write_text(json.dumps(meta))
+    if edit_sample:
+        rows = [json.loads(line) for line in (dst / "samples.jsonl").read_text().splitlines()]
+        edit_sample(rows[1])
+        (dst / "samples.jsonl").write_text("\n".join(json.dumps(r) for r in rows) + "\n")
+    return dst
+
+
+def test_bad_input_exits_2_naming_run_or_field(real, tmp_path, capsys) -> None:
+    taps, rest = real["runs"]
+    base = ["--scenario", str(real["root"] / "twin.yaml"), "--workers", "1", "--quiet"]
+    other = _copy_run(taps, tmp_path / "other", edit_meta=lambda m: m["scenario"]["object"].update(name="flower"))
+    assert main(["calibrate", str(rest), str(other), "--out", str(tmp_path / "o1"), *base]) == 2
+    assert "other: recorded with scenario field 'object'" in capsys.readouterr().err
+    no_pins = _copy_run(taps, tmp_path / "no_pins", edit_sample=lambda s: s.update(pins_px=None, frame=None))
+    assert main(["calibrate", str(no_pins), "--out", str(tmp_path / "o2"), *base]) == 2
+    assert "no_pins: sample 1 has no pins" in capsys.readouterr().err
+    bounds = _settings(tmp_path, {"parameters": {"camera.focal_px": {"lower": 470.0, "upper": 480.0}}})
+    assert main(["calibrate", str(taps), "--out", str(tmp_path / "o3"), "--settings", str(bounds), *base]) == 2
+    assert "parameters.camera.focal_px': default 451.374 lies outside the bounds [470, 480]" in capsys.readouterr().err
+    unknown = _settings(tmp_path, {"parameters": {"camera.fokal_px": {"fit": True, "lower": 1, "upper": 2}}})
+    assert main(["calibrate", str(taps), "--out", str(tmp_path / "o4"), "--settings", str(unknown), *base]) == 2
+    assert "camera.fokal_px" in capsys.readouterr().err

@@ -1,0 +1,132 @@
+"""The calibration file: what makes the twin a twin of one particular TacTip.
+
+`twin calibrate` (twin.tools.calibrate) writes it; a scenario names it
+(`sensor: {calibration: my_sensor.yaml}`, or gives it inline) and both backends use it:
+
+| field                | unit        | sim backend                               | hardware backend            |
+|----------------------|-------------|-------------------------------------------|-----------------------------|
+| camera               | px, mm, deg | the projection of the pins (CameraModel)  | the camera model recorded   |
+|                      |             | and the rendered pins' positions          | with every run              |
+| rest_pin_offsets_px  | px (127×2)  | added to every frame's pins               | —  (the real pins are where |
+|                      |             |                                           | they are)                   |
+| dome_material        | per name    | the dome's material (apply_dome_material) | —                           |
+| friction             | –           | skin–stimulus Coulomb coefficient         | —                           |
+| tcp_offset_mm        | mm          | the dome apex moved from the commanded    | the robot's TCP corrected   |
+|                      |             | TCP (tool frame)                          | by it                       |
+
+Pixels refer to the camera resolution `camera.width × camera.height`; a scenario with
+another resolution of the same camera gets them rescaled (CameraModel.rescale_px).
+Every numeric field has bounds; errors name the file, the field and the value (exit 2).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, field_validator
+
+from twin.core.errors import UserError
+from twin.core.sensor import N_PINS, CameraModel
+from twin.core.validation import read_yaml, validate_mapping
+
+#: Dome material parameters a calibration may set: name -> (unit, lower, upper, meaning).
+#: twin.world.dome.material.apply_dome_material maps them onto the dome model.
+DOME_MATERIAL: dict[str, tuple[str, float, float, str]] = {
+    "young_kpa": ("kPa", 1.0, 2000.0, "effective Young's modulus of the skin + gel solid"),
+    "poisson": ("–", 0.0, 0.49, "Poisson's ratio of the skin + gel solid"),
+    "membrane_young_mpa": ("MPa", 0.0, 10.0, "Young's modulus of the skin membrane (0 = off)"),
+}
+
+Vec3 = Annotated[list[Annotated[float, Field(ge=-20.0, le=20.0)]], Field(min_length=3, max_length=3)]
+PixelPair = Annotated[list[Annotated[float, Field(ge=-50.0, le=50.0)]], Field(min_length=2, max_length=2)]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class Distortion(_Strict):
+    """OpenCV radial (k1, k2) and tangential (p1, p2) distortion coefficients (–)."""
+
+    k1: float = Field(default=0.0, ge=-2.0, le=2.0)
+    k2: float = Field(default=0.0, ge=-5.0, le=5.0)
+    p1: float = Field(default=0.0, ge=-0.2, le=0.2)
+    p2: float = Field(default=0.0, ge=-0.2, le=0.2)
+
+
+class CameraCalibration(_Strict):
+    """The internal camera: intrinsics (px at width × height), distortion, and where it sits
+    in the tool relative to the nominal camera (mm, deg)."""
+
+    width: int = Field(default=640, ge=64, le=4096, description="px; the resolution the pixel values refer to")
+    height: int = Field(default=480, ge=48, le=4096, description="px")
+    focal_px: float | None = Field(default=None, gt=50.0, le=20000.0, description="px; None = from the field of view")
+    principal_point_px: Annotated[list[Annotated[float, Field(ge=0.0, le=4096.0)]], Field(min_length=2, max_length=2)] | None = None
+    distortion: Distortion = Distortion()
+    offset_mm: Annotated[list[Annotated[float, Field(ge=-5.0, le=5.0)]], Field(min_length=3, max_length=3)] = [0.0, 0.0, 0.0]
+    rotation_deg: Annotated[list[Annotated[float, Field(ge=-10.0, le=10.0)]], Field(min_length=3, max_length=3)] = [0.0, 0.0, 0.0]
+
+
+class Calibration(_Strict):
+    """One sensor's fitted parameters (module docstring). Every field is optional: what is
+    not given keeps the twin's nominal value."""
+
+    camera: CameraCalibration = CameraCalibration()
+    rest_pin_offsets_px: Annotated[list[PixelPair], Field(min_length=N_PINS, max_length=N_PINS)] | None = None
+    dome_material: dict[str, float] = {}
+    friction: float | None = Field(default=None, ge=0.0, le=3.0, description="skin–stimulus Coulomb coefficient")
+    tcp_offset_mm: Vec3 = [0.0, 0.0, 0.0]
+    notes: str = ""
+
+    @field_validator("dome_material")
+    @classmethod
+    def _known_material(cls, material: dict[str, float]) -> dict[str, float]:
+        for name, value in material.items():
+            if name not in DOME_MATERIAL:
+                raise ValueError(f"unknown dome material parameter {name!r}; known: {', '.join(DOME_MATERIAL)}")
+            unit, lower, upper, _ = DOME_MATERIAL[name]
+            if not lower <= value <= upper:
+                raise ValueError(f"{name} = {value} {unit} is outside [{lower}, {upper}] {unit}")
+        return material
+
+    def camera_model(self, nominal: CameraModel) -> CameraModel:
+        """`nominal` (the scenario's camera: resolution, field of view) with this
+        calibration's intrinsics, distortion and pose, rescaled to its resolution."""
+        c = self.camera
+        scale = nominal.width / c.width
+        if abs(nominal.height / c.height - scale) > 1e-9:
+            raise UserError(f"calibration camera {c.width}×{c.height} and scenario camera {nominal.width}×{nominal.height} "
+                            "have different aspect ratios: not the same camera")
+        focal = None if c.focal_px is None else c.focal_px * scale
+        centre = None
+        if c.principal_point_px is not None:
+            centre = tuple(float(v) for v in (np.asarray(c.principal_point_px) + 0.5) * scale - 0.5)
+        d = c.distortion
+        return CameraModel(nominal.width, nominal.height, nominal.fov_y_deg, nominal.aperture_fraction, nominal.geometry,
+                           focal_override_px=focal, principal_point_px=centre, distortion=(d.k1, d.k2, d.p1, d.p2),
+                           offset_mm=tuple(c.offset_mm), rotation_deg=tuple(c.rotation_deg))
+
+    def rest_offsets_px(self, width: int) -> np.ndarray:
+        """(127, 2) px rest-layout offsets at a camera `width` px wide (zeros when none)."""
+        if self.rest_pin_offsets_px is None:
+            return np.zeros((N_PINS, 2))
+        return np.asarray(self.rest_pin_offsets_px, float) * (width / self.camera.width)
+
+    @property
+    def tcp_offset_m(self) -> np.ndarray:
+        """(3,) m: the dome apex relative to the commanded TCP, tool frame."""
+        return np.asarray(self.tcp_offset_mm, float) * 1e-3
+
+
+def load_calibration(path: str | Path) -> Calibration:
+    """Read and validate a calibration file (YAML or JSON); errors name file, field, value."""
+    return validate_mapping(Calibration, read_yaml(path, "calibration"), str(path), "calibration")
+
+
+def write_calibration(calibration: Calibration, path: Path) -> Path:
+    """Write `calibration` as YAML (readable by load_calibration)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(yaml.safe_dump(calibration.model_dump(), sort_keys=False))
+    return path

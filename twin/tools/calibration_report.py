@@ -1,0 +1,76 @@
+"""The report of `twin calibrate` (twin.tools.calibrate): report.json, report.md and the
+residual-field plot residuals.png (mean pin residual per pin, before and after)."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+
+from twin.core.sensor import CameraModel
+
+
+def _fmt(v: float | None, digits: int = 3) -> str:
+    return "–" if v is None else f"{v:.{digits}f}"
+
+
+def report_markdown(r: dict) -> str:
+    """The report as markdown: status, pin RMS before/after, fitted values ± std, speed."""
+    lines = [f"# Calibration: {r['status']}", "", f"Stop rule: {r['stop_reason']}.", "",
+             f"Runs: {', '.join(r['runs'])} ({r['samples']} samples: "
+             + ", ".join(f"{n} {g}" for g, n in r["samples_per_group"].items() if n) + f"); scenario {r['scenario']}.",
+             f"Rest pin layout: {r['rest_pins']}.", "",
+             "| pin RMS (px) | before | after |", "|---|---|---|",
+             f"| overall | {_fmt(r['before']['overall'])} | {_fmt(r['after']['overall'])} |"]
+    for g, v in r["after"]["groups"].items():
+        lines.append(f"| {g} frames | {_fmt(r['before']['groups'].get(g))} | {_fmt(v)} |")
+    for run, v in r["after"]["runs"].items():
+        lines.append(f"| run {run} | {_fmt(r['before']['runs'].get(run))} | {_fmt(v)} |")
+    lines += ["", "| parameter | default | fitted | ± std | resolution | bounds | identifiable |", "|---|---|---|---|---|---|---|"]
+    for name, u in r["uncertainty"]["parameters"].items():
+        lines.append(f"| {name} | {u['default']:.4g} | {u['value']:.4g} | {u['std']:.2g} | {u['resolution']:.2g} | "
+                     f"[{u['bounds'][0]:g}, {u['bounds'][1]:g}] | "
+                     + ("yes" if u["identifiable"] else f"**no** (data std {u['data_std']:.2g}): left at the default")
+                     + (" (**at a bound**: widen it, or a parameter not fitted is off)" if u.get("at_bound") else "") + " |")
+    lines += ["", "± std: Gauss–Newton standard error (assumes independent pin errors; a tracker's errors are correlated "
+              "per pin, so it is optimistic). Resolution: the change of the parameter that moves the pins by the fit's "
+              "pin RMS, what one frame's pins resolve."]
+    sv = r["uncertainty"]["singular_values"]
+    if sv:
+        lines += ["", "Singular values of the Jacobian (whitened residuals per unit of each parameter's range): "
+                  + ", ".join(f"{v:.3g}" for v in sv) + f"; reduced χ² {r['uncertainty']['reduced_chi2']:.3g}."]
+    lines += ["", f"{r['generations']} CMA-ES generations, {r['simulations']} simulations of the runs "
+              f"({r['evaluations_per_s']:.3g} evaluations/s, {r['simulated_frames_per_s']:.0f} simulated frames/s); "
+              f"wall time {r['wall_time_s']:.1f} s.", ""]
+    return "\n".join(lines)
+
+
+def plot_residuals(r: dict, path: Path) -> None:
+    """Mean residual vector (recorded − twin, ×20) at every pin's rest position, before and after."""
+    matplotlib.use("Agg")
+    cam = CameraModel()
+    rest = cam.project_tool_points(cam.geometry.pin_tip_points())
+    fig, axes = plt.subplots(1, 2, figsize=(11, 5), dpi=110)
+    for ax, key in zip(axes, ("before", "after")):
+        mean = np.asarray(r[key]["mean_residual"], float)
+        per_pin = np.asarray(r[key]["per_pin"], float)
+        sc = ax.scatter(rest[:, 0], rest[:, 1], c=per_pin, cmap="viridis", s=30)
+        ax.quiver(rest[:, 0], rest[:, 1], mean[:, 0], mean[:, 1], angles="xy", scale_units="xy", scale=1 / 20,
+                  color="tab:red", width=0.004)
+        ax.set_xlim(0, cam.width)
+        ax.set_ylim(cam.height, 0)
+        ax.set_aspect("equal")
+        ax.set_title(f"{key}: pin RMS {r[key]['overall']:.3f} px\nmean residual ×20 (arrows), RMS per pin (colour)")
+        fig.colorbar(sc, ax=ax, label="px")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def write_report(r: dict, out: Path) -> None:
+    """report.json, report.md and residuals.png in `out`."""
+    (out / "report.json").write_text(json.dumps(r, indent=1, default=float))
+    (out / "report.md").write_text(report_markdown(r))
+    plot_residuals(r, out / "residuals.png")
