@@ -25,11 +25,11 @@ from typing import Annotated
 
 import numpy as np
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import Field, field_validator
 
 from twin.core.errors import UserError
 from twin.core.sensor import N_PINS, CameraModel
-from twin.core.validation import read_yaml, validate_mapping
+from twin.core.validation import StrictModel, bounded, bounded_list, read_yaml, validate_mapping
 
 #: Dome material parameters a calibration may set: name -> (unit, lower, upper, meaning).
 #: twin.world.dome.material.apply_dome_material maps them onto the dome model.
@@ -39,45 +39,39 @@ DOME_MATERIAL: dict[str, tuple[str, float, float, str]] = {
     "membrane_young_mpa": ("MPa", 0.0, 10.0, "Young's modulus of the skin membrane (0 = off)"),
 }
 
-Vec3 = Annotated[list[Annotated[float, Field(ge=-20.0, le=20.0)]], Field(min_length=3, max_length=3)]
-PixelPair = Annotated[list[Annotated[float, Field(ge=-50.0, le=50.0)]], Field(min_length=2, max_length=2)]
-
-
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-class Distortion(_Strict):
+class Distortion(StrictModel):
     """OpenCV radial (k1, k2) and tangential (p1, p2) distortion coefficients (–)."""
 
-    k1: float = Field(default=0.0, ge=-2.0, le=2.0)
-    k2: float = Field(default=0.0, ge=-5.0, le=5.0)
-    p1: float = Field(default=0.0, ge=-0.2, le=0.2)
-    p2: float = Field(default=0.0, ge=-0.2, le=0.2)
+    k1: float = bounded(-2.0, 2.0, "dimensionless", "radial distortion k1", 0.0)
+    k2: float = bounded(-5.0, 5.0, "dimensionless", "radial distortion k2", 0.0)
+    p1: float = bounded(-0.2, 0.2, "dimensionless", "tangential distortion p1", 0.0)
+    p2: float = bounded(-0.2, 0.2, "dimensionless", "tangential distortion p2", 0.0)
 
 
-class CameraCalibration(_Strict):
+class CameraCalibration(StrictModel):
     """The internal camera: intrinsics (px at width × height), distortion, and where it sits
     in the tool relative to the nominal camera (mm, deg)."""
 
-    width: int = Field(default=640, ge=64, le=4096, description="px; the resolution the pixel values refer to")
-    height: int = Field(default=480, ge=48, le=4096, description="px")
-    focal_px: float | None = Field(default=None, gt=50.0, le=20000.0, description="px; None = from the field of view")
-    principal_point_px: Annotated[list[Annotated[float, Field(ge=0.0, le=4096.0)]], Field(min_length=2, max_length=2)] | None = None
+    width: int = bounded(64, 4096, "px", "the resolution the pixel values refer to", 640)
+    height: int = bounded(48, 4096, "px", "image height", 480)
+    focal_px: float | None = Field(default=None, gt=50.0, le=20000.0,
+                                   description="focal length (px; (50, 20000]); None = from the field of view")
+    principal_point_px: bounded_list(0.0, 4096.0, "px", length=2) | None = None
     distortion: Distortion = Distortion()
-    offset_mm: Annotated[list[Annotated[float, Field(ge=-5.0, le=5.0)]], Field(min_length=3, max_length=3)] = [0.0, 0.0, 0.0]
-    rotation_deg: Annotated[list[Annotated[float, Field(ge=-10.0, le=10.0)]], Field(min_length=3, max_length=3)] = [0.0, 0.0, 0.0]
+    offset_mm: bounded_list(-5.0, 5.0, "mm", length=3) = [0.0, 0.0, 0.0]
+    rotation_deg: bounded_list(-10.0, 10.0, "deg", length=3) = [0.0, 0.0, 0.0]
 
 
-class Calibration(_Strict):
+class Calibration(StrictModel):
     """One sensor's fitted parameters (module docstring). Every field is optional: what is
     not given keeps the twin's nominal value."""
 
     camera: CameraCalibration = CameraCalibration()
-    rest_pin_offsets_px: Annotated[list[PixelPair], Field(min_length=N_PINS, max_length=N_PINS)] | None = None
+    rest_pin_offsets_px: Annotated[list[bounded_list(-50.0, 50.0, "px", length=2)],
+                                   Field(min_length=N_PINS, max_length=N_PINS)] | None = None
     dome_material: dict[str, float] = {}
-    friction: float | None = Field(default=None, ge=0.0, le=3.0, description="skin–stimulus Coulomb coefficient")
-    tcp_offset_mm: Vec3 = [0.0, 0.0, 0.0]
+    friction: float | None = bounded(0.0, 3.0, "dimensionless", "skin–stimulus Coulomb coefficient", None)
+    tcp_offset_mm: bounded_list(-20.0, 20.0, "mm", length=3) = [0.0, 0.0, 0.0]
     notes: str = ""
 
     @field_validator("dome_material")
