@@ -35,7 +35,7 @@ from twin.core.validation import StrictModel, bounded, bounded_list, read_yaml, 
 #: twin.world.dome.material.apply_dome_material maps them onto the dome model.
 DOME_MATERIAL: dict[str, tuple[str, float, float, str]] = {
     "young_kpa": ("kPa", 1.0, 2000.0, "effective Young's modulus of the skin + gel solid"),
-    "poisson": ("–", 0.0, 0.49, "Poisson's ratio of the skin + gel solid"),
+    "poisson": ("–", 0.0, 0.5, "Poisson's ratio of the skin + gel solid (the flex dome needs ≤ 0.49)"),
     "membrane_young_mpa": ("MPa", 0.0, 10.0, "Young's modulus of the skin membrane (0 = off)"),
 }
 

@@ -3,7 +3,7 @@ fidelity, effects), validated with pydantic. Errors name the file, field and val
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Literal, Union
+from typing import Annotated, ClassVar, Literal, Union
 
 from pydantic import Field, field_validator, model_validator
 
@@ -85,6 +85,13 @@ class PhysicsOverrides(StrictModel):
             raise ValueError(f"skin_spacing_mm must be 0 (off) or in [0.5, 5] mm, got {v}")
         return v
 
+    #: overrides that only the flex dome has
+    FLEX_ONLY: ClassVar[tuple[str, ...]] = ("cellcount", "timestep_s", "settle_px", "skin_spacing_mm", "membrane_young_mpa")
+
+    def as_compliant_changes(self) -> dict:
+        """The overrides for the compliant dome (twin.world.dome.compliant.CompliantParams)."""
+        return {} if self.surface_spacing_mm is None else {"spacing": self.surface_spacing_mm * 1e-3}
+
     def as_dome_changes(self) -> dict:
         changes = {"cellcount": None if self.cellcount is None else tuple(self.cellcount), "timestep": self.timestep_s,
                    "settle_px": self.settle_px,
@@ -165,6 +172,8 @@ class Scenario(StrictModel):
     work_frame: Literal["object"] | PoseList = "object"
     sensor: SensorSpec = SensorSpec()
     fidelity: Literal["fast", "default", "reference"] = "default"
+    #: dome model: MuJoCo's flex grid, or the compliant contact model (twin.world.dome.compliant)
+    dome: Literal["flex", "compliant"] = "flex"
     physics: PhysicsOverrides = PhysicsOverrides()
     effects: list[str] = ["contact", "friction", "render"]
     protocol: Protocol = RenderProtocol()
@@ -181,6 +190,14 @@ class Scenario(StrictModel):
         if "camera_noise" in effects and "render" not in effects:
             raise ValueError("effect 'camera_noise' needs 'render'")
         return sorted(set(effects), key=EFFECTS.index)
+
+    @model_validator(mode="after")
+    def _overrides_fit_the_dome(self) -> "Scenario":
+        if self.dome == "compliant":
+            given = [f"physics.{k}" for k in PhysicsOverrides.FLEX_ONLY if getattr(self.physics, k) is not None]
+            if given:
+                raise ValueError(f"{', '.join(given)}: only for the flex dome (this scenario has dome: compliant)")
+        return self
 
     def has(self, effect: str) -> bool:
         return effect in self.effects

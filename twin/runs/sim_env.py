@@ -13,11 +13,10 @@ import mujoco
 from twin.world.arm import ArmDynamics
 from twin.core.environment import Environment, Observation
 from twin.core.errors import UnreachablePoseError, UserError
-from twin.world.dome.physics import SensorPhysics
 from twin.core.poses import Pose, invert_transform, make_transform
 from twin.world.render import PinRenderer, render_overview
 from twin.core.scenario import DEFAULT_SPEED_MM_S, START_POSE, Scenario
-from twin.world.scene import TOOL2FLANGE, Scene, build_overview, build_scene, kinematics
+from twin.world.scene import TOOL2FLANGE, Scene, build_overview, build_scene, kinematics, sensor_physics
 from twin.runs.protocols import protocol_moves
 
 
@@ -58,9 +57,7 @@ class SimEnvironment(Environment):
         self._q = kinematics().inverse(start, TOOL2FLANGE)  # the start pose must be reachable too
         self._commanded = start
         self.arm = ArmDynamics(kinematics(), TOOL2FLANGE, self._q) if self.scenario.has("arm_dynamics") else None
-        self.physics = SensorPhysics(self.scene.model, self.scene.data, self.scene.tactip, self.scene.dome_params,
-                                     self.scenario.name, start @ self.tcp2apex, stimulus2world=self.scene.object2world,
-                                     work2world=self.scene.work2world, camera=self.camera)
+        self.physics = sensor_physics(self.scene, start @ self.tcp2apex)
         self._frame = None
 
     @property

@@ -26,6 +26,8 @@ from twin.world import gl  # noqa: F401
 import mujoco
 
 from twin.world.dome.flex import FIDELITY_LEVELS, DomeParams, TacTipHandles, add_stimulus_carrier, add_tactip
+from twin.world.dome.compliant import COMPLIANT_LEVELS, CompliantParams, CompliantPhysics
+from twin.world.dome.physics import SensorPhysics
 from twin.world.dome.material import apply_dome_material
 from twin.core.errors import UserError
 from twin.world.kinematics import IRB120_XML, Irb120Kinematics
@@ -52,8 +54,8 @@ class Scene:
     model: mujoco.MjModel
     data: mujoco.MjData
     stimulus: Stimulus
-    tactip: TacTipHandles
-    dome_params: DomeParams
+    tactip: TacTipHandles | None   # None for the compliant dome (not a MuJoCo body)
+    dome_params: DomeParams | CompliantParams
     camera: CameraModel
     object2world: np.ndarray
     work2world: np.ndarray
@@ -103,10 +105,13 @@ def _add_object(spec: mujoco.MjSpec, body: mujoco.MjsBody, stimulus: Stimulus, c
             g.contype = g.conaffinity = 0
 
 
-def dome_params(scenario: Scenario) -> DomeParams:
-    """The scenario's fidelity level with its `physics` overrides and its calibration's
-    dome material applied."""
-    params = FIDELITY_LEVELS[scenario.fidelity].with_(**scenario.physics.as_dome_changes())
+def dome_params(scenario: Scenario) -> DomeParams | CompliantParams:
+    """The scenario's dome model at its fidelity level with its `physics` overrides and
+    its calibration's dome material applied."""
+    if scenario.dome == "compliant":
+        params = COMPLIANT_LEVELS[scenario.fidelity].with_(**scenario.physics.as_compliant_changes())
+    else:
+        params = FIDELITY_LEVELS[scenario.fidelity].with_(**scenario.physics.as_dome_changes())
     calibration = scenario.calibration()
     return params if calibration is None else apply_dome_material(params, calibration.dome_material)
 
@@ -120,14 +125,28 @@ def build_scene(scenario: Scenario, start_pose: Pose) -> Scene:
     spec.modelname = f"twin_{scenario.name}"
     carrier = add_stimulus_carrier(spec)
     _add_object(spec, carrier, stimulus, collide=scenario.has("contact"), friction=scenario.has("friction"))
-    handles = add_tactip(spec, spec.worldbody, TacTipGeometry(), params, friction=scenario.has("friction"))
+    handles = None
+    if scenario.dome == "flex":
+        handles = add_tactip(spec, spec.worldbody, TacTipGeometry(), params, friction=scenario.has("friction"))
     try:
         model = spec.compile()
     except ValueError as err:
         raise UserError(f"{scenario.source}: the scene does not compile: {err}") from None
     data = mujoco.MjData(model)
-    return Scene(scenario, model, data, stimulus, handles.resolve(model), params, scenario.camera_model(),
-                 object2world, work2world)
+    return Scene(scenario, model, data, stimulus, None if handles is None else handles.resolve(model), params,
+                 scenario.camera_model(), object2world, work2world)
+
+
+def sensor_physics(scene: Scene, start_tool2world: np.ndarray) -> SensorPhysics | CompliantPhysics:
+    """The scene's dome model, stepping from `start_tool2world` (lab pose of the dome
+    apex, 4×4 m): the flex dome (SensorPhysics) or the compliant one (CompliantPhysics)."""
+    scenario = scene.scenario
+    if scene.tactip is None:
+        friction = scene.stimulus.friction if scenario.has("friction") else 0.0
+        return CompliantPhysics(scene.model, scene.data, scene.dome_params, friction, scenario.name, start_tool2world,
+                                stimulus2world=scene.object2world, work2world=scene.work2world)
+    return SensorPhysics(scene.model, scene.data, scene.tactip, scene.dome_params, scenario.name, start_tool2world,
+                         stimulus2world=scene.object2world, work2world=scene.work2world, camera=scene.camera)
 
 
 def _add_tactip_visual(body: mujoco.MjsBody, geometry: TacTipGeometry) -> None:

@@ -1,25 +1,47 @@
 """The calibrated dome material (twin.core.calibration.DOME_MATERIAL) applied to the dome
-model: the one place that knows which model parameter a material name sets."""
+models: the one place that knows which model parameter a material name sets."""
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import fields
 
 from twin.core.calibration import DOME_MATERIAL
+from twin.core.errors import UserError
+from twin.world.dome.compliant import CompliantParams
 from twin.world.dome.flex import DomeParams
 
-#: material name -> (DomeParams field, factor from the name's unit to SI)
+#: material name -> (model parameter field, factor from the name's unit to SI)
 _TO_DOME: dict[str, tuple[str, float]] = {
     "young_kpa": ("young", 1e3),
     "poisson": ("poisson", 1.0),
     "membrane_young_mpa": ("membrane_young", 1e6),
 }
+assert set(_TO_DOME) == set(DOME_MATERIAL)
+#: the flex grid's Lamé λ ∝ 1/(1 − 2ν): it needs ν below this
+FLEX_MAX_POISSON = 0.49
+
+Params = DomeParams | CompliantParams
 
 
-def apply_dome_material(params: DomeParams, material: Mapping[str, float]) -> DomeParams:
-    """`params` with the named material values (units of DOME_MATERIAL) set."""
+def material_names(params: Params) -> list[str]:
+    """The material names this dome model has (CompliantParams has no membrane)."""
+    have = {f.name for f in fields(params)}
+    return [name for name, (field, _) in _TO_DOME.items() if field in have]
+
+
+def apply_dome_material(params: Params, material: Mapping[str, float]) -> Params:
+    """`params` with the named material values (units of DOME_MATERIAL) set; UserError for
+    a name this dome model does not have or a value it cannot take."""
+    names = material_names(params)
+    for name in material:
+        if name not in names:
+            raise UserError(f"dome material {name!r} has no meaning for the {type(params).__name__} dome model "
+                            f"(it has {', '.join(names)})")
+    if isinstance(params, DomeParams) and material.get("poisson", 0.0) > FLEX_MAX_POISSON:
+        raise UserError(f"dome material poisson = {material['poisson']} locks the flex dome (needs ≤ {FLEX_MAX_POISSON})")
     return params.with_(**{_TO_DOME[name][0]: value * _TO_DOME[name][1] for name, value in material.items()})
 
 
-def dome_material_of(params: DomeParams) -> dict[str, float]:
+def dome_material_of(params: Params) -> dict[str, float]:
     """The material values (units of DOME_MATERIAL) of `params`: the defaults a calibration starts from."""
-    return {name: getattr(params, field) / factor for name, (field, factor) in _TO_DOME.items()}
+    return {name: getattr(params, _TO_DOME[name][0]) / _TO_DOME[name][1] for name in material_names(params)}

@@ -1,0 +1,213 @@
+"""The compliant dome's elasticity: surface nodes on the dome's cap and the influence
+(compliance) matrix that maps nodal contact forces to the displacements of the surface
+nodes and of the pin tips.
+
+Model: the skin + gel under the contact is a linear elastic solid whose response to a
+point force on its surface is that of an elastic half-space tangent to the dome at the
+force's node — the Boussinesq (normal) and Cerruti (tangential) solutions (K. L. Johnson,
+*Contact Mechanics*, 1985, eqs. 3.20–3.21), including their subsurface form, which gives
+the displacement of a pin tip buried in the gel. This is how Kalker's CONTACT describes
+elastic bodies; it is exact for Hertz and Cattaneo–Mindlin (the verification tests) and
+costs no finite-element precomputation: every matrix entry is closed form.
+
+Discretisation: N nodes on the cap, each carrying the traction on its own area A,
+spread uniformly over a disc of that area (radius a = √(A/π)) in its tangent plane: the
+influence on another point is the disc-averaged point solution (Radon's 7-point rule on
+the disc, exact for cubics; a point load alone underestimates the nearest neighbours'
+compliance — the 1/r kernel is convex — and made a Hertz press 3 % too stiff). The
+singular self term is the displacement at the disc's centre under the uniform traction
+(normal: (1 − ν) F / (π a G); tangential: (2 − ν) F / (2 π a G)).
+
+Everything in the tool frame (m): apex at the origin, +z out of the tip.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from twin.core.sensor import TacTipGeometry
+
+GOLDEN_ANGLE = math.pi * (3.0 - math.sqrt(5.0))  # rad
+#: Radon's 7-point rule on the unit disc: (x, y, weight), exact for polynomials of degree 3
+DISC_RULE = np.array([[0.0, 0.0, 0.25]] + [[math.sqrt(2 / 3) * math.cos(k * math.pi / 3),
+                                              math.sqrt(2 / 3) * math.sin(k * math.pi / 3), 0.125] for k in range(6)])
+
+
+@dataclass(frozen=True)
+class CapSurface:
+    """Nodes on the dome's outer surface within `extent_deg` of the apex, spaced about
+    `spacing` (m) apart: an equal-area Fibonacci lattice (each node carries the same area).
+
+    points (N, 3) m, normals (N, 3) outward unit, tangents (N, 2, 3) unit (meridian
+    direction away from the apex, then azimuthal), area (m²) per node, polar (N,) rad.
+    """
+
+    geometry: TacTipGeometry
+    spacing: float
+    extent_deg: float
+
+    @cached_property
+    def count(self) -> int:
+        cap_area = 2 * math.pi * self.geometry.dome_outer_radius ** 2 * (1 - math.cos(math.radians(self.extent_deg)))
+        return max(7, int(round(cap_area / (math.sqrt(3) / 2 * self.spacing ** 2))))
+
+    @cached_property
+    def area(self) -> float:
+        r = self.geometry.dome_outer_radius
+        return 2 * math.pi * r * r * (1 - math.cos(math.radians(self.extent_deg))) / self.count
+
+    @cached_property
+    def polar(self) -> np.ndarray:
+        k = np.arange(self.count) + 0.5
+        return np.arccos(1.0 - (1.0 - math.cos(math.radians(self.extent_deg))) * k / self.count)
+
+    @cached_property
+    def normals(self) -> np.ndarray:
+        polar = self.polar
+        azimuth = np.arange(self.count) * GOLDEN_ANGLE
+        return np.column_stack([np.sin(polar) * np.cos(azimuth), np.sin(polar) * np.sin(azimuth), np.cos(polar)])
+
+    @cached_property
+    def points(self) -> np.ndarray:
+        g = self.geometry
+        return np.array([0.0, 0.0, g.sphere_centre_z]) + g.dome_outer_radius * self.normals
+
+    @cached_property
+    def tangents(self) -> np.ndarray:
+        n = self.normals
+        azimuth = np.arange(self.count) * GOLDEN_ANGLE
+        east = np.column_stack([-np.sin(azimuth), np.cos(azimuth), np.zeros(self.count)])
+        meridian = np.cross(east, n)  # away from the apex, tangent
+        return np.stack([meridian, east], axis=1)
+
+    @cached_property
+    def frames(self) -> np.ndarray:
+        """(N, 3, 3): rows (outward normal, meridian tangent, azimuthal tangent) per node."""
+        return np.concatenate([self.normals[:, None, :], self.tangents], axis=1)
+
+    @cached_property
+    def rim(self) -> np.ndarray:
+        """(N,) bool: nodes in the outermost spacing of the cap (contact there leaves the model)."""
+        return self.polar > math.radians(self.extent_deg) - self.spacing / self.geometry.dome_outer_radius
+
+
+def half_space_kernel(targets: np.ndarray, sources: np.ndarray, outward: np.ndarray, poisson: float,
+                      shear_modulus: float) -> np.ndarray:
+    """(Nt, 3, Ns, 3) m/N: displacement of each target point per unit force at each source.
+
+    Each source j is a point force on the surface of the half-space tangent to the dome at
+    `sources[j]` with outward normal `outward[j]`; targets on or below that surface
+    (depth z = −outward·(target − source) ≥ 0). Boussinesq + Cerruti (Johnson eqs. 3.20,
+    3.21) written for an arbitrary force direction. Targets that coincide with their
+    source must be handled by the caller (the self term is singular).
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return _half_space_kernel(targets, sources, outward, poisson, shear_modulus)
+
+
+def disc_averaged_kernel(targets: np.ndarray, sources: np.ndarray, frames: np.ndarray, radius: float, poisson: float,
+                         shear_modulus: float) -> np.ndarray:
+    """`half_space_kernel` for a force spread uniformly over a disc of `radius` (m) about
+    each source, in its tangent plane (frames (Ns, 3, 3): normal, t1, t2), by DISC_RULE."""
+    out = 0.0
+    for x, y, weight in DISC_RULE:
+        shifted = sources + radius * (x * frames[:, 1, :] + y * frames[:, 2, :])
+        out = out + weight * half_space_kernel(targets, shifted, frames[:, 0, :], poisson, shear_modulus)
+    return out
+
+
+def _half_space_kernel(targets: np.ndarray, sources: np.ndarray, outward: np.ndarray, poisson: float,
+                       shear_modulus: float) -> np.ndarray:
+    r = targets[:, None, :] - sources[None, :, :]                 # (Nt, Ns, 3)
+    e = -outward[None, :, :]                                      # into the solid
+    z = np.maximum(np.einsum("tsk,tsk->ts", r, np.broadcast_to(e, r.shape)), 0.0)
+    rho = np.linalg.norm(r, axis=2)
+    s = r - z[..., None] * e                                      # tangential part of r
+    c = 1.0 - 2.0 * poisson
+    inv_rho = 1.0 / rho
+    inv_rho3 = inv_rho ** 3
+    rz = rho + z
+    out = np.empty(r.shape[:2] + (3, 3))
+    for k in range(3):
+        basis = np.zeros(3)
+        basis[k] = 1.0
+        fe = np.einsum("sk,k->s", -outward, basis)[None, :]        # normal part of the unit force (Nt-broadcast)
+        ft = basis[None, None, :] - fe[..., None] * e             # tangential part (1, Ns, 3)
+        ts = np.einsum("tsk,tsk->ts", np.broadcast_to(ft, r.shape), s)
+        # Cerruti, tangential force ft
+        u = (ft * inv_rho[..., None] + (ts * inv_rho3)[..., None] * s
+             + c * (ft / rz[..., None] - (ts / (rho * rz * rz))[..., None] * s)
+             + ((ts * z * inv_rho3) + c * ts / (rho * rz))[..., None] * e)
+        # Boussinesq, normal force fe along e
+        u += fe[..., None] * (s * (z * inv_rho3 - c / (rho * rz))[..., None]
+                              + (z * z * inv_rho3 + 2.0 * (1.0 - poisson) * inv_rho)[..., None] * e)
+        out[:, :, :, k] = u
+    return np.transpose(out, (0, 2, 1, 3)) / (4.0 * math.pi * shear_modulus)
+
+
+def self_compliance(outward: np.ndarray, area: float, poisson: float, shear_modulus: float) -> np.ndarray:
+    """(N, 3, 3) m/N: a node's displacement per unit force on its own area (uniform
+    traction on a disc of that area, displacement at its centre)."""
+    a = math.sqrt(area / math.pi)
+    normal = (1.0 - poisson) / (math.pi * a * shear_modulus)
+    tangential = (2.0 - poisson) / (2.0 * math.pi * a * shear_modulus)
+    nn = np.einsum("ni,nj->nij", outward, outward)
+    return tangential * (np.eye(3)[None] - nn) + normal * nn
+
+
+class DomeCompliance:
+    """The dome's influence matrices for a material, filled lazily column by column.
+
+    Everything in the tool frame. `block(rows, cols)`:
+    displacements of nodes `rows` per unit force at nodes `cols` (m/N); pin_displacement:
+    the pin tips' displacement under local nodal forces. A node's
+    column is computed (closed form, ≈ 0.1 ms) the first time a contact touches it and
+    kept for the life of the dome: the matrices are never assembled whole.
+    """
+
+    def __init__(self, surface: CapSurface, pin_tips: np.ndarray, young: float, poisson: float) -> None:
+        if not (young > 0 and 0.0 <= poisson <= 0.5):
+            raise ValueError(f"dome material: need young > 0 Pa and 0 <= poisson <= 0.5, got {young}, {poisson}")
+        self.surface = surface
+        self.pin_tips = np.asarray(pin_tips, float)
+        self.young, self.poisson = young, poisson
+        self.shear_modulus = young / (2.0 * (1.0 + poisson))
+        n = surface.count
+        # stored by source node (column), so an untouched column's pages are never mapped
+        self._surface = np.zeros((n, 3, n, 3))   # [source j, force axis, node i, displacement axis]
+        self._pins = np.zeros((n, 3, len(self.pin_tips), 3))
+        self._filled = np.zeros(n, bool)
+        self._self = self_compliance(surface.normals, surface.area, poisson, self.shear_modulus)
+
+    def fill(self, nodes: np.ndarray) -> None:
+        """Compute the columns of `nodes` (indices) not computed yet."""
+        todo = nodes[~self._filled[nodes]]
+        if not len(todo):
+            return
+        s = self.surface
+        frames, radius = s.frames, math.sqrt(s.area / math.pi)
+        block = disc_averaged_kernel(s.points, s.points[todo], frames[todo], radius, self.poisson, self.shear_modulus)
+        block[todo, :, np.arange(len(todo)), :] = self._self[todo]
+        self._surface[todo] = np.transpose(block, (2, 3, 0, 1))
+        pins = disc_averaged_kernel(self.pin_tips, s.points[todo], frames[todo], radius, self.poisson, self.shear_modulus)
+        self._pins[todo] = np.transpose(pins, (2, 3, 0, 1))
+        self._filled[todo] = True
+
+    def block(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """(3·len(rows), 3·len(cols)) m/N: displacements of `rows` per force at `cols`."""
+        self.fill(cols)
+        stored = self._surface[np.ix_(cols, range(3), rows, range(3))]
+        return np.transpose(stored, (2, 3, 0, 1)).reshape(3 * len(rows), 3 * len(cols))
+
+    def surface_displacement(self, cols: np.ndarray, forces: np.ndarray) -> np.ndarray:
+        """(N, 3) m: every node's displacement under forces (len(cols), 3) N at `cols`."""
+        self.fill(cols)
+        return np.einsum("jbia,jb->ia", self._surface[cols], forces)
+
+    def pin_displacement(self, cols: np.ndarray, forces: np.ndarray) -> np.ndarray:
+        """(127, 3) m: the pin tips' displacement under forces (len(cols), 3) N at `cols`."""
+        self.fill(cols)
+        return np.einsum("jbia,jb->ia", self._pins[cols], forces)

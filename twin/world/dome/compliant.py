@@ -1,0 +1,306 @@
+"""The compliant dome: quasi-static frictional contact at the sensor's own resolution.
+
+`CompliantPhysics` has `SensorPhysics`' interface (move, settle, rest_pins, steps,
+converged_pins) and replaces MuJoCo's flex dome by an elastic solid solved exactly at
+every increment of the path:
+
+* the object is a MuJoCo scene (the stimulus carrier and its collision pieces, no dome):
+  each increment puts the carrier at the object's pose in the tool frame and casts one
+  ray per surface node from the dome's sphere centre along the node's normal
+  (mj_multiRay), which gives every node's rigid gap to the object along its normal;
+* the dome is the influence model of twin.world.dome.compliance (Boussinesq–Cerruti, a
+  node every `spacing` on the cap);
+* each increment is one frictional contact problem (twin.world.dome.contact): Signorini
+  contact and Coulomb friction whose stick/slip state and tractions carry over from the
+  previous increment — the path dependence the paper is about;
+* the pins are posts on the skin: their tips move with the gel at their depth (the
+  subsurface half-space solution), so a pin under a sheared patch is carried and tilted.
+
+A move is cut into increments of at most `step_length` of tool travel and
+`step_angle_deg` of rotation; the result of each is an equilibrium, so a frame needs no
+settling (`settle` returns the current state). Quasi-static: the speed only sets the
+simulated time. Without the `contact` effect the object has no collision pieces, no ray
+hits and no problem is solved; without `friction` only the normal problem is.
+
+Every increment is checked; a failure raises `PhysicsError` naming the scenario, the
+increment, the pose and what failed: a contact problem that did not converge, NaN/Inf,
+penetration after the solve beyond `max_penetration`, contact at the rim of the modelled
+cap, an indentation beyond what the rays can see, a total force above `max_force`, a pin
+farther than `max_pin_excursion` from rest.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+
+import mujoco
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from twin.core.errors import PhysicsError
+from twin.core.poses import Pose, invert_transform, matrix_to_quat_wxyz
+from twin.core.sensor import TacTipGeometry
+from twin.world.dome.compliance import CapSurface, DomeCompliance
+from twin.world.dome.contact import ContactNotConverged, solve_increment
+from twin.world.dome.physics import Frame
+
+
+@dataclass(frozen=True)
+class CompliantParams:
+    """Material, resolution and solver parameters of the compliant dome (SI units).
+
+    young (Pa), poisson (–): the skin + gel as one elastic solid. The gel is a silicone
+      (ν ≈ 0.5, incompressible); young is the effective modulus of skin over gel, set so
+      that a 4 mm press centred on a straight edge gives the same force as the flex model
+      (≈ 4.3 N, "a few N at 4 mm" as the real sensor) — assets/tactip/README.md.
+    spacing (m): node spacing on the outer surface (the pins are 3.3 mm apart).
+    extent_deg (deg): half-angle of the modelled cap; the pins reach 61°, a 6 mm press on
+      a flat 51°.
+    step_length (m), step_angle_deg (deg): largest tool motion per contact increment (the
+      resolution of the friction path).
+    candidate_margin (m): nodes whose rigid gap is below this enter the contact problem
+      (any other node found penetrating after a solve is added and the increment solved
+      again).
+    tolerance (m), max_iterations: contact solver residual and iteration limit (1 px of
+      pin motion ≈ 75 µm).
+    max_penetration (m), max_force (N), max_pin_excursion (m): the per-increment checks.
+    """
+
+    young: float = 9.1e4
+    poisson: float = 0.5
+    spacing: float = 0.0015
+    extent_deg: float = 65.0
+    step_length: float = 0.00025
+    step_angle_deg: float = 1.0
+    candidate_margin: float = 0.0005
+    tolerance: float = 1e-8
+    max_iterations: int = 20000
+    max_penetration: float = 1e-6
+    max_force: float = 50.0
+    max_pin_excursion: float = 0.012
+
+    def with_(self, **changes) -> "CompliantParams":
+        return replace(self, **changes)
+
+
+#: Fidelity levels of the compliant dome (scenario `fidelity` with `dome: compliant`).
+COMPLIANT_LEVELS: dict[str, CompliantParams] = {
+    "fast": CompliantParams(spacing=0.0025, step_length=0.0005, step_angle_deg=2.0, tolerance=3e-8),
+    "default": CompliantParams(),
+    "reference": CompliantParams(spacing=0.001, step_length=0.0001, step_angle_deg=0.5, tolerance=3e-9),
+}
+
+
+class CompliantPhysics:
+    """Moves the sensor and solves the dome's frictional contact at every increment.
+
+    model, data: a compiled scene holding only the stimulus carrier (a free body named
+      `carrier`) and the object's collision pieces on it, poses in the lab world frame.
+    params: CompliantParams. friction: the skin–object Coulomb coefficient (0 = the
+      scenario has no `friction`: no tangential problem). start_tool2world: the
+      sensor's initial lab pose (4×4, m), out of contact. stimulus2world: the carrier's
+      lab pose (4×4, m). work2world: only to report poses in errors (lab convention).
+    """
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, params: CompliantParams, friction: float,
+                 scenario_name: str, start_tool2world: np.ndarray, stimulus2world: np.ndarray | None = None,
+                 carrier: str = "stimulus", work2world: np.ndarray | None = None,
+                 geometry: TacTipGeometry | None = None, angular_speed_deg_s: float = 45.0) -> None:
+        self.model, self.data, self.params = model, data, params
+        self.friction = float(friction)
+        self.scenario_name = scenario_name
+        self.geometry = TacTipGeometry() if geometry is None else geometry
+        self.surface = CapSurface(self.geometry, params.spacing, params.extent_deg)
+        self.compliance = dome_compliance(self.surface, params.young, params.poisson)
+        self.world2work = np.eye(4) if work2world is None else invert_transform(np.asarray(work2world, float))
+        self.stimulus2world = np.eye(4) if stimulus2world is None else np.asarray(stimulus2world, float)
+        self.angular_speed = math.radians(angular_speed_deg_s)
+        body = model.body(carrier).id
+        self._qadr = int(model.jnt_qposadr[model.body_jntadr[body]])
+        n = self.surface.count
+        self._centre = np.array([0.0, 0.0, self.geometry.sphere_centre_z])
+        self._ray_dirs = np.ascontiguousarray(self.surface.normals.ravel())
+        self._ray_dist = np.zeros(n)
+        self._ray_geom = np.zeros(n, np.int32)
+        self._ray_normal = np.zeros(3 * n)
+        self.forces = np.zeros((n, 3))        # N on the dome, tool frame
+        self.displacement = np.zeros((n, 3))  # m, tool frame
+        self.rest_pins = self.geometry.pin_tip_points()
+        self._pins = self.rest_pins.copy()
+        self._steps = 0
+        self._since_frame = 0
+        self.time = 0.0
+        self.step_seconds = 0.0   # wall time in increments (s), for benchmarks
+        self.solve_seconds = 0.0  # of which in the contact solver (s)
+        self.iterations = 0       # solver iterations, all increments
+        self._commanded = np.asarray(start_tool2world, float)
+        self._object2tool = self._object_pose(self._commanded)
+        self._increment(self._object2tool)
+
+    # ------------------------------------------------------------------ motion
+    def move(self, target_tool2world: np.ndarray, speed_mm_s: float) -> int:
+        """Move the tool frame to `target_tool2world` (4×4, m) along a straight line (the
+        orientation slerped), solving the contact at every increment; returns how many."""
+        if not speed_mm_s > 0:
+            raise PhysicsError(f"[{self.scenario_name}] move speed must be > 0 mm/s, got {speed_mm_s}")
+        p = self.params
+        target = np.asarray(target_tool2world, float)
+        start = self._commanded
+        delta = target[:3, 3] - start[:3, 3]
+        rotvec = Rotation.from_matrix(start[:3, :3].T @ target[:3, :3]).as_rotvec()
+        distance, angle = float(np.linalg.norm(delta)), float(np.linalg.norm(rotvec))
+        n = max(1, math.ceil(distance / p.step_length - 1e-9), math.ceil(math.degrees(angle) / p.step_angle_deg - 1e-9))
+        duration = max(distance / (speed_mm_s * 1e-3), angle / self.angular_speed)
+        pose = np.eye(4)
+        for k in range(1, n + 1):
+            s = k / n
+            pose[:3, :3] = start[:3, :3] @ Rotation.from_rotvec(rotvec * s).as_matrix()
+            pose[:3, 3] = start[:3, 3] + delta * s
+            self.time += duration / n
+            self._at = pose
+            self._increment(self._object_pose(pose))
+        self._commanded = target
+        return n
+
+    def settle(self) -> Frame:
+        """The frame at the current pose: every increment ends in equilibrium."""
+        force = self.contact_force_tool()
+        frame = Frame(pins_tool=self._pins.copy(), time=self.time, contact_force=float(np.linalg.norm(force)),
+                      contact_force_tool=force, n_steps=self._since_frame, settled=True,
+                      tool2world=self._commanded.copy(), settle_steps=0, last_motion_px=0.0)
+        self._since_frame = 0
+        return frame
+
+    def converged_pins(self, settle_px: float | None = None, max_steps: int = 0) -> np.ndarray:
+        """(127, 3) m: the current frame's pins — already the converged equilibrium."""
+        return self._pins.copy()
+
+    @property
+    def steps(self) -> int:
+        """Contact increments taken."""
+        return self._steps
+
+    def contact_force_tool(self) -> np.ndarray:
+        """(3,) N: total contact force on the dome, tool frame."""
+        return self.forces.sum(axis=0)
+
+    # ------------------------------------------------------------------ internals
+    def _object_pose(self, tool2world: np.ndarray) -> np.ndarray:
+        return invert_transform(tool2world) @ self.stimulus2world
+
+    def _contact_geometry(self, object2tool: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Each node's rigid gap to the object (N,) m, measured along the object's surface
+        normal where the node's normal ray hits it (inf: no hit), and its contact frame
+        (N, 3, 3): rows (c, t1, t2), c the object's inward normal (from the dome into the
+        object), t1, t2 the object's tangent plane. The object's normal, not the dome's,
+        is the direction of non-penetration: a slide along a flat then changes no gap."""
+        d = self.data
+        d.qpos[self._qadr: self._qadr + 3] = object2tool[:3, 3]
+        d.qpos[self._qadr + 3: self._qadr + 7] = matrix_to_quat_wxyz(object2tool[:3, :3])
+        mujoco.mj_kinematics(self.model, d)
+        r = self.geometry.dome_outer_radius
+        mujoco.mj_multiRay(self.model, d, self._centre, self._ray_dirs, None, 1, -1, self._ray_geom, self._ray_dist,
+                           self._ray_normal, len(self._ray_dist), 3.0 * r)
+        hit = self._ray_dist >= 0.0
+        normals = self.surface.normals
+        frames = self.surface.frames.copy()
+        c = -self._ray_normal.reshape(-1, 3)[hit]
+        c *= np.sign(np.einsum("ij,ij->i", c, normals[hit]))[:, None]  # into the object, whichever way the face was hit
+        t1 = frames[hit, 1] - np.einsum("ij,ij->i", frames[hit, 1], c)[:, None] * c
+        t1 /= np.linalg.norm(t1, axis=1)[:, None]
+        frames[hit] = np.stack([c, t1, np.cross(c, t1)], axis=1)
+        gaps = np.full(len(hit), np.inf)
+        gaps[hit] = (self._ray_dist[hit] - r) * np.einsum("ij,ij->i", c, normals[hit])
+        return gaps, frames
+
+    def _increment(self, object2tool: np.ndarray) -> None:
+        t0 = time.perf_counter()
+        self._steps += 1
+        self._since_frame += 1
+        p = self.params
+        gaps, frames = self._contact_geometry(object2tool)
+        shift = object2tool @ invert_transform(self._object2tool)  # the object's motion since the last increment
+        self._object2tool = object2tool.copy()
+        r = self.geometry.dome_outer_radius
+        if np.min(gaps) < -0.5 * r:
+            self._fail(f"indentation {-np.min(gaps) * 1e3:.2f} mm: deeper than the dome model reaches "
+                       f"({0.5 * r * 1e3:.0f} mm)")
+        loaded = np.flatnonzero(np.any(self.forces != 0.0, axis=1))
+        candidates = np.union1d(np.flatnonzero(gaps < p.candidate_margin), loaded)
+        candidates = candidates[np.isfinite(gaps[candidates])]  # a node the object left carries nothing
+        if not len(candidates):
+            self.forces[:] = 0.0
+            self.displacement[:] = 0.0
+            self._pins = self.rest_pins.copy()
+            self.step_seconds += time.perf_counter() - t0
+            return
+        points = self.surface.points + self.displacement
+        moved = points @ shift[:3, :3].T + shift[:3, 3] - points  # the object's displacement at each node (tool)
+        for _ in range(10):
+            t1 = time.perf_counter()
+            f = frames[candidates]
+            local = np.einsum("iak,ikjl,jbl->iajb", f, self.compliance.block(candidates, candidates).reshape(
+                len(candidates), 3, len(candidates), 3), f, optimize=True).reshape(3 * len(candidates), -1)
+            previous = np.einsum("nij,nj->ni", f[:, 1:], self.displacement[candidates])
+            shift_t = np.einsum("nij,nj->ni", f[:, 1:], moved[candidates])
+            start = np.einsum("nij,nj->ni", f, self.forces[candidates])
+            try:
+                solution = solve_increment(local, gaps[candidates], previous, shift_t, self.friction,
+                                           -start[:, 0], start[:, 1:], p.tolerance, p.max_iterations)
+            except ContactNotConverged as err:
+                self._fail(f"contact solve did not converge ({len(candidates)} nodes, μ = {self.friction:g}): {err}")
+            self.solve_seconds += time.perf_counter() - t1
+            self.iterations += solution.iterations
+            forces = np.einsum("ni,nij->nj", solution.forces, f)  # tool frame
+            displacement = self.compliance.surface_displacement(candidates, forces)
+            after = gaps - np.einsum("nj,nj->n", frames[:, 0], displacement)
+            outside = np.setdiff1d(np.flatnonzero(after < -p.max_penetration), candidates)
+            if not len(outside):
+                break
+            candidates = np.union1d(candidates, outside)
+        else:
+            self._fail("the contact set did not settle within 10 re-solves")
+        self.forces[:] = 0.0
+        self.forces[candidates] = forces
+        self.displacement = displacement
+        self._pins = self.rest_pins + self.compliance.pin_displacement(candidates, forces)
+        self.step_seconds += time.perf_counter() - t0
+        self._check(after)
+
+    def _check(self, gaps_after: np.ndarray) -> None:
+        p = self.params
+        if not (np.isfinite(self.forces).all() and np.isfinite(self._pins).all()):
+            self._fail("NaN/Inf in the contact forces or pin tips")
+        depth = -float(np.min(gaps_after[np.isfinite(gaps_after)], initial=0.0))
+        if depth > p.max_penetration:
+            self._fail(f"penetration {depth * 1e6:.2f} µm after the contact solve (> {p.max_penetration * 1e6:.2f} µm)")
+        if self.forces[self.surface.rim].any():
+            self._fail(f"the contact reaches the rim of the modelled {p.extent_deg:g}° cap")
+        total = float(np.linalg.norm(self.contact_force_tool()))
+        if total > p.max_force:
+            self._fail(f"contact force {total:.3g} N > {p.max_force:.3g} N")
+        moved = np.linalg.norm(self._pins - self.rest_pins, axis=1).max()
+        if moved > p.max_pin_excursion:
+            self._fail(f"a pin moved {moved * 1e3:.3f} mm from rest (> {p.max_pin_excursion * 1e3:.3f} mm)")
+
+    def _fail(self, what: str) -> None:
+        pose = getattr(self, "_at", self._commanded)
+        lab = Pose.from_matrix(self.world2work @ pose)
+        raise PhysicsError(
+            f"[{self.scenario_name}] increment {self._steps} (t = {self.time:.4f} s) at pose x={lab.x:.3f} "
+            f"y={lab.y:.3f} z={lab.z:.3f} mm, α={lab.alpha:.2f} β={lab.beta:.2f} γ={lab.gamma:.2f} deg: {what}")
+
+
+_COMPLIANCE: dict[tuple, DomeCompliance] = {}
+
+
+def dome_compliance(surface: CapSurface, young: float, poisson: float) -> DomeCompliance:
+    """The influence matrices for this surface and material, shared within the process
+    (columns computed once, on first contact)."""
+    key = (surface.geometry, surface.spacing, surface.extent_deg, young, poisson)
+    if key not in _COMPLIANCE:
+        if len(_COMPLIANCE) >= 4:
+            _COMPLIANCE.pop(next(iter(_COMPLIANCE)))
+        _COMPLIANCE[key] = DomeCompliance(surface, surface.geometry.pin_tip_points(), young, poisson)
+    return _COMPLIANCE[key]
