@@ -194,7 +194,8 @@ class CompliantPhysics:
         normal where the node's normal ray hits it (inf: no hit), and its contact frame
         (N, 3, 3): rows (c, t1, t2), c the object's inward normal (from the dome into the
         object), t1, t2 the object's tangent plane. The object's normal, not the dome's,
-        is the direction of non-penetration: a slide along a flat then changes no gap."""
+        is the direction of non-penetration: a slide along a flat then changes no gap.
+        Nodes farther than candidate_margin along their ray keep the ray distance."""
         d = self.data
         d.qpos[self._qadr: self._qadr + 3] = object2tool[:3, 3]
         d.qpos[self._qadr + 3: self._qadr + 7] = matrix_to_quat_wxyz(object2tool[:3, :3])
@@ -211,7 +212,11 @@ class CompliantPhysics:
         t1 /= np.linalg.norm(t1, axis=1)[:, None]
         frames[hit] = np.stack([c, t1, np.cross(c, t1)], axis=1)
         gaps = np.full(len(hit), np.inf)
-        gaps[hit] = (self._ray_dist[hit] - r) * np.einsum("ij,ij->i", c, normals[hit])
+        along_ray = self._ray_dist[hit] - r
+        # The distance to the face's plane is the gap only near the hit point: a ray that
+        # grazes a face far away (an edge's side wall seen past the edge) is not a contact.
+        near = along_ray < self.params.candidate_margin
+        gaps[hit] = np.where(near, along_ray * np.einsum("ij,ij->i", c, normals[hit]), along_ray)
         return gaps, frames
 
     def _increment(self, object2tool: np.ndarray) -> None:
