@@ -1,8 +1,8 @@
-"""Hard cases for the compliant dome, through the real pipeline (twin.runs.sim_env.SimEnvironment).
+"""Hard cases for both dome models (flex and compliant), through the real pipeline
+(twin.runs.sim_env.SimEnvironment).
 
-Every case runs at every fidelity level, except the 2,000-frame endurance run, which runs
-at the ``fast`` level only (≈ 20 s; ``default`` takes ≈ 30 s and ``reference`` ≈ 2.5 min on
-2 cores; the physics code is the same at every level).
+Every case runs for each dome model at every fidelity level; the 2,000-frame endurance run
+is marked slow.
 
 Scenes: the paper's objects placed by twin.core.scenario defaults; work frame = object frame
 turned 180° about x, so work (x, y) = (x_obj, −y_obj) and +z is into the object (README
@@ -19,6 +19,7 @@ import re
 import numpy as np
 import pytest
 
+from twin.world.dome.compliant import COMPLIANT_LEVELS
 from twin.world.dome.flex import FIDELITY_LEVELS
 from twin.core.errors import PhysicsError
 from twin.core.poses import Pose
@@ -27,15 +28,17 @@ from twin.runs.sim_env import SimEnvironment
 from twin.world.stimuli import builtin_stimulus
 from twin.world.stimuli.outlines import SpiralParams
 
-LEVELS = list(FIDELITY_LEVELS)
+LEVELS = [pytest.param(dome, level, id=f"{dome}-{level}") for dome in ("flex", "compliant") for level in FIDELITY_LEVELS]
 NOMINAL_SPEED = 20.0  # mm/s, the protocols' default
 REST_PX = 0.05  # no-contact pins must come back within this (px)
 
 
-def _env(obj: str, level: str, start: Pose, name: str | None = None, seed: int = 0) -> SimEnvironment:
+def _env(obj: str, dome: str, level: str, start: Pose, name: str | None = None, seed: int = 0,
+         friction: float | None = None) -> SimEnvironment:
+    spec = {"name": obj} if friction is None else {"name": obj, "friction": friction}
     scenario = scenario_from_dict(
-        {"name": name or f"hard_{obj}_{level}", "object": {"name": obj}, "fidelity": level, "seed": seed,
-         "effects": ["contact", "friction"]}
+        {"name": name or f"hard_{obj}_{dome}_{level}", "object": spec, "fidelity": level, "seed": seed,
+         "dome": dome, "effects": ["contact", "friction"]}
     )
     return SimEnvironment(scenario, start_pose=start)
 
@@ -60,10 +63,10 @@ def _slide(env: SimEnvironment, points_xy: np.ndarray, depth: float, speed: floa
     return frames
 
 
-@pytest.mark.parametrize("level", LEVELS)
-def test_six_mm_press(level):
+@pytest.mark.parametrize("dome,level", LEVELS)
+def test_six_mm_press(dome, level):
     """The deepest press of any protocol (6 mm), on the edge and on the object."""
-    env = _env("rectangle", level, Pose(60, 0, -5, 0, 0, 0))
+    env = _env("rectangle", dome, level, Pose(60, 0, -5, 0, 0, 0))
     rest = env.reset().pins_px
     forces, pins = [], []
     for x in (60.0, 54.0):
@@ -79,11 +82,11 @@ def test_six_mm_press(level):
     assert _rest_error_px(env, rest) < REST_PX
 
 
-@pytest.mark.parametrize("level", LEVELS)
-def test_flank_on_the_edge_settles(level):
+@pytest.mark.parametrize("dome,level", LEVELS)
+def test_flank_on_the_edge_settles(dome, level):
     """Regression: `twin run scenarios/taps_rectangle.yaml` stopped with "pins did not settle"
     at x = 64, z = 4, γ = −40 (the dome's flank pressed 4 mm onto the edge, 4 mm off it)."""
-    env = _env("rectangle", level, Pose(64, 0, -5, 0, 0, -40), name="taps_rectangle")
+    env = _env("rectangle", dome, level, Pose(64, 0, -5, 0, 0, -40), name="taps_rectangle")
     rest = env.reset().pins_px
     for depth in (2.0, 4.0):
         env.move_to(Pose(64, 0, depth, 0, 0, -40))
@@ -124,8 +127,8 @@ def test_a_contact_switching_cycle_is_relaxed_until_it_settles():
     assert np.max(steps) < FIDELITY_LEVELS["default"].max_settle_steps
 
 
-@pytest.mark.parametrize("level", LEVELS)
-def test_sliding_at_three_times_nominal_speed(level):
+@pytest.mark.parametrize("dome,level", LEVELS)
+def test_sliding_at_three_times_nominal_speed(dome, level):
     """Sliding at 60 mm/s, along the edge (90°) and then straight off the object (180°):
     every frame settles, and the shear along the edge is the nominal-speed slide's within
     60 % (measured: ≈ 45 % more at default fidelity — the mass-scaled dome's inertia, 100×
@@ -134,7 +137,7 @@ def test_sliding_at_three_times_nominal_speed(level):
     off = np.column_stack([np.arange(63.0, 73.0, 3.0), np.full(4, 15.0)])
     shear = []
     for speed in (NOMINAL_SPEED, 3 * NOMINAL_SPEED):
-        env = _env("rectangle", level, Pose(60, 0, -5, 0, 0, 0))
+        env = _env("rectangle", dome, level, Pose(60, 0, -5, 0, 0, 0))
         rest = env.reset().pins_px
         env.move_to(Pose(60, 0, 3, 0, 0, 0), NOMINAL_SPEED)
         static = _pins(env)
@@ -151,10 +154,10 @@ def test_sliding_at_three_times_nominal_speed(level):
     assert np.sign(fast[1]) == np.sign(slow[1]) and np.linalg.norm(fast - slow) < 0.6 * np.linalg.norm(slow)
 
 
-@pytest.mark.parametrize("level", LEVELS)
-def test_crossing_the_rectangle_corner(level):
+@pytest.mark.parametrize("dome,level", LEVELS)
+def test_crossing_the_rectangle_corner(dome, level):
     """Slide along the +x edge (l = 0) through the corner at work (60, 40) and beyond it."""
-    env = _env("rectangle", level, Pose(60, 28, -5, 0, 0, 0))
+    env = _env("rectangle", dome, level, Pose(60, 28, -5, 0, 0, 0))
     rest = env.reset().pins_px
     env.move_to(Pose(60, 28, 3, 0, 0, 0))
     path = np.column_stack([np.full(9, 60.0), np.arange(31.0, 56.0, 3.0)])
@@ -186,12 +189,12 @@ def _spiral_tightest_turn(arc_mm: float = 27.0, step_mm: float = 3.0) -> tuple[n
     return tail * flip, tightest_obj * flip
 
 
-@pytest.mark.parametrize("level", LEVELS)
-def test_spiral_tightest_turn(level):
+@pytest.mark.parametrize("dome,level", LEVELS)
+def test_spiral_tightest_turn(dome, level):
     path, tightest = _spiral_tightest_turn()
     assert np.min(np.linalg.norm(path - tightest, axis=1)) < 2.0  # the slide reaches the tightest turn
     x0, y0 = path[0]
-    env = _env("spiral", level, Pose(x0, y0, -5, 0, 0, 0))
+    env = _env("spiral", dome, level, Pose(x0, y0, -5, 0, 0, 0))
     rest = env.reset().pins_px
     env.move_to(Pose(x0, y0, 3, 0, 0, 0))
     frames = _slide(env, path[1:], 3.0, NOMINAL_SPEED)
@@ -202,11 +205,11 @@ def test_spiral_tightest_turn(level):
     assert _rest_error_px(env, rest) < REST_PX
 
 
-@pytest.mark.parametrize("level", LEVELS)
-def test_leaving_the_object_mid_slide(level):
+@pytest.mark.parametrize("dome,level", LEVELS)
+def test_leaving_the_object_mid_slide(dome, level):
     """Slide from on the object (l = −6) straight off it (l = +18) at 3 mm depth: contact is
     lost during the slide; the skin springs back to rest while still "pressed" at z = 3."""
-    env = _env("rectangle", level, Pose(54, 0, -5, 0, 0, 0))
+    env = _env("rectangle", dome, level, Pose(54, 0, -5, 0, 0, 0))
     rest = env.reset().pins_px
     env.move_to(Pose(54, 0, 3, 0, 0, 0))
     path = np.column_stack([np.arange(57.0, 79.0, 3.0), np.zeros(8)])
@@ -216,10 +219,10 @@ def test_leaving_the_object_mid_slide(level):
     assert np.max(np.linalg.norm(frames[-1][0] - rest, axis=1)) < REST_PX  # off the object = rest
 
 
-@pytest.mark.parametrize("level", LEVELS)
-def test_same_scenario_and_seed_give_identical_pins(level):
+@pytest.mark.parametrize("dome,level", LEVELS)
+def test_same_scenario_and_seed_give_identical_pins(dome, level):
     def run() -> np.ndarray:
-        env = _env("rectangle", level, Pose(57, 0, -5, 0, 0, 0), seed=7)
+        env = _env("rectangle", dome, level, Pose(57, 0, -5, 0, 0, 0), seed=7)
         env.reset()
         env.move_to(Pose(57, 0, 3, 0, 0, 30))
         frames = _slide(env, [(60.0, 2.0), (63.0, 4.0)], 3.0, NOMINAL_SPEED, gamma=30.0)
@@ -228,27 +231,29 @@ def test_same_scenario_and_seed_give_identical_pins(level):
     assert np.array_equal(run(), run())
 
 
-@pytest.mark.parametrize("level", LEVELS)
-def test_broken_setup_raises_naming_scenario_step_pose_and_failure(level, monkeypatch):
+@pytest.mark.parametrize("dome,level", LEVELS)
+def test_broken_setup_raises_naming_scenario_step_pose_and_failure(dome, level, monkeypatch):
     """A dome 1000× too stiff (a modulus in kPa typed as MPa): a 4 mm press would need
     kN, so the contact force or penetration bound trips within the press."""
-    params = FIDELITY_LEVELS[level]
-    monkeypatch.setitem(FIDELITY_LEVELS, level, params.with_(young=1000.0 * params.young))
-    env = _env("rectangle", level, Pose(54, 0, -3, 0, 0, 0), name="broken_dome")
+    levels = FIDELITY_LEVELS if dome == "flex" else COMPLIANT_LEVELS
+    params = levels[level]
+    monkeypatch.setitem(levels, level, params.with_(young=1000.0 * params.young))
+    env = _env("rectangle", dome, level, Pose(54, 0, -3, 0, 0, 0), name="broken_dome")
     env.reset()
     with pytest.raises(PhysicsError) as info:
         env.move_to(Pose(54, 0, 4, 0, 0, 0))
     message = str(info.value)
-    assert re.search(r"\[broken_dome\] step \d+ \(t = [\d.]+ s\) at pose x=[-\d.]+ y=[-\d.]+ z=[-\d.]+ mm", message)
+    assert re.search(r"\[broken_dome\] (step|increment) \d+ \(t = [\d.]+ s\) at pose x=[-\d.]+ y=[-\d.]+ z=[-\d.]+ mm",
+                     message)
     assert re.search(r"(pin moved|penetration|contact force|did not settle)", message)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("level", list(FIDELITY_LEVELS))
-def test_two_thousand_frames_return_to_rest(level):
+@pytest.mark.parametrize("dome,level", LEVELS)
+def test_two_thousand_frames_return_to_rest(dome, level):
     """2,000 frames of taps and multi-directional slides; afterwards the no-contact pose
     gives the no-contact pins back (≈ 20 s fast, 50 s default, 2.5 min reference on 2 cores)."""
-    env = _env("rectangle", level, Pose(60, 0, -5, 0, 0, 0), name="endurance")
+    env = _env("rectangle", dome, level, Pose(60, 0, -5, 0, 0, 0), name="endurance")
     rest = env.reset().pins_px
     assert np.max(np.linalg.norm(rest - env.camera.project_tool_points(env.physics.rest_pins), axis=1)) < 1e-9
     rng = np.random.default_rng(0)
