@@ -54,6 +54,10 @@ class TacTipGeometry:
         """(127, 3) undeformed pin tips (what the camera sees), tool frame (m)."""
         return self._on_sphere(self.pin_tip_radius)
 
+    def pin_base_points(self) -> np.ndarray:
+        """(127, 3) where the pins leave the skin (its inner surface), tool frame (m)."""
+        return self._on_sphere(self.skin_inner_radius)
+
     def _on_sphere(self, radius: float) -> np.ndarray:
         # Azimuthal-equidistant wrap of the planar lattice onto the dome: the arc length
         # from the apex equals the planar distance, so neighbouring pins stay evenly spaced.

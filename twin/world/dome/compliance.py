@@ -6,7 +6,7 @@ Model: the skin + gel under the contact is a linear elastic solid whose response
 point force on its surface is that of an elastic half-space tangent to the dome at the
 force's node — the Boussinesq (normal) and Cerruti (tangential) solutions (K. L. Johnson,
 *Contact Mechanics*, 1985, eqs. 3.20–3.21), including their subsurface form, which gives
-the displacement of a pin tip buried in the gel. This is how Kalker's CONTACT describes
+the gel's displacement at a pin's base (the pins: `post_tip_kernel`). This is how Kalker's CONTACT describes
 elastic bodies; it is exact for Hertz and Cattaneo–Mindlin (the verification tests) and
 costs no finite-element precomputation: every matrix entry is closed form.
 
@@ -158,6 +158,47 @@ def self_compliance(outward: np.ndarray, area: float, poisson: float, shear_modu
     return tangential * (np.eye(3)[None] - nn) + normal * nn
 
 
+def post_tip_kernel(geometry: TacTipGeometry, sources: np.ndarray, frames: np.ndarray, radius: float, poisson: float,
+                    shear_modulus: float, step: float = 0.001) -> np.ndarray:
+    """(127, 3, Ns, 3) m/N: displacement of each pin tip per unit force at each source.
+
+    A pin is a rigid post of length L standing on the skin's inner surface along the
+    inward normal. Its base moves with the gel there (u_b), and it turns with the skin:
+    the skin's outward normal turns by u_t/R − ∇u_n (a tangential displacement on the
+    sphere of radius R, and the slope of the normal displacement), so the post's axis
+    (−n) turns the other way and its tip moves by u_b + L (∇u_n − u_t/R). This is what
+    flattening does to the real pins: under a flat press ∇u_n = r/R inside the contact,
+    so a pin's tip swings outwards by L r/R. ∇u_n is a central difference over ±`step`
+    (m) along the base's tangents, at the base's depth (the skin is stiffer than the gel
+    and does not follow finer gradients).
+    """
+    bases = geometry.pin_base_points()
+    centre = np.array([0.0, 0.0, geometry.sphere_centre_z])
+    normals = (bases - centre) / geometry.skin_inner_radius
+    helper = np.where(np.abs(normals[:, 2:3]) < 0.9, np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0]))
+    t1 = _unit(np.cross(helper, normals))
+    t2 = np.cross(normals, t1)
+
+    def at(points: np.ndarray) -> np.ndarray:
+        return disc_averaged_kernel(points, sources, frames, radius, poisson, shear_modulus)
+
+    base = at(bases)
+    tip = base.copy()
+    for tangent in (t1, t2):
+        plus = centre + geometry.skin_inner_radius * _unit(bases + step * tangent - centre)
+        minus = centre + geometry.skin_inner_radius * _unit(bases - step * tangent - centre)
+        slope = np.einsum("pi,piqj->pqj", normals, at(plus) - at(minus)) / (2 * step)  # ∂u_n/∂t per unit force
+        tip += geometry.pin_length * tangent[:, :, None, None] * slope[:, None, :, :]
+    normal_part = np.einsum("pi,piqj->pqj", normals, base)
+    tangential = base - normals[:, :, None, None] * normal_part[:, None, :, :]
+    tip -= geometry.pin_length / geometry.dome_outer_radius * tangential
+    return tip
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v, axis=1)[:, None]
+
+
 class DomeCompliance:
     """The dome's influence matrices for a material, filled lazily column by column.
 
@@ -168,11 +209,11 @@ class DomeCompliance:
     kept for the life of the dome: the matrices are never assembled whole.
     """
 
-    def __init__(self, surface: CapSurface, pin_tips: np.ndarray, young: float, poisson: float) -> None:
+    def __init__(self, surface: CapSurface, young: float, poisson: float) -> None:
         if not (young > 0 and 0.0 <= poisson <= 0.5):
             raise ValueError(f"dome material: need young > 0 Pa and 0 <= poisson <= 0.5, got {young}, {poisson}")
         self.surface = surface
-        self.pin_tips = np.asarray(pin_tips, float)
+        self.pin_tips = surface.geometry.pin_tip_points()
         self.young, self.poisson = young, poisson
         self.shear_modulus = young / (2.0 * (1.0 + poisson))
         n = surface.count
@@ -192,7 +233,7 @@ class DomeCompliance:
         block = disc_averaged_kernel(s.points, s.points[todo], frames[todo], radius, self.poisson, self.shear_modulus)
         block[todo, :, np.arange(len(todo)), :] = self._self[todo]
         self._surface[todo] = np.transpose(block, (2, 3, 0, 1))
-        pins = disc_averaged_kernel(self.pin_tips, s.points[todo], frames[todo], radius, self.poisson, self.shear_modulus)
+        pins = post_tip_kernel(s.geometry, s.points[todo], frames[todo], radius, self.poisson, self.shear_modulus)
         self._pins[todo] = np.transpose(pins, (2, 3, 0, 1))
         self._filled[todo] = True
 

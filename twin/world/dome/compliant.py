@@ -13,8 +13,9 @@ every increment of the path:
 * each increment is one frictional contact problem (twin.world.dome.contact): Signorini
   contact and Coulomb friction whose stick/slip state and tractions carry over from the
   previous increment — the path dependence the paper is about;
-* the pins are posts on the skin: their tips move with the gel at their depth (the
-  subsurface half-space solution), so a pin under a sheared patch is carried and tilted.
+* the pins are posts on the skin: each base moves with the gel and each post turns with
+  the skin's surface (twin.world.dome.compliance.post_tip_kernel), so a flattened patch
+  swings its pins' tips outwards and a sheared patch carries them along.
 
 A move is cut into increments of at most `step_length` of tool travel and
 `step_angle_deg` of rotation; the result of each is an equilibrium, so a frame needs no
@@ -307,5 +308,5 @@ def dome_compliance(surface: CapSurface, young: float, poisson: float) -> DomeCo
     if key not in _COMPLIANCE:
         if len(_COMPLIANCE) >= 4:
             _COMPLIANCE.pop(next(iter(_COMPLIANCE)))
-        _COMPLIANCE[key] = DomeCompliance(surface, surface.geometry.pin_tip_points(), young, poisson)
+        _COMPLIANCE[key] = DomeCompliance(surface, young, poisson)
     return _COMPLIANCE[key]
