@@ -15,6 +15,9 @@ from twin.world import gl
 from twin.world.render import PinRenderer
 from twin.core.sensor import CameraModel
 from twin.core.scenario import ContourProtocol
+from twin.core.sensor import TacTipGeometry
+from twin.world.dome.compliance import CapSurface, DomeCompliance
+from twin.world.dome.compliant import COMPLIANT_LEVELS
 from twin.world.dome.flex import FIDELITY_LEVELS
 from twin.world.dome.testbed import edge_scene, sensor_down
 from twin.sensing.perception import benchmark_perception
@@ -162,45 +165,54 @@ def _print_rows(title: str, rows: list[dict]) -> None:
 
 
 def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose: bool = True) -> list[dict]:
-    """ms of physics per settled frame for each fidelity level, best of `repeats`.
+    """ms of physics per settled frame for each dome model and fidelity level, best of
+    `repeats`, and the compliant default's time as a ratio of the flex default's (same run).
 
     A contour-following sequence on the edge scene with the contour protocol's defaults
     (twin.core.scenario.ContourProtocol: depth d, step e, speed): press to d at the edge, then
     eight steps of e along the edge, then lift off. Each frame = move + settle, timed as
-    wall time of the whole SensorPhysics calls (stepping, pin read-out, checks, skin
-    layer). Returns one dict per level: level, ms_per_frame (best), steps_per_frame
-    (mean), ms_per_step.
+    wall time of the whole physics calls (stepping or contact increments, pin read-out,
+    checks). Returns one dict per (dome, level): ms_per_frame (best), steps_per_frame
+    (mean; flex: MuJoCo steps, compliant: contact increments), ms_per_step, precompute_s
+    (compliant: computing every column of the influence matrices, which a run does
+    lazily on first contact and keeps for the process; flex: 0), ratio_to_flex_default.
     """
 
     contour = ContourProtocol()
     depth, step = contour.depth_mm, contour.step_mm
     poses = ([sensor_down(0, 0, depth)] + [sensor_down(0, step * k, depth) for k in range(1, 9)]
              + [sensor_down(0, 8 * step, -2)])
+    models = [("flex", FIDELITY_LEVELS), ("compliant", COMPLIANT_LEVELS)]
     rows = []
-    for level in levels or list(FIDELITY_LEVELS):
-        params = FIDELITY_LEVELS[level]
-        best = np.inf
-        for _ in range(repeats):
-            model, data, handles, physics = edge_scene(params, scenario=f"benchmark-{level}")
-            t0 = time.perf_counter()
-            for pose in poses:
-                physics.move(pose, contour.speed_mm_s)
-                physics.settle()
-            elapsed = time.perf_counter() - t0
-            if elapsed < best:
-                best, steps = elapsed, physics.steps
-        row = {
-            "level": level,
-            "ms_per_frame": 1e3 * best / len(poses),
-            "steps_per_frame": steps / len(poses),
-            "ms_per_step": 1e3 * best / steps,
-        }
-        rows.append(row)
+    for dome, table in models:
+        for level in levels or list(table):
+            params = table[level]
+            precompute = 0.0
+            if dome == "compliant":
+                surface = CapSurface(TacTipGeometry(), params.spacing, params.extent_deg)
+                t0 = time.perf_counter()
+                DomeCompliance(surface, params.young, params.poisson).fill(np.arange(surface.count))
+                precompute = time.perf_counter() - t0
+            best = np.inf
+            for _ in range(repeats + (dome == "compliant")):  # the compliant model's first run fills its columns
+                model, data, handles, physics = edge_scene(params, scenario=f"benchmark-{dome}-{level}")
+                t0 = time.perf_counter()
+                for pose in poses:
+                    physics.move(pose, contour.speed_mm_s)
+                    physics.settle()
+                elapsed = time.perf_counter() - t0
+                if elapsed < best:
+                    best, steps = elapsed, physics.steps
+            rows.append({"dome": dome, "level": level, "ms_per_frame": 1e3 * best / len(poses),
+                         "steps_per_frame": steps / len(poses), "ms_per_step": 1e3 * best / steps,
+                         "precompute_s": precompute})
+    reference = next((r["ms_per_frame"] for r in rows if r["dome"] == "flex" and r["level"] == "default"), None)
+    for r in rows:
+        r["ratio_to_flex_default"] = r["ms_per_frame"] / reference if reference else float("nan")
         if verbose:
-            print(f"{level:10s} {row['ms_per_frame']:7.1f} ms/frame  {row['steps_per_frame']:5.1f} steps/frame  "
-                  f"{row['ms_per_step']:.3f} ms/step")
+            print(f"{r['dome']:9s} {r['level']:10s} {r['ms_per_frame']:7.1f} ms/frame  {r['steps_per_frame']:5.1f} "
+                  f"steps/frame  {r['ms_per_step']:.3f} ms/step  ×{r['ratio_to_flex_default']:.2f} of flex default")
     return rows
-
 
 
 def run_bench(what: str = "all", quick: bool = False, out: Path | None = None, workers: int | None = None,

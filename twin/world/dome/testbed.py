@@ -8,25 +8,32 @@ from scipy.spatial.transform import Rotation
 
 from twin.core.poses import make_transform
 from twin.core.sensor import TacTipGeometry
+from twin.world.dome.compliant import CompliantParams, CompliantPhysics
 from twin.world.dome.flex import DomeParams, add_stimulus_carrier, add_tactip
 from twin.world.dome.physics import SensorPhysics
 
 
-def edge_scene(params: DomeParams, friction: bool = True, object_friction: float = 1.0, scenario: str = "edge",
-               start_tool2world: np.ndarray | None = None):
+def edge_scene(params: DomeParams | CompliantParams, friction: bool = True, object_friction: float = 1.0,
+               scenario: str = "edge", start_tool2world: np.ndarray | None = None):
     """A minimal scene for tests and benchmarks: a 60 × 60 × 20 mm box whose top face is
     z = 0 with a straight edge along y at x = 0 (box at x < 0), and the TacTip pointing
-    down (tool z = −world z). Returns (model, data, handles, SensorPhysics)."""
+    down (tool z = −world z). Returns (model, data, handles, physics): SensorPhysics for
+    the flex dome's DomeParams, CompliantPhysics (handles None) for CompliantParams."""
 
     spec = mujoco.MjSpec()
     carrier = add_stimulus_carrier(spec)
     carrier.add_geom(name="rectangle", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.03, 0.03, 0.01],
                      pos=[-0.03, 0.0, -0.01], friction=[object_friction, 0.005, 0.0001])
+    start = sensor_down(0.0, 0.0, -2.0) if start_tool2world is None else start_tool2world
+    if isinstance(params, CompliantParams):
+        model = spec.compile()
+        data = mujoco.MjData(model)
+        mu = object_friction if friction else 0.0
+        return model, data, None, CompliantPhysics(model, data, params, mu, scenario, start)
     handles = add_tactip(spec, spec.worldbody, TacTipGeometry(), params, friction)
     model = spec.compile()
     data = mujoco.MjData(model)
     handles = handles.resolve(model)
-    start = sensor_down(0.0, 0.0, -2.0) if start_tool2world is None else start_tool2world
     return model, data, handles, SensorPhysics(model, data, handles, params, scenario, start)
 
 
