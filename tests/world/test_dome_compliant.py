@@ -1,0 +1,124 @@
+"""Hard cases of the compliant dome's contact problem (twin.world.dome.compliant) at every
+fidelity level, and its failures: each case either runs physically or raises
+PhysicsError naming the scenario, the increment, the pose and what failed.
+
+Work frame: +z into the object; the rectangle's +x edge is the line x = 60.
+"""
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+from twin.core.errors import PhysicsError
+from twin.core.poses import Pose
+from twin.core.scenario import scenario_from_dict
+from twin.runs.sim_env import SimEnvironment
+from twin.world.dome.compliant import COMPLIANT_LEVELS, CompliantPhysics
+from twin.world.scene import sensor_physics
+
+LEVELS = list(COMPLIANT_LEVELS)
+
+
+def _env(level: str, obj: dict | None = None, material: dict | None = None, start: Pose = Pose(60, 0, -2, 0, 0, 0),
+         effects: tuple[str, ...] = ("contact", "friction"), name: str = "compliant_case") -> SimEnvironment:
+    spec = {"name": name, "object": obj or {"name": "rectangle"}, "dome": "compliant", "fidelity": level,
+            "effects": list(effects)}
+    if material is not None:
+        spec["sensor"] = {"calibration": {"dome_material": material}}
+    env = SimEnvironment(scenario_from_dict(spec), start_pose=start)
+    env.reset()
+    return env
+
+
+def _slide_and_back(env: SimEnvironment, depth: float = 3.0, speed: float = 20.0) -> list[float]:
+    """Press on the edge, slide 6 mm along it, reverse 12 mm, come back: tangential force (N) per frame."""
+    forces = []
+    for y in (0.0, 6.0, -6.0, 0.0):
+        env.move_to(Pose(60, y, depth, 0, 0, 0), speed)
+        forces.append(float(np.linalg.norm(env.observe_frame().contact_force_tool[:2])))
+    return forces
+
+
+@pytest.mark.parametrize("level", LEVELS)
+@pytest.mark.parametrize("friction", [0.0, 3.0])
+def test_frictionless_and_very_high_friction(level, friction):
+    """μ = 0: no tangential force at all; μ = 3 (rubber on a sticky surface): the skin
+    sticks, the tangential force stays below μ·P and changes sign with the direction."""
+    env = _env(level, obj={"name": "rectangle", "friction": friction})
+    tangential = _slide_and_back(env)
+    normal = env.observe_frame().contact_force_tool[2]
+    if friction == 0.0:
+        assert max(tangential) < 1e-9
+    else:
+        assert 0.2 < max(tangential) <= friction * abs(normal) + 1e-6
+
+
+@pytest.mark.parametrize("level", LEVELS)
+@pytest.mark.parametrize("poisson", [0.3, 0.499, 0.5])
+def test_poisson_ratio_down_to_compressible_and_up_to_incompressible(level, poisson):
+    """ν = 0.5 decouples normal and tangential problems; ν < 0.5 couples them (the solver
+    alternates). Nearly incompressible gel (0.499) is as stable as 0.5, and its pins are
+    within 0.2 px of it (no locking: the influence model has no volume elements)."""
+    env = _env(level, material={"poisson": poisson})
+    _slide_and_back(env)
+    pins = env.observe().pins_px
+    assert np.isfinite(pins).all()
+    if poisson == 0.499:
+        reference = _env(level, material={"poisson": 0.5})
+        _slide_and_back(reference)
+        assert np.max(np.abs(pins - reference.observe().pins_px)) < 0.2
+
+
+@pytest.mark.parametrize("level", LEVELS)
+def test_fast_slides_and_reversals(level):
+    """250 mm/s (the protocols' limit) gives the nominal speed's pins: quasi-static."""
+    slow, fast = _env(level), _env(level)
+    _slide_and_back(slow, speed=20.0)
+    _slide_and_back(fast, speed=250.0)
+    assert np.array_equal(slow.observe().pins_px, fast.observe().pins_px)
+
+
+@pytest.mark.parametrize("level", LEVELS)
+def test_grazing_contact(level):
+    """A 50 µm touch: a handful of nodes, a tiny force, pins within a fraction of a pixel."""
+    env = _env(level, start=Pose(0, 0, -1, 0, 0, 0))
+    rest = env.observe().pins_px
+    env.move_to(Pose(0, 0, 0.05, 0, 0, 0))
+    frame = env.observe_frame()
+    assert 0.0 < frame.contact_force < 0.05
+    assert np.max(np.linalg.norm(env.observe().pins_px - rest, axis=1)) < 0.2
+
+
+@pytest.mark.parametrize("level", LEVELS)
+def test_contact_across_two_convex_pieces(level):
+    """The flower is 36 convex collision pieces; 40 mm from its centre the contact spans
+    its central piece and several of a petal's, and a slide there crosses their seams."""
+    env = _env(level, obj={"name": "flower"}, start=Pose(40, -2, -2, 0, 0, 0))
+    env.move_to(Pose(40, -2, 3, 0, 0, 0))
+    env.move_to(Pose(40, 2, 3, 0, 0, 0))
+    physics = env.physics
+    touching = np.any(physics.forces != 0.0, axis=1)
+    assert len(set(physics._ray_geom[touching].tolist())) >= 2
+    assert 1.0 < env.observe_frame().contact_force < 20.0
+
+
+def test_a_solve_that_does_not_converge_raises_naming_the_case():
+    env = _env("default", name="starved_solver")
+    env.physics = sensor_physics(env.scene, env.physics._commanded)
+    env.physics.params = env.physics.params.with_(max_iterations=3)
+    with pytest.raises(PhysicsError) as info:
+        env.move_to(Pose(60, 0, 3, 0, 0, 0))
+    message = str(info.value)
+    assert re.search(r"\[starved_solver\] increment \d+ \(t = [\d.]+ s\) at pose x=60\.000 y=0\.000 z=[-\d.]+ mm", message)
+    assert "did not converge" in message
+
+
+def test_no_contact_effect_solves_nothing():
+    """Without `contact` the object has no collision pieces: no ray hits, no problem solved."""
+    env = _env("default", effects=())
+    env.move_to(Pose(60, 0, 4, 0, 0, 0))
+    physics: CompliantPhysics = env.physics
+    assert physics.iterations == 0 and physics.solve_seconds == 0.0
+    assert env.observe_frame().contact_force == 0.0
