@@ -45,8 +45,13 @@ def tap_scenario_like(scenario: Scenario) -> Scenario:
 
 def cache_key(taps: Scenario) -> str:
     """What a cached tap model depends on: the tap scenario (protocol, sensor, effects,
-    fidelity, seed), the dome parameters it simulates and the package version."""
-    payload = json.dumps({"scenario": taps.model_dump(mode="json"),
+    fidelity, seed), the dome parameters it simulates and the package version. The sensor's
+    calibration counts by its contents, not by the file that holds them: editing the file
+    changes the key, another file with the same contents does not."""
+    scenario = taps.model_dump(mode="json")
+    calibration = taps.calibration()
+    scenario["sensor"]["calibration"] = None if calibration is None else calibration.model_dump(mode="json")
+    payload = json.dumps({"scenario": scenario,
                           "dome": dataclasses.asdict(dome_params(taps)), "version": package_version()},
                          sort_keys=True, default=str)
     return hashlib.sha256(payload.encode()).hexdigest()[:16]
