@@ -14,7 +14,7 @@ from twin.core.poses import Pose
 from twin.core.scenario import scenario_from_dict
 from twin.core.sensor import CameraModel
 from twin.runs.sim_env import SimEnvironment
-from twin.runs.training import cache_key
+from twin.runs.training import cache_key, tap_scenario_like
 from twin.world.dome.flex import DomeParams
 from twin.world.dome.material import _TO_DOME, apply_dome_material, dome_material_of
 
@@ -104,3 +104,7 @@ def test_tap_model_cache_is_keyed_on_the_calibration_contents(tmp_path) -> None:
     assert cache_key(inline) == same                               # or the same contents inline
     assert key("a", "sensor.yaml", cal.model_copy(update={"friction": 0.61})) != same  # the file edited in place
     assert cache_key(scenario_from_dict(base, str(tmp_path / "s.yaml"))) != same
+    # a contour scenario's tap set carries its calibration, though it lies beside the contour scenario
+    contour = scenario_from_dict({**base, "sensor": {"calibration": "other.yaml"}, "protocol": {"kind": "contour"}},
+                                 str(tmp_path / "b" / "contour.yaml"))
+    assert tap_scenario_like(contour).calibration() == cal
