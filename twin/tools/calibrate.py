@@ -57,7 +57,7 @@ from twin.core.resources import asset_path
 from twin.core.scenario import Scenario, scenario_from_dict
 from twin.core.sensor import N_PINS
 from twin.core.validation import read_yaml, validate_mapping
-from twin.runs.parallel import default_workers, map_ordered
+from twin.runs.parallel import WorkerPool
 from twin.runs.record import Run, load_run
 from twin.runs.replay import replay_batch, replay_chunks
 from twin.tools.calibration_report import write_report
@@ -299,16 +299,17 @@ def load_data(run_dirs: list[Path], scenario: Scenario, weights: Weights) -> Dat
 
 # ---------------------------------------------------------------------------- evaluation
 class Evaluator:
-    """Simulates physics candidates (in parallel) and solves the camera for each."""
+    """Simulates physics candidates (in parallel, on one pool kept for the whole
+    calibration) and solves the camera for each."""
 
-    def __init__(self, space: Space, data: Data, workers: int | None, cluster: str | None) -> None:
-        self.space, self.data, self.workers, self.cluster = space, data, workers, cluster
+    def __init__(self, space: Space, data: Data, pool: WorkerPool) -> None:
+        self.space, self.data, self.pool = space, data, pool
         self.simulations = 0
         self.sim_seconds = 0.0
         self._cache: dict[tuple, np.ndarray] = {}
         self.cache_size = 32
         #: parallel slots to fill: the local workers, or (with a Ray cluster) --workers as its CPU count
-        self.parallelism = default_workers() if workers is None else workers
+        self.parallelism = pool.workers
         self.valid = np.isfinite(data.pins).all(axis=2)  # (N, 127)
         #: the sample of each entry of the residual vector (x and y of each valid pin)
         self.row_sample = np.repeat(np.nonzero(self.valid)[0], 2)
@@ -337,7 +338,7 @@ class Evaluator:
         n_batches = max(1, min(len(moves), -(-self.parallelism // len(candidates))))
         batches = [moves[b::n_batches] for b in range(n_batches)]
         jobs = [(s, seed, batch) for s in scenarios for batch in batches]
-        results = list(map_ordered(replay_batch, jobs, workers=self.workers, cluster=self.cluster))
+        results = list(self.pool.map_ordered(replay_batch, jobs))
         out = []
         for c in range(len(candidates)):
             done = results[c * n_batches:(c + 1) * n_batches]
@@ -605,14 +606,21 @@ def calibrate(run_dirs: list[Path], scenario: Scenario, out: Path, settings: Cal
               workers: int | None = None, cluster: str | None = None, progress: bool = True) -> dict:
     """Fit the twin to the runs (module docstring); writes DIR/calibration.yaml (converged) or
     DIR/best_calibration.yaml (not: raises CalibrationNotConverged after writing), the
-    report (report.json, report.md, residuals.png), history.jsonl and checkpoint.pkl."""
+    report (report.json, report.md, residuals.png), history.jsonl and checkpoint.pkl.
+    workers / cluster: as twin.runs.parallel.WorkerPool, one pool for all the simulations."""
+    with WorkerPool(workers, cluster) as pool:
+        return _calibrate(run_dirs, scenario, out, settings, pool, progress)
+
+
+def _calibrate(run_dirs: list[Path], scenario: Scenario, out: Path, settings: CalibrationSettings, pool: WorkerPool,
+               progress: bool) -> dict:
     wall = time.perf_counter()
     if scenario.backend != "sim":
         scenario = scenario.with_changes(backend="sim")
     data = load_data([Path(r) for r in run_dirs], scenario, settings.weights)
     space = Space(scenario, settings)
     out.mkdir(parents=True, exist_ok=True)
-    ev = Evaluator(space, data, workers, cluster)
+    ev = Evaluator(space, data, pool)
     default_physics = {n: space.defaults[n] for n in PHYSICS}
     before_tips = ev.simulate([default_physics])[0]
     before_values = dict(space.defaults)
@@ -652,7 +660,7 @@ def calibrate(run_dirs: list[Path], scenario: Scenario, out: Path, settings: Cal
         "best_chi2": state["best_chi2"], "simulations": ev.simulations,
         "simulated_frames_per_s": ev.simulations * len(data.pins) / max(ev.sim_seconds, 1e-9),
         "evaluations_per_s": ev.simulations / max(ev.sim_seconds, 1e-9),
-        "wall_time_s": time.perf_counter() - wall, "workers": workers, "cluster": cluster,
+        "wall_time_s": time.perf_counter() - wall, "workers": pool.workers, "cluster": pool.cluster,
     }
     write_report(result, out)
     if not state["converged"]:
