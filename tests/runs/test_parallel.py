@@ -61,3 +61,14 @@ def test_worker_pool_keeps_its_processes() -> None:
             list(pool.map_ordered(math.sqrt, [(4.0,), (-1.0,), (1.0,)]))          # a failed job stops the workers ...
         assert set(pool.map_ordered(os.getpid, [()] * 4)).isdisjoint(set.union(*pids))  # ... the next call starts new ones
     assert set(map_ordered(os.getpid, [()] * 4, workers=2)).isdisjoint(set.union(*pids))
+
+
+def test_worker_pool_keeps_one_ray_instance() -> None:
+    ray = pytest.importorskip("ray", reason="the ray extra is installed by the README's commands")
+    with WorkerPool(cluster="local") as pool:
+        assert list(pool.map_ordered(math.sqrt, [(9.0,), (4.0,)])) == [3.0, 2.0]
+        assert ray.is_initialized()  # kept between calls
+        address = ray.get_runtime_context().gcs_address
+        assert list(pool.map_ordered(math.sqrt, [(1.0,)])) == [1.0]
+        assert ray.get_runtime_context().gcs_address == address  # the same instance: not started per call
+    assert not ray.is_initialized()  # the instance the pool started is stopped with it
