@@ -583,17 +583,18 @@ def _uncertainty(ev: Evaluator, values: dict[str, float], tips: np.ndarray) -> d
     for i, n in enumerate(space.fitted):
         column = float(np.linalg.norm(jac[:, i]))
         data_std = float(np.sqrt(max(data_var[i], 0.0))) if column > 1e-12 else float("inf")
+        std = float(np.sqrt(max(post_var[i], 0.0))) if column > 1e-12 else float("inf")
         # how much the pin RMS (px, Euclidean per pin) changes per unit of the parameter
         per_unit = column * settings.noise_px * np.sqrt(2.0 / max(1, r.size))
         resolution = float(fit_rms / max(per_unit, 1e-300))
         why = []
         if not data_std < settings.identifiable_fraction * space.range[n]:
-            why.append(f"standard error {data_std:.2g} ≥ {settings.identifiable_fraction:g} of the range")
+            why.append(f"standard error {data_std:.2g} ≥ {settings.identifiable_fraction:g} × the range {space.range[n]:g}")
         if not resolution < space.range[n]:
             why.append(f"resolution {resolution:.2g} ≥ the range {space.range[n]:g}")
         if not vif[i] <= settings.max_variance_inflation:
             why.append(f"variance inflation {vif[i]:.3g} > {settings.max_variance_inflation:g}")
-        out[n] = {"value": values[n], "default": space.defaults[n], "std": float(np.sqrt(max(post_var[i], 0.0))) if column > 1e-12 else float("inf"),
+        out[n] = {"value": values[n], "default": space.defaults[n], "std": std,
                   "data_std": data_std, "pin_rms_px_per_unit": float(per_unit), "bounds": [p[n].lower, p[n].upper],
                   "identifiable": not why, "not_identifiable_because": why,
                   "resolution": resolution, "variance_inflation": float(vif[i]),
