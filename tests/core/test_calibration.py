@@ -14,6 +14,7 @@ from twin.core.poses import Pose
 from twin.core.scenario import scenario_from_dict
 from twin.core.sensor import CameraModel
 from twin.runs.sim_env import SimEnvironment
+from twin.runs.training import cache_key, tap_scenario_like
 from twin.world.dome.flex import DomeParams
 from twin.world.dome.material import _TO_DOME, apply_dome_material, dome_material_of
 
@@ -86,3 +87,24 @@ def test_sim_backend_applies_the_calibration(tmp_path) -> None:
     assert np.abs(undo - plain.observe().pins_px).max() < 1.0  # only the dome's material differs
     with pytest.raises(UserError, match="sensor.calibration"):
         scenario_from_dict({**base, "sensor": {"calibration": "missing.yaml"}}, str(tmp_path / "s.yaml")).camera_model()
+
+
+def test_tap_model_cache_is_keyed_on_the_calibration_contents(tmp_path) -> None:
+    # the cached tap model depends on what the calibration says, not where the file lies
+    cal = Calibration(camera={"focal_px": 460.0}, friction=0.6, tcp_offset_mm=[0.0, 0.0, 0.3])
+    base = {"name": "taps", "object": {"name": "rectangle"}, "protocol": {"kind": "taps"}}
+
+    def key(folder: str, name: str, calibration: Calibration) -> str:
+        write_calibration(calibration, tmp_path / folder / name)
+        return cache_key(scenario_from_dict({**base, "sensor": {"calibration": name}}, str(tmp_path / folder / "s.yaml")))
+
+    same = key("a", "sensor.yaml", cal)
+    assert key("b", "other.yaml", cal) == same                     # another file, the same contents
+    inline = scenario_from_dict({**base, "sensor": {"calibration": cal.model_dump()}}, str(tmp_path / "s.yaml"))
+    assert cache_key(inline) == same                               # or the same contents inline
+    assert key("a", "sensor.yaml", cal.model_copy(update={"friction": 0.61})) != same  # the file edited in place
+    assert cache_key(scenario_from_dict(base, str(tmp_path / "s.yaml"))) != same
+    # a contour scenario's tap set carries its calibration, though it lies beside the contour scenario
+    contour = scenario_from_dict({**base, "sensor": {"calibration": "other.yaml"}, "protocol": {"kind": "contour"}},
+                                 str(tmp_path / "b" / "contour.yaml"))
+    assert tap_scenario_like(contour).calibration() == cal

@@ -2,12 +2,16 @@
 instance record the same pins for the same scenario and seed."""
 from __future__ import annotations
 
+import math
+import os
+
 import numpy as np
 import pytest
 
 from twin.runs.record import load_run
 from twin.runs.run import run_scenario
 from twin.core.scenario import scenario_from_dict
+from twin.runs.parallel import WorkerPool, map_ordered
 
 TAPS = {"name": "parallel_taps", "object": {"name": "rectangle"}, "fidelity": "fast", "effects": ["contact", "friction"],
         "protocol": {"kind": "taps", "orientations_deg": [-40, 0, 40], "lateral_mm": [6, 0, -4], "depths_mm": [3]}}
@@ -45,3 +49,26 @@ def test_one_blas_thread_covers_libraries_loaded_later() -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     pools = ast.literal_eval(out)
     assert len(pools) >= 2 and all(n == 1 for _, n in pools), pools
+
+
+def test_worker_pool_keeps_its_processes() -> None:
+    # a calibration maps once per generation: one pool's workers serve every call, while map_ordered starts its own
+    with WorkerPool(workers=2) as pool:
+        pids = [set(pool.map_ordered(os.getpid, [()] * 4)) for _ in range(3)]
+        assert len(set.union(*pids)) <= 2 and os.getpid() not in set.union(*pids)
+        assert list(pool.map_ordered(math.sqrt, [(9.0,), (4.0,)])) == [3.0, 2.0]      # in job order
+        with pytest.raises(ValueError):
+            list(pool.map_ordered(math.sqrt, [(4.0,), (-1.0,), (1.0,)]))          # a failed job stops the workers ...
+        assert set(pool.map_ordered(os.getpid, [()] * 4)).isdisjoint(set.union(*pids))  # ... the next call starts new ones
+    assert set(map_ordered(os.getpid, [()] * 4, workers=2)).isdisjoint(set.union(*pids))
+
+
+def test_worker_pool_keeps_one_ray_instance() -> None:
+    ray = pytest.importorskip("ray", reason="the ray extra is installed by the README's commands")
+    with WorkerPool(cluster="local") as pool:
+        assert list(pool.map_ordered(math.sqrt, [(9.0,), (4.0,)])) == [3.0, 2.0]
+        assert ray.is_initialized()  # kept between calls
+        address = ray.get_runtime_context().gcs_address
+        assert list(pool.map_ordered(math.sqrt, [(1.0,)])) == [1.0]
+        assert ray.get_runtime_context().gcs_address == address  # the same instance: not started per call
+    assert not ray.is_initialized()  # the instance the pool started is stopped with it

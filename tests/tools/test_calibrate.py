@@ -17,7 +17,7 @@ from twin.core.scenario import scenario_from_dict
 from twin.core.sensor import CameraModel
 from twin.runs.record import load_run
 from twin.runs.run import run_scenario
-from twin.tools.calibrate import calibrate, load_settings
+from twin.tools.calibrate import _robust_variances, _variance_inflation, calibrate, load_settings
 from twin.tools.cli import main
 
 TRUTH = {"camera": {"focal_px": 462.0, "distortion": {"k1": 0.08}}, "tcp_offset_mm": [0.0, 0.0, 0.4], "friction": 0.5,
@@ -52,10 +52,18 @@ def _settings(tmp_path: Path, data: dict) -> Path:
     return path
 
 
+@pytest.fixture(scope="module")
+def recovered(real, tmp_path_factory) -> dict:
+    """The calibration of the "real" taps and rest frames with FIT (shared by the tests that read it)."""
+    out = tmp_path_factory.mktemp("recovered")
+    settings = load_settings(_settings(out, FIT))
+    return calibrate(real["runs"], real["scenario"], out / "cal", settings, workers=1, progress=False)
+
+
 @pytest.mark.slow
-def test_recovers_the_perturbed_sensor(real, tmp_path) -> None:
-    settings = load_settings(_settings(tmp_path, FIT))
-    r = calibrate(real["runs"], real["scenario"], tmp_path / "cal", settings, workers=1, progress=False)
+def test_recovers_the_perturbed_sensor(real, recovered) -> None:
+    r = recovered
+    out = Path(r["calibration_file"]).parent
     floor = real["noise_floor_px"]
     assert 0.05 < floor < 0.6
     assert r["status"] == "converged"
@@ -70,7 +78,7 @@ def test_recovers_the_perturbed_sensor(real, tmp_path) -> None:
         tolerance = floor / u["pin_rms_px_per_unit"]
         assert abs(u["value"] - truth[name]) < tolerance, (name, u, tolerance)
     # the rest layout is relative to the camera: where the calibrated twin puts the pins at rest is what the data fix
-    cal = load_calibration(tmp_path / "cal" / "calibration.yaml")
+    cal = load_calibration(out / "calibration.yaml")
     truth_cal = Calibration(**TRUTH)
     nominal = CameraModel()
     rest = nominal.geometry.pin_tip_points()
@@ -78,7 +86,44 @@ def test_recovers_the_perturbed_sensor(real, tmp_path) -> None:
     true_rest = truth_cal.camera_model(nominal).project_tool_points(rest) + truth_cal.rest_offsets_px(640)
     assert np.sqrt(np.mean(np.sum((fitted_rest - true_rest) ** 2, axis=1))) < 2 * r["after"]["groups"]["rest"] + 0.1
     for name in ("report.md", "report.json", "residuals.png", "history.jsonl"):
-        assert (tmp_path / "cal" / name).exists()
+        assert (out / name).exists()
+
+
+def test_taps_do_not_identify_friction(real, recovered) -> None:
+    # a tap presses the skin straight onto the stimulus: without sliding there is hardly any shear for friction
+    # to resist, so a fit of taps and no-contact frames alone must not claim to have measured friction
+    r = recovered
+    assert r["samples_per_group"]["sliding"] == 0 and r["samples_per_group"]["contact"] > 0
+    u = r["uncertainty"]["parameters"]["friction"]
+    assert not u["identifiable"] and "friction" in r["not_identifiable"], u
+    assert load_calibration(r["calibration_file"]).friction == u["default"]  # left at the scenario's value
+    row = next(line for line in (Path(r["calibration_file"]).parent / "report.md").read_text().splitlines()
+               if line.startswith("| friction |"))
+    assert "**no** (" in row and u["not_identifiable_because"][0] in row
+
+
+def test_cluster_robust_error_and_variance_inflation() -> None:
+    # 6 samples of 254 residuals each, every residual of a sample sharing one error (as a frame's pins share
+    # its contact and tracking error): counted as independent, the error is √254 times too small
+    rng = np.random.default_rng(0)
+    sample = np.repeat(np.arange(6), 254)
+    jac = np.column_stack([np.ones(sample.size), rng.normal(size=sample.size)])
+    r = rng.normal(size=6)[sample]
+    s2 = float(r @ r / (r.size - 2))
+    gauss_newton = np.diag(np.linalg.inv(jac.T @ jac)) * s2
+    robust = _robust_variances(jac, r, sample, jac.T @ jac, s2)
+    assert robust[0] > 50 * gauss_newton[0]                      # the shared offset: about 254× the variance
+    assert robust[1] >= gauss_newton[1]                          # never below Gauss–Newton
+    independent = rng.normal(size=sample.size)
+    s2 = float(independent @ independent / (r.size - 2))
+    assert _robust_variances(jac, independent, sample, jac.T @ jac, s2)[0] < 3 * np.linalg.inv(jac.T @ jac)[0, 0] * s2
+    # variance inflation 1/(1 − R²): a column of its own, one 1 % outside the others' span, a zero column
+    a, b, c = rng.normal(size=(3, 500))
+    c -= np.column_stack([a, b]) @ np.linalg.lstsq(np.column_stack([a, b]), c, rcond=None)[0]  # ⟂ a and b
+    near = a + b + 0.01 * np.linalg.norm(a + b) / np.linalg.norm(c) * c
+    vif = _variance_inflation(np.column_stack([a, b, near, np.zeros(500)]))
+    assert vif[2] == pytest.approx(1 + 1 / 0.01 ** 2, rel=0.05) and vif[3] == np.inf
+    assert _variance_inflation(np.column_stack([a, c]))[0] == pytest.approx(1.0, abs=1e-9)
 
 
 def test_camera_only_and_what_the_data_cannot_identify(real, tmp_path) -> None:
@@ -87,12 +132,18 @@ def test_camera_only_and_what_the_data_cannot_identify(real, tmp_path) -> None:
                            "material.young_kpa": {"fit": False}, "tcp.z_mm": {"fit": False}}}
     r = calibrate(real["runs"], real["scenario"], tmp_path / "cam", load_settings(_settings(tmp_path, data)), workers=1,
                   progress=False)
-    assert r["not_identifiable"] == ["camera.cx_px"] and r["simulations"] == 1  # no CMA: one simulation
+    assert r["not_identifiable"] == ["camera.focal_px", "camera.cx_px"] and r["simulations"] == 1  # no CMA: one simulation
+    cx = r["uncertainty"]["parameters"]["camera.cx_px"]
+    assert len(cx["not_identifiable_because"]) == 3  # a zero column: no error, resolution or column of its own
     cal = load_calibration(tmp_path / "cam" / "calibration.yaml")
     assert cal.camera.principal_point_px == pytest.approx([319.5, 239.5])   # left at the default
     # the TCP offset (0.4 mm deeper) is not fitted here: the focal length makes up for the larger displacements
-    # and runs into its bound, which the report says
-    assert cal.camera.focal_px == 500.0 and r["uncertainty"]["parameters"]["camera.focal_px"]["at_bound"]
+    # and runs into its bound, which the report says; the misfit left (≈ 2 px, 10× the noise) differs from tap
+    # to tap, so the cluster-robust error says the focal length is not determined, and it is not written
+    focal = r["uncertainty"]["parameters"]["camera.focal_px"]
+    assert focal["value"] == 500.0 and focal["at_bound"] and not focal["identifiable"]
+    assert focal["not_identifiable_because"][0].startswith("standard error")
+    assert cal.camera.focal_px == pytest.approx(focal["default"])
     report = (tmp_path / "cam" / "report.md").read_text()
     assert "**no**" in report and "**at a bound**" in report
 

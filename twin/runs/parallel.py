@@ -16,33 +16,102 @@ def default_workers() -> int:
 
 
 def map_ordered(fn: Callable, jobs: list[tuple], workers: int | None = None, cluster: str | None = None) -> Iterator:
-    """Yield fn(*job) for each job, in order.
+    """Yield fn(*job) for each job, in order, on a pool started for this call alone
+    (WorkerPool: to map many times, keep one pool).
 
     workers: local processes (default: all cores; 1 runs in this process).
     cluster: a Ray address ("auto", "ray://host:10001", or "local" to start a local
       instance); needs the `ray` extra.
     """
-    if cluster is not None:
-        yield from _map_ray(fn, jobs, cluster)
-        return
-    workers = default_workers() if workers is None else workers
-    if workers <= 1 or len(jobs) <= 1:
-        for job in jobs:
-            yield fn(*job)
-        return
-    # forkserver, not fork: the parent may hold a GL context or BLAS/OpenMP threads (GP
-    # training), which a forked child inherits half-initialised and can deadlock on.
-    context = get_context("forkserver")
-    context.set_forkserver_preload(["twin.runs.sim_env", "twin.runs.runner", "twin.control.contour"])
-    with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=context,
-                             initializer=one_blas_thread) as pool:
-        futures = [pool.submit(fn, *job) for job in jobs]
+    with WorkerPool(workers if cluster is not None else _local_workers(workers, len(jobs)), cluster) as pool:
+        yield from pool.map_ordered(fn, jobs)
+
+
+def _local_workers(workers: int | None, n_jobs: int) -> int:
+    """No more local processes than jobs (a one-shot map)."""
+    return min(default_workers() if workers is None else workers, max(n_jobs, 1))
+
+
+class WorkerPool:
+    """Worker processes (or a Ray connection) kept across calls to `map_ordered`, so a
+    caller that maps again and again (a calibration: once per CMA-ES generation) starts
+    them once: each start is a forkserver process importing the simulator, then one
+    worker process per core. Use it as a context manager; closing it stops the workers
+    (and a Ray instance it started).
+
+    workers: local processes (default: all cores; 1 runs in this process). Processes are
+      started as jobs arrive, up to `workers`.
+    cluster: a Ray address, as map_ordered's.
+    """
+
+    def __init__(self, workers: int | None = None, cluster: str | None = None) -> None:
+        self.workers = default_workers() if workers is None else workers
+        self.cluster = cluster
+        self._pool: ProcessPoolExecutor | None = None
+        self._ray_remote = None
+        self._ray_started = False
+
+    def __enter__(self) -> "WorkerPool":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def map_ordered(self, fn: Callable, jobs: list[tuple]) -> Iterator:
+        """Yield fn(*job) for each job, in order. A failed job, SIGINT or SIGTERM drops the
+        queued jobs (not run) and stops the local workers; the next call starts new ones."""
+        if self.cluster is not None:
+            yield from self._map_ray(fn, jobs)
+            return
+        if self.workers <= 1 or len(jobs) <= 1:
+            for job in jobs:
+                yield fn(*job)
+            return
+        if self._pool is None:
+            # forkserver, not fork: the parent may hold a GL context or BLAS/OpenMP threads (GP
+            # training), which a forked child inherits half-initialised and can deadlock on.
+            context = get_context("forkserver")
+            context.set_forkserver_preload(["twin.runs.sim_env", "twin.runs.runner", "twin.control.contour"])
+            self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=context, initializer=one_blas_thread)
+        futures = [self._pool.submit(fn, *job) for job in jobs]
         try:
             for future in futures:
                 yield future.result()
-        except BaseException:  # SIGINT/SIGTERM or a failed job: drop the queued jobs, not run them
-            pool.shutdown(wait=True, cancel_futures=True)
+        except BaseException:
+            self._stop_local()
             raise
+
+    def close(self) -> None:
+        """Stop the local workers and a Ray instance this pool started."""
+        self._stop_local()
+        if self._ray_started:
+            import ray
+
+            ray.shutdown()
+            self._ray_started = False
+        self._ray_remote = None
+
+    def _stop_local(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+
+    def _map_ray(self, fn: Callable, jobs: list[tuple]) -> Iterator:
+        try:
+            import ray
+        except ImportError:
+            raise UserError("a Ray cluster needs the ray extra: uv sync --extra ray") from None
+        if self._ray_remote is None:
+            if not ray.is_initialized():
+                if self.cluster == "local":
+                    ray.init(num_cpus=default_workers(), include_dashboard=False, log_to_driver=False)
+                else:
+                    ray.init(address=self.cluster, log_to_driver=False)
+                self._ray_started = True
+            self._ray_remote = ray.remote(_call_with_one_blas_thread)
+        refs = [self._ray_remote.remote(fn, *job) for job in jobs]
+        for ref in refs:
+            yield ray.get(ref)
 
 
 def one_blas_thread() -> None:
@@ -65,25 +134,3 @@ def _call_with_one_blas_thread(fn: Callable, *args):
     """Ray task body: `one_blas_thread`, then fn(*args)."""
     one_blas_thread()
     return fn(*args)
-
-
-def _map_ray(fn: Callable, jobs: list[tuple], cluster: str) -> Iterator:
-    try:
-        import ray
-    except ImportError:
-        raise UserError("a Ray cluster needs the ray extra: uv sync --extra ray") from None
-    started = False
-    if not ray.is_initialized():
-        if cluster == "local":
-            ray.init(num_cpus=default_workers(), include_dashboard=False, log_to_driver=False)
-        else:
-            ray.init(address=cluster, log_to_driver=False)
-        started = True
-    try:
-        remote = ray.remote(_call_with_one_blas_thread)
-        refs = [remote.remote(fn, *job) for job in jobs]
-        for ref in refs:
-            yield ray.get(ref)
-    finally:
-        if started:
-            ray.shutdown()

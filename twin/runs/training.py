@@ -37,16 +37,25 @@ def train_from_run(run: Run, method: str = "pca", seed: int = 0) -> PerceptionMo
 
 
 def tap_scenario_like(scenario: Scenario) -> Scenario:
-    """The tap training scenario with the given scenario's fidelity, effects and sensor."""
+    """The tap training scenario with the given scenario's fidelity, effects and sensor (its
+    calibration inline: a file named relative to `scenario` would otherwise be looked for
+    beside the shipped tap scenario)."""
     taps = load_scenario(scenario_path("taps_rectangle"))
-    return taps.with_changes(fidelity=scenario.fidelity, effects=list(scenario.effects),
-                             sensor=scenario.sensor.model_dump(), seed=scenario.seed)
+    sensor = scenario.sensor.model_dump()
+    sensor["calibration"] = scenario.calibration()
+    return taps.with_changes(fidelity=scenario.fidelity, effects=list(scenario.effects), sensor=sensor,
+                             seed=scenario.seed)
 
 
 def cache_key(taps: Scenario) -> str:
     """What a cached tap model depends on: the tap scenario (protocol, sensor, effects,
-    fidelity, seed), the dome parameters it simulates and the package version."""
-    payload = json.dumps({"scenario": taps.model_dump(mode="json"),
+    fidelity, seed), the dome parameters it simulates and the package version. The sensor's
+    calibration counts by its contents, not by the file that holds them: editing the file
+    changes the key, another file with the same contents does not."""
+    scenario = taps.model_dump(mode="json")
+    calibration = taps.calibration()
+    scenario["sensor"]["calibration"] = None if calibration is None else calibration.model_dump(mode="json")
+    payload = json.dumps({"scenario": scenario,
                           "dome": dataclasses.asdict(dome_params(taps)), "version": package_version()},
                          sort_keys=True, default=str)
     return hashlib.sha256(payload.encode()).hexdigest()[:16]

@@ -26,11 +26,15 @@ Stop rule: the best χ² improved by less than `tol_relative` over `patience` ge
 Each generation is checkpointed (DIR/checkpoint.pkl, DIR/history.jsonl); a calibration
 started again with the same runs, scenario and settings resumes from it.
 
-Uncertainty: the Gauss–Newton covariance s²(JᵀJ)⁻¹ of all fitted parameters, J the
-Jacobian of the whitened residuals at the optimum (central differences; physics columns by
-simulation), s² the reduced χ². A parameter whose data-only standard error exceeds
-`identifiable_fraction` of its bounds' range is not identifiable from these runs: it is
-reported as such and left at its default in the calibration file, not silently fitted.
+Uncertainty: J is the Jacobian of the whitened residuals at the optimum (central
+differences; physics columns by simulation). Each parameter's standard error is the larger
+of the Gauss–Newton s²(JᵀJ)⁻¹ (s² the reduced χ²) and the cluster-robust sandwich with the
+samples as clusters (a frame's pins share their errors). A parameter is identifiable from
+these runs when that error is below `identifiable_fraction` of its bounds' range, its
+whole range moves the pins by more than the fit's pin RMS, and its Jacobian column is not
+nearly in the span of the others (variance inflation ≤ `max_variance_inflation`); one that
+is not is reported as such, with the reasons, and left at its default in the calibration
+file, not silently fitted (_uncertainty says why each test).
 """
 from __future__ import annotations
 
@@ -53,7 +57,7 @@ from twin.core.resources import asset_path
 from twin.core.scenario import Scenario, scenario_from_dict
 from twin.core.sensor import N_PINS
 from twin.core.validation import read_yaml, validate_mapping
-from twin.runs.parallel import default_workers, map_ordered
+from twin.runs.parallel import WorkerPool
 from twin.runs.record import Run, load_run
 from twin.runs.replay import replay_batch, replay_chunks
 from twin.tools.calibration_report import write_report
@@ -120,6 +124,7 @@ class CalibrationSettings(_Strict):
     weights: Weights = Weights()
     noise_px: float = Field(default=0.2, gt=0, le=50)
     identifiable_fraction: float = Field(default=0.1, gt=0, le=10)
+    max_variance_inflation: float = Field(default=100.0, ge=1)
     optimiser: OptimiserSettings = OptimiserSettings()
 
     @model_validator(mode="after")
@@ -294,17 +299,20 @@ def load_data(run_dirs: list[Path], scenario: Scenario, weights: Weights) -> Dat
 
 # ---------------------------------------------------------------------------- evaluation
 class Evaluator:
-    """Simulates physics candidates (in parallel) and solves the camera for each."""
+    """Simulates physics candidates (in parallel, on one pool kept for the whole
+    calibration) and solves the camera for each."""
 
-    def __init__(self, space: Space, data: Data, workers: int | None, cluster: str | None) -> None:
-        self.space, self.data, self.workers, self.cluster = space, data, workers, cluster
+    def __init__(self, space: Space, data: Data, pool: WorkerPool) -> None:
+        self.space, self.data, self.pool = space, data, pool
         self.simulations = 0
         self.sim_seconds = 0.0
         self._cache: dict[tuple, np.ndarray] = {}
         self.cache_size = 32
         #: parallel slots to fill: the local workers, or (with a Ray cluster) --workers as its CPU count
-        self.parallelism = default_workers() if workers is None else workers
+        self.parallelism = pool.workers
         self.valid = np.isfinite(data.pins).all(axis=2)  # (N, 127)
+        #: the sample of each entry of the residual vector (x and y of each valid pin)
+        self.row_sample = np.repeat(np.nonzero(self.valid)[0], 2)
         self.rest = data.group == GROUPS.index("rest")
         self.fit_rest = space.settings.rest_pins and bool(self.rest.any())
 
@@ -330,7 +338,7 @@ class Evaluator:
         n_batches = max(1, min(len(moves), -(-self.parallelism // len(candidates))))
         batches = [moves[b::n_batches] for b in range(n_batches)]
         jobs = [(s, seed, batch) for s in scenarios for batch in batches]
-        results = list(map_ordered(replay_batch, jobs, workers=self.workers, cluster=self.cluster))
+        results = list(self.pool.map_ordered(replay_batch, jobs))
         out = []
         for c in range(len(candidates)):
             done = results[c * n_batches:(c + 1) * n_batches]
@@ -499,8 +507,59 @@ def _jacobian(ev: Evaluator, values: dict[str, float], tips: np.ndarray) -> np.n
     return np.column_stack(cols) if cols else np.zeros((0, 0))
 
 
+def _robust_variances(jac: np.ndarray, r: np.ndarray, sample: np.ndarray, info: np.ndarray, s2: float) -> np.ndarray:
+    """Per parameter, the larger of the Gauss–Newton variance s²·info⁻¹ and the
+    cluster-robust (sandwich) one info⁻¹ M info⁻¹ · G/(G−1), with the meat M =
+    Σ_s J_sᵀ r_s r_sᵀ J_s summed over the samples s (the clusters) and G the samples with
+    pins. `info` is JᵀJ (plus the priors' information); units: the parameters' squared."""
+    bread = np.linalg.pinv(info, rcond=1e-12)
+    scores = np.zeros((int(sample.max(initial=-1)) + 1, jac.shape[1]))
+    np.add.at(scores, sample, jac * r[:, None])  # J_sᵀ r_s per sample
+    clusters = len(np.unique(sample))
+    sandwich = bread @ (scores.T @ scores) @ bread * (clusters / max(clusters - 1, 1))
+    return np.maximum(np.diag(sandwich), np.diag(bread) * s2)
+
+
+def _variance_inflation(scaled: np.ndarray) -> np.ndarray:
+    """VIF_i = 1/(1 − R_i²) per column: R_i² is the share of column i (its length) that the
+    best combination of the other columns reproduces (inf for a zero column or one inside
+    their span)."""
+    norms = np.linalg.norm(scaled, axis=0)
+    unit = scaled / np.where(norms > 0, norms, 1.0)
+    vif = np.full(scaled.shape[1], np.inf)
+    for i in np.nonzero(norms > 1e-12 * max(norms.max(initial=0.0), 1e-300))[0]:
+        others = np.delete(unit, i, axis=1)
+        rest = unit[:, i] - others @ np.linalg.lstsq(others, unit[:, i], rcond=None)[0] if others.shape[1] else unit[:, i]
+        vif[i] = 1.0 / max(float(rest @ rest), 1e-300)
+    return vif
+
+
 def _uncertainty(ev: Evaluator, values: dict[str, float], tips: np.ndarray) -> dict:
-    """Standard errors (Gauss–Newton), singular values and identifiability per parameter."""
+    """Standard errors, resolution, variance inflation and identifiability per parameter.
+
+    A fitted parameter is identifiable from these runs when all three hold (a "no" lists
+    the ones that failed, and the parameter is left at its default):
+
+    1. error: its data-only standard error is below `identifiable_fraction` of its bounds'
+       range. The error is cluster-robust, samples as clusters (_robust_variances): the
+       254 residuals of one frame share its contact, tracking and model errors, so the
+       Gauss–Newton s²(JᵀJ)⁻¹, which counts them as independent, is too small (friction
+       from 4 taps: ±0.04 stated, 0.6 off). The sandwich lets a sample's residuals
+       correlate freely; with few samples it is itself noisy (rank ≤ G − 1, so it can come
+       out below the Gauss–Newton error), hence the larger of the two.
+    2. resolution: its resolution (the change that moves the pins by the fit's pin RMS)
+       is below its bounds' range, i.e. the whole range moves the pins by more than the
+       residual. Errors shared across samples (a tracker's per-pin bias, the twin's model
+       error) do not average out over frames, while the standard error of (1) falls as
+       1/√samples: a parameter whose whole range is lost in the residual of every frame
+       is not told apart from them by fitting more frames of the same kind.
+    3. collinearity: its variance inflation 1/(1 − R²) is at most `max_variance_inflation`,
+       R² the share of its Jacobian column that the other columns reproduce. Above it
+       (default 100: under 10 % of the column is its own), its effect can be traded for
+       the others', and a model error along the shared direction moves it √VIF times more
+       than a parameter with a column of its own; the noise-based errors of (1) do not see
+       a model error.
+    """
     space = ev.space
     if not space.fitted:
         return {"parameters": {}, "singular_values": [], "reduced_chi2": None}
@@ -509,28 +568,36 @@ def _uncertainty(ev: Evaluator, values: dict[str, float], tips: np.ndarray) -> d
     n_offsets = 2 * N_PINS if ev.fit_rest else 0
     dof = max(1, r.size - len(space.fitted) - n_offsets)
     s2 = float(np.sum(r ** 2) / dof)
-    scaled = jac * np.array([space.range[n] for n in space.fitted])  # per unit of the bounds' range
+    ranges = np.array([space.range[n] for n in space.fitted])
+    scaled = jac * ranges  # per unit of the bounds' range
     singular = np.linalg.svd(scaled, compute_uv=False)
+    vif = _variance_inflation(scaled)
     info = jac.T @ jac
-    data_cov = np.linalg.pinv(info, rcond=1e-12) * s2
     p = space.settings.parameters
     prior = np.diag([1.0 / p[n].prior_std ** 2 if p[n].prior_std else 0.0 for n in space.fitted])
-    post_cov = np.linalg.pinv(info + prior, rcond=1e-12) * s2
-    rank_deficient = singular.min() < 1e-9 * max(singular.max(), 1e-300)
+    data_var = _robust_variances(jac, r, ev.row_sample, info, s2)
+    post_var = _robust_variances(jac, r, ev.row_sample, info + prior, s2)
+    settings = space.settings
+    fit_rms = np.sqrt(s2) * settings.noise_px * np.sqrt(2.0)  # px, Euclidean per pin
     out = {}
     for i, n in enumerate(space.fitted):
-        data_std = float(np.sqrt(max(data_cov[i, i], 0.0)))
-        if rank_deficient and np.linalg.norm(jac[:, i]) < 1e-12:
-            data_std = float("inf")
-        identifiable = data_std < space.settings.identifiable_fraction * space.range[n]
-        out[n] = {"value": values[n], "default": space.defaults[n], "std": float(np.sqrt(max(post_cov[i, i], 0.0))),
-                  "data_std": data_std,
-                  # how much the pin RMS (px, Euclidean per pin) changes per unit of the parameter
-                  "pin_rms_px_per_unit": float(np.linalg.norm(jac[:, i]) * space.settings.noise_px * np.sqrt(2.0 / max(1, r.size))),
-                  "bounds": [p[n].lower, p[n].upper], "identifiable": bool(identifiable),
-                  # the bias that would move the pins by the fit's pin RMS: what a single frame resolves
-                  "resolution": float(np.sqrt(s2) * space.settings.noise_px * np.sqrt(2.0) /
-                                      max(np.linalg.norm(jac[:, i]) * space.settings.noise_px * np.sqrt(2.0 / max(1, r.size)), 1e-300)),
+        column = float(np.linalg.norm(jac[:, i]))
+        data_std = float(np.sqrt(max(data_var[i], 0.0))) if column > 1e-12 else float("inf")
+        std = float(np.sqrt(max(post_var[i], 0.0))) if column > 1e-12 else float("inf")
+        # how much the pin RMS (px, Euclidean per pin) changes per unit of the parameter
+        per_unit = column * settings.noise_px * np.sqrt(2.0 / max(1, r.size))
+        resolution = float(fit_rms / max(per_unit, 1e-300))
+        why = []
+        if not data_std < settings.identifiable_fraction * space.range[n]:
+            why.append(f"standard error {data_std:.2g} ≥ {settings.identifiable_fraction:g} × the range {space.range[n]:g}")
+        if not resolution < space.range[n]:
+            why.append(f"resolution {resolution:.2g} ≥ the range {space.range[n]:g}")
+        if not vif[i] <= settings.max_variance_inflation:
+            why.append(f"variance inflation {vif[i]:.3g} > {settings.max_variance_inflation:g}")
+        out[n] = {"value": values[n], "default": space.defaults[n], "std": std,
+                  "data_std": data_std, "pin_rms_px_per_unit": float(per_unit), "bounds": [p[n].lower, p[n].upper],
+                  "identifiable": not why, "not_identifiable_because": why,
+                  "resolution": resolution, "variance_inflation": float(vif[i]),
                   "at_bound": bool(min(values[n] - p[n].lower, p[n].upper - values[n]) < 1e-6 * space.range[n])}
     return {"parameters": out, "singular_values": singular.tolist(), "reduced_chi2": s2,
             "condition_number": float(singular.max() / max(singular.min(), 1e-300))}
@@ -540,14 +607,21 @@ def calibrate(run_dirs: list[Path], scenario: Scenario, out: Path, settings: Cal
               workers: int | None = None, cluster: str | None = None, progress: bool = True) -> dict:
     """Fit the twin to the runs (module docstring); writes DIR/calibration.yaml (converged) or
     DIR/best_calibration.yaml (not: raises CalibrationNotConverged after writing), the
-    report (report.json, report.md, residuals.png), history.jsonl and checkpoint.pkl."""
+    report (report.json, report.md, residuals.png), history.jsonl and checkpoint.pkl.
+    workers / cluster: as twin.runs.parallel.WorkerPool, one pool for all the simulations."""
+    with WorkerPool(workers, cluster) as pool:
+        return _calibrate(run_dirs, scenario, out, settings, pool, progress)
+
+
+def _calibrate(run_dirs: list[Path], scenario: Scenario, out: Path, settings: CalibrationSettings, pool: WorkerPool,
+               progress: bool) -> dict:
     wall = time.perf_counter()
     if scenario.backend != "sim":
         scenario = scenario.with_changes(backend="sim")
     data = load_data([Path(r) for r in run_dirs], scenario, settings.weights)
     space = Space(scenario, settings)
     out.mkdir(parents=True, exist_ok=True)
-    ev = Evaluator(space, data, workers, cluster)
+    ev = Evaluator(space, data, pool)
     default_physics = {n: space.defaults[n] for n in PHYSICS}
     before_tips = ev.simulate([default_physics])[0]
     before_values = dict(space.defaults)
@@ -587,7 +661,7 @@ def calibrate(run_dirs: list[Path], scenario: Scenario, out: Path, settings: Cal
         "best_chi2": state["best_chi2"], "simulations": ev.simulations,
         "simulated_frames_per_s": ev.simulations * len(data.pins) / max(ev.sim_seconds, 1e-9),
         "evaluations_per_s": ev.simulations / max(ev.sim_seconds, 1e-9),
-        "wall_time_s": time.perf_counter() - wall, "workers": workers, "cluster": cluster,
+        "wall_time_s": time.perf_counter() - wall, "workers": pool.workers, "cluster": pool.cluster,
     }
     write_report(result, out)
     if not state["converged"]:

@@ -28,15 +28,19 @@ def report_markdown(r: dict) -> str:
         lines.append(f"| {g} frames | {_fmt(r['before']['groups'].get(g))} | {_fmt(v)} |")
     for run, v in r["after"]["runs"].items():
         lines.append(f"| run {run} | {_fmt(r['before']['runs'].get(run))} | {_fmt(v)} |")
-    lines += ["", "| parameter | default | fitted | ± std | resolution | bounds | identifiable |", "|---|---|---|---|---|---|---|"]
+    lines += ["", "| parameter | default | fitted | ± std | resolution | VIF | bounds | identifiable |",
+              "|---|---|---|---|---|---|---|---|"]
     for name, u in r["uncertainty"]["parameters"].items():
         lines.append(f"| {name} | {u['default']:.4g} | {u['value']:.4g} | {u['std']:.2g} | {u['resolution']:.2g} | "
-                     f"[{u['bounds'][0]:g}, {u['bounds'][1]:g}] | "
-                     + ("yes" if u["identifiable"] else f"**no** (data std {u['data_std']:.2g}): left at the default")
+                     f"{u['variance_inflation']:.3g} | [{u['bounds'][0]:g}, {u['bounds'][1]:g}] | "
+                     + ("yes" if u["identifiable"] else
+                        f"**no** ({'; '.join(u['not_identifiable_because'])}): left at the default")
                      + (" (**at a bound**: widen it, or a parameter not fitted is off)" if u.get("at_bound") else "") + " |")
-    lines += ["", "± std: Gauss–Newton standard error (assumes independent pin errors; a tracker's errors are correlated "
-              "per pin, so it is optimistic). Resolution: the change of the parameter that moves the pins by the fit's "
-              "pin RMS, what one frame's pins resolve."]
+    lines += ["", "± std: the larger of the Gauss–Newton and the cluster-robust (samples as clusters: a frame's pins "
+              "share their errors) standard error. Resolution: the change of the parameter that moves the pins by the "
+              "fit's pin RMS, what one frame's pins resolve. VIF: variance inflation, 1/(1 − R²) of the parameter's "
+              "Jacobian column on the others'. Identifiable: std below the identifiable fraction of the range, "
+              "resolution below the range and VIF at most the limit (twin.tools.calibrate._uncertainty)."]
     sv = r["uncertainty"]["singular_values"]
     if sv:
         lines += ["", "Singular values of the Jacobian (whitened residuals per unit of each parameter's range): "

@@ -151,7 +151,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
                   workers=args.workers, cluster=args.cluster, progress=not args.quiet)
     print(f"{r['status']} ({r['stop_reason']}); pin RMS {r['before']['overall']:.3f} -> {r['after']['overall']:.3f} px")
     for name, u in r["uncertainty"]["parameters"].items():
-        flag = "" if u["identifiable"] else "  NOT IDENTIFIABLE: left at the default"
+        flag = "" if u["identifiable"] else f"  NOT IDENTIFIABLE ({'; '.join(u['not_identifiable_because'])}): left at the default"
         print(f"  {name} = {u['value']:.5g} ± {u['std']:.2g} (default {u['default']:.5g}){flag}")
     print(f"wrote {r['calibration_file']} and {args.out}/report.md ({r['wall_time_s']:.1f} s, "
           f"{r['evaluations_per_s']:.3g} evaluations/s)")
