@@ -122,3 +122,19 @@ def test_no_contact_effect_solves_nothing():
     physics: CompliantPhysics = env.physics
     assert physics.iterations == 0 and physics.solve_seconds == 0.0
     assert env.observe_frame().contact_force == 0.0
+
+
+def test_a_calibrated_material_maps_only_onto_parameters_the_model_has():
+    """The compliant dome has no membrane, and the flex grid locks at ν = 0.5: both refused
+    by name; the compliant dome takes ν = 0.5 and its modulus in kPa."""
+    from twin.core.errors import UserError
+    from twin.world.dome.flex import FIDELITY_LEVELS
+    from twin.world.dome.material import apply_dome_material, dome_material_of
+
+    compliant = COMPLIANT_LEVELS["default"]
+    assert set(dome_material_of(compliant)) == {"young_kpa", "poisson"}
+    assert apply_dome_material(compliant, {"young_kpa": 50.0, "poisson": 0.5}).young == pytest.approx(5e4)
+    with pytest.raises(UserError, match="membrane_young_mpa"):
+        apply_dome_material(compliant, {"membrane_young_mpa": 0.3})
+    with pytest.raises(UserError, match="poisson"):
+        apply_dome_material(FIDELITY_LEVELS["default"], {"poisson": 0.5})

@@ -39,6 +39,7 @@ file, not silently fitted (_uncertainty says why each test).
 from __future__ import annotations
 
 import hashlib
+import math
 import json
 import pickle
 import time
@@ -187,6 +188,12 @@ class Space:
         self.defaults = {}
         for name in PARAMETERS:
             s = self.settings.parameters.get(name)
+            if name not in values:  # a material parameter this dome model does not have
+                if s is not None and s.fit:
+                    raise UserError(f"calibration settings: field 'parameters.{name}': the {self.scenario.dome} dome "
+                                    "has no such parameter; set fit: false")
+                self.defaults[name] = math.nan
+                continue
             value = values[name] if s is None or s.default is None else s.default
             if s is not None and s.fit and not s.lower <= value <= s.upper:
                 raise UserError(f"calibration settings: field 'parameters.{name}': default {value:.6g} lies outside "
@@ -220,7 +227,7 @@ class Space:
             distortion={k: v[f"camera.{k}"] for k in ("k1", "k2", "p1", "p2")},
             offset_mm=[v["camera.x_mm"], v["camera.y_mm"], v["camera.z_mm"]],
             rotation_deg=[v["camera.rx_deg"], v["camera.ry_deg"], v["camera.rz_deg"]])
-        material = {n.split(".", 1)[1]: v[n] for n in PHYSICS if n.startswith("material.")}
+        material = {n.split(".", 1)[1]: v[n] for n in PHYSICS if n.startswith("material.") and not math.isnan(v[n])}
         offsets = base.rest_pin_offsets_px if rest_offsets is None else np.round(rest_offsets, 4).tolist()
         return Calibration(camera=camera, rest_pin_offsets_px=offsets, dome_material=material, friction=v["friction"],
                            tcp_offset_mm=[v["tcp.x_mm"], v["tcp.y_mm"], v["tcp.z_mm"]], notes=base.notes)
