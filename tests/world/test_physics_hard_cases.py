@@ -248,8 +248,13 @@ def test_broken_setup_raises_naming_scenario_step_pose_and_failure(dome, level, 
     assert re.search(r"(pin moved|penetration|contact force|did not settle)", message)
 
 
+#: the endurance run at every flex level; the compliant dome's increments cost more
+#: (twin bench physics), so it runs at its fast level (its code is the same at every level)
+ENDURANCE = [p for p in LEVELS if p.values[0] == "flex"] + [pytest.param("compliant", "fast", id="compliant-fast")]
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("dome,level", LEVELS)
+@pytest.mark.parametrize("dome,level", ENDURANCE)
 def test_two_thousand_frames_return_to_rest(dome, level):
     """2,000 frames of taps and multi-directional slides; afterwards the no-contact pose
     gives the no-contact pins back (≈ 20 s fast, 50 s default, 2.5 min reference on 2 cores)."""
