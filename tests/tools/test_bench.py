@@ -1,6 +1,8 @@
 """`twin bench` physics and throughput rows are consistent (no timing asserts: speed is printed, not tested)."""
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from twin.tools.bench import bench_throughput, benchmark_physics
@@ -18,6 +20,12 @@ def test_throughput_rows_are_consistent() -> None:
 
 
 def test_physics_rows_are_consistent() -> None:
-    (row,) = benchmark_physics(["fast"], repeats=1, verbose=False)
-    assert set(row) == {"level", "ms_per_frame", "steps_per_frame", "ms_per_step"}
-    assert row["level"] == "fast" and row["ms_per_frame"] > 0 and row["steps_per_frame"] >= 1
+    rows = benchmark_physics(["fast"], repeats=1, verbose=False)
+    assert [(r["dome"], r["level"]) for r in rows] == [("flex", "fast"), ("compliant", "fast")]
+    for row in rows:
+        assert set(row) == {"dome", "level", "ms_per_frame", "steps_per_frame", "ms_per_step", "precompute_s",
+                            "ratio_to_flex_default"}
+        assert row["ms_per_frame"] > 0 and row["steps_per_frame"] >= 1
+        assert row["ms_per_step"] * row["steps_per_frame"] == pytest.approx(row["ms_per_frame"])
+        assert math.isnan(row["ratio_to_flex_default"])  # the flex default was not measured in this run
+    assert rows[0]["precompute_s"] == 0.0 and rows[1]["precompute_s"] > 0.0
