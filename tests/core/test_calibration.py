@@ -108,3 +108,13 @@ def test_tap_model_cache_is_keyed_on_the_calibration_contents(tmp_path) -> None:
     contour = scenario_from_dict({**base, "sensor": {"calibration": "other.yaml"}, "protocol": {"kind": "contour"}},
                                  str(tmp_path / "b" / "contour.yaml"))
     assert tap_scenario_like(contour).calibration() == cal
+
+
+def test_a_contour_s_tap_model_is_trained_on_its_own_dome_model() -> None:
+    """A contour scenario on the compliant dome gets taps simulated on the compliant dome,
+    and a tap model cached apart from the flex dome's."""
+    contour = scenario_from_dict({"name": "c", "object": {"name": "rectangle"}, "dome": "compliant",
+                                  "protocol": {"kind": "contour"}})
+    taps = tap_scenario_like(contour)
+    assert taps.dome == "compliant" and taps.protocol.kind == "taps"
+    assert cache_key(taps) != cache_key(tap_scenario_like(contour.with_changes(dome="flex")))
