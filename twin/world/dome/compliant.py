@@ -185,6 +185,11 @@ class CompliantPhysics:
         """Contact increments taken."""
         return self._steps
 
+    def touched_geoms(self) -> set[int]:
+        """Ids of the object's collision pieces that carry contact force now."""
+        touching = np.any(self.forces != 0.0, axis=1)
+        return set(self._ray_geom[touching].tolist())
+
     def contact_force_tool(self) -> np.ndarray:
         """(3,) N: total contact force on the dome, tool frame."""
         return self.forces.sum(axis=0)
