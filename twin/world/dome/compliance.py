@@ -42,7 +42,8 @@ class CapSurface:
     `spacing` (m) apart: an equal-area Fibonacci lattice (each node carries the same area).
 
     points (N, 3) m, normals (N, 3) outward unit, tangents (N, 2, 3) unit (meridian
-    direction away from the apex, then azimuthal), area (m²) per node, polar (N,) rad.
+    direction away from the apex, then azimuthal), area (m²) per node, polar and
+    azimuth (N,) rad.
     """
 
     geometry: TacTipGeometry
@@ -65,9 +66,13 @@ class CapSurface:
         return np.arccos(1.0 - (1.0 - math.cos(math.radians(self.extent_deg))) * k / self.count)
 
     @cached_property
+    def azimuth(self) -> np.ndarray:
+        """(N,) rad: the lattice's golden-angle azimuths."""
+        return np.arange(self.count) * GOLDEN_ANGLE
+
+    @cached_property
     def normals(self) -> np.ndarray:
-        polar = self.polar
-        azimuth = np.arange(self.count) * GOLDEN_ANGLE
+        polar, azimuth = self.polar, self.azimuth
         return np.column_stack([np.sin(polar) * np.cos(azimuth), np.sin(polar) * np.sin(azimuth), np.cos(polar)])
 
     @cached_property
@@ -77,8 +82,7 @@ class CapSurface:
 
     @cached_property
     def tangents(self) -> np.ndarray:
-        n = self.normals
-        azimuth = np.arange(self.count) * GOLDEN_ANGLE
+        n, azimuth = self.normals, self.azimuth
         east = np.column_stack([-np.sin(azimuth), np.cos(azimuth), np.zeros(self.count)])
         meridian = np.cross(east, n)  # away from the apex, tangent
         return np.stack([meridian, east], axis=1)

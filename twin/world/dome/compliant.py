@@ -34,17 +34,18 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, replace
+from functools import lru_cache
 
 import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from twin.core.errors import PhysicsError
-from twin.core.poses import Pose, invert_transform, matrix_to_quat_wxyz
+from twin.core.poses import invert_transform, make_transform, matrix_to_quat_wxyz
 from twin.core.sensor import TacTipGeometry
 from twin.world.dome.compliance import CapSurface, DomeCompliance
 from twin.world.dome.contact import ContactNotConverged, solve_increment
-from twin.world.dome.physics import Frame
+from twin.world.dome.physics import Frame, physics_error
 
 
 @dataclass(frozen=True)
@@ -139,6 +140,7 @@ class CompliantPhysics:
         self.solve_seconds = 0.0  # of which in the contact solver (s)
         self.iterations = 0       # solver iterations, all increments
         self._commanded = np.asarray(start_tool2world, float)
+        self._at = self._commanded  # the pose of the increment being solved (named in errors)
         self._object2tool = self._object_pose(self._commanded)
         self._increment(self._object2tool)
 
@@ -156,14 +158,11 @@ class CompliantPhysics:
         distance, angle = float(np.linalg.norm(delta)), float(np.linalg.norm(rotvec))
         n = max(1, math.ceil(distance / p.step_length - 1e-9), math.ceil(math.degrees(angle) / p.step_angle_deg - 1e-9))
         duration = max(distance / (speed_mm_s * 1e-3), angle / self.angular_speed)
-        pose = np.eye(4)
         for k in range(1, n + 1):
             s = k / n
-            pose[:3, :3] = start[:3, :3] @ Rotation.from_rotvec(rotvec * s).as_matrix()
-            pose[:3, 3] = start[:3, 3] + delta * s
+            self._at = make_transform(start[:3, :3] @ Rotation.from_rotvec(rotvec * s).as_matrix(), start[:3, 3] + delta * s)
             self.time += duration / n
-            self._at = pose
-            self._increment(self._object_pose(pose))
+            self._increment(self._object_pose(self._at))
         self._commanded = target
         return n
 
@@ -301,22 +300,11 @@ class CompliantPhysics:
             self._fail(f"a pin moved {moved * 1e3:.3f} mm from rest (> {p.max_pin_excursion * 1e3:.3f} mm)")
 
     def _fail(self, what: str) -> None:
-        pose = getattr(self, "_at", self._commanded)
-        lab = Pose.from_matrix(self.world2work @ pose)
-        raise PhysicsError(
-            f"[{self.scenario_name}] increment {self._steps} (t = {self.time:.4f} s) at pose x={lab.x:.3f} "
-            f"y={lab.y:.3f} z={lab.z:.3f} mm, α={lab.alpha:.2f} β={lab.beta:.2f} γ={lab.gamma:.2f} deg: {what}")
+        raise physics_error(self.scenario_name, f"increment {self._steps}", self.time, self.world2work, self._at, what)
 
 
-_COMPLIANCE: dict[tuple, DomeCompliance] = {}
-
-
+@lru_cache(maxsize=4)
 def dome_compliance(surface: CapSurface, young: float, poisson: float) -> DomeCompliance:
     """The influence matrices for this surface and material, shared within the process
     (columns computed once, on first contact)."""
-    key = (surface.geometry, surface.spacing, surface.extent_deg, young, poisson)
-    if key not in _COMPLIANCE:
-        if len(_COMPLIANCE) >= 4:
-            _COMPLIANCE.pop(next(iter(_COMPLIANCE)))
-        _COMPLIANCE[key] = DomeCompliance(surface, young, poisson)
-    return _COMPLIANCE[key]
+    return DomeCompliance(surface, young, poisson)

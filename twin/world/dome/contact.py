@@ -38,9 +38,8 @@ class ContactNotConverged(RuntimeError):
 class ContactIncrement:
     """The solution of one increment, for the candidate nodes.
 
-    pressure (m,) N ≥ 0; traction (m, 2) N in (t1, t2); forces (m, 3) N on the dome and
-    displacement (m, 3) m of the candidates, both in the nodes' local frames (n, t1, t2);
-    gap (m,) m after deformation (rigid gap + inward displacement);
+    pressure (m,) N ≥ 0; traction (m, 2) N in (t1, t2); forces (m, 3) N on the dome in
+    the nodes' local frames (n, t1, t2);
     iterations: projected-gradient iterations (both problems, all passes); passes:
     normal/tangential alternations; residual: final residual (m).
     """
@@ -48,8 +47,6 @@ class ContactIncrement:
     pressure: np.ndarray
     traction: np.ndarray
     forces: np.ndarray
-    displacement: np.ndarray
-    gap: np.ndarray
     iterations: int
     passes: int
     residual: float
@@ -192,6 +189,4 @@ def solve_increment(compliance: np.ndarray, gap: np.ndarray, previous_tangential
         raise ContactNotConverged(f"normal/tangential alternation: coupling still changing by {residual:.3g} m after "
                                   f"{max_passes} passes (tolerance {tolerance:.3g} m)")
     traction = q.reshape(m, 2)
-    forces = np.column_stack([-p, traction])
-    displacement = (compliance @ forces.ravel()).reshape(m, 3)
-    return ContactIncrement(p, traction, forces, displacement, gap - displacement[:, 0], iterations, passes, residual)
+    return ContactIncrement(p, traction, np.column_stack([-p, traction]), iterations, passes, residual)

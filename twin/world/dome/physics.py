@@ -94,6 +94,16 @@ class Frame:
     last_motion_px: float = 0.0
 
 
+def physics_error(scenario_name: str, where: str, time_s: float, world2work: np.ndarray, tool2world: np.ndarray,
+                  what: str) -> PhysicsError:
+    """The PhysicsError of a dome model: scenario, `where` ("step 12"), simulated time (s),
+    the commanded pose in the lab convention (work frame, mm/deg) and what failed."""
+    lab = Pose.from_matrix(world2work @ tool2world)
+    return PhysicsError(
+        f"[{scenario_name}] {where} (t = {time_s:.4f} s) at pose x={lab.x:.3f} y={lab.y:.3f} z={lab.z:.3f} mm, "
+        f"α={lab.alpha:.2f} β={lab.beta:.2f} γ={lab.gamma:.2f} deg: {what}")
+
+
 class PinMap:
     """Pin tips (tool frame, m) as an affine function of the flex nodes' joint positions.
 
@@ -455,13 +465,8 @@ class SensorPhysics:
         return total
 
     def _fail(self, what: str, pose: np.ndarray | None = None) -> None:
-        pose = self._commanded if pose is None else pose
-        lab = Pose.from_matrix(self.world2work @ pose)
-        raise PhysicsError(
-            f"[{self.scenario_name}] step {self._steps} (t = {self.data.time:.4f} s) at pose "
-            f"x={lab.x:.3f} y={lab.y:.3f} z={lab.z:.3f} mm, α={lab.alpha:.2f} β={lab.beta:.2f} "
-            f"γ={lab.gamma:.2f} deg: {what}"
-        )
+        raise physics_error(self.scenario_name, f"step {self._steps}", self.data.time, self.world2work,
+                            self._commanded if pose is None else pose, what)
 
     @property
     def steps(self) -> int:
