@@ -29,6 +29,10 @@ BAD = {
     "typo_field": ("name: x\nobject: {name: rectangle}\nfidelty: fast\n", "fidelty", "fast"),
     "friction_without_contact": ("name: x\nobject: {name: rectangle}\neffects: [friction]\n", "effects", "friction"),
     "not_yaml": ("name: [x\n", "line", "YAML"),
+    "flex_override_on_compliant": ("name: x\nobject: {name: rectangle}\ndome: compliant\nphysics: {cellcount: [4, 4, 2]}\n",
+                                   "physics.cellcount", "compliant"),
+    "sealed_gel_on_flex": ("name: x\nobject: {name: rectangle}\nphysics: {gel_enclosed: false}\n",
+                           "physics.gel_enclosed", "flex"),
 }
 
 

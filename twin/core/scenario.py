@@ -77,6 +77,9 @@ class PhysicsOverrides(StrictModel):
                                             "else ≥ 0.5", None)
     membrane_young_mpa: float | None = bounded(0, 10, "MPa", "skin membrane's Young's modulus (twin.world.dome.flex), "
                                                "0 = off", None)
+    gel_enclosed: bool | None = Field(
+        default=None, description="compliant dome: the gel is sealed in the dome and keeps its volume (default true); "
+                                  "false = an open elastic half-space, the body of the closed-form contact checks")
 
     @field_validator("skin_spacing_mm")
     @classmethod
@@ -88,9 +91,14 @@ class PhysicsOverrides(StrictModel):
     #: overrides that only the flex dome has
     FLEX_ONLY: ClassVar[tuple[str, ...]] = ("cellcount", "timestep_s", "settle_px", "skin_spacing_mm", "membrane_young_mpa")
 
+    #: overrides that only the compliant dome has
+    COMPLIANT_ONLY: ClassVar[tuple[str, ...]] = ("gel_enclosed",)
+
     def as_compliant_changes(self) -> dict:
         """The overrides for the compliant dome (twin.world.dome.compliant.CompliantParams)."""
-        return {} if self.surface_spacing_mm is None else {"spacing": self.surface_spacing_mm * 1e-3}
+        changes = {"spacing": None if self.surface_spacing_mm is None else self.surface_spacing_mm * 1e-3,
+                   "enclosed": self.gel_enclosed}
+        return {k: v for k, v in changes.items() if v is not None}
 
     def as_dome_changes(self) -> dict:
         changes = {"cellcount": None if self.cellcount is None else tuple(self.cellcount), "timestep": self.timestep_s,
@@ -193,10 +201,11 @@ class Scenario(StrictModel):
 
     @model_validator(mode="after")
     def _overrides_fit_the_dome(self) -> "Scenario":
-        if self.dome == "compliant":
-            given = [f"physics.{k}" for k in PhysicsOverrides.FLEX_ONLY if getattr(self.physics, k) is not None]
-            if given:
-                raise ValueError(f"{', '.join(given)}: only for the flex dome (this scenario has dome: compliant)")
+        other = "flex" if self.dome == "compliant" else "compliant"
+        only = PhysicsOverrides.FLEX_ONLY if other == "flex" else PhysicsOverrides.COMPLIANT_ONLY
+        given = [f"physics.{k}" for k in only if getattr(self.physics, k) is not None]
+        if given:
+            raise ValueError(f"{', '.join(given)}: only for the {other} dome (this scenario has dome: {self.dome})")
         return self
 
     def has(self, effect: str) -> bool:

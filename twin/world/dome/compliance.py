@@ -18,6 +18,21 @@ compliance — the 1/r kernel is convex — and made a Hertz press 3 % too stiff
 singular self term is the displacement at the disc's centre under the uniform traction
 (normal: (1 − ν) F / (π a G); tangential: (2 − ν) F / (2 π a G)).
 
+The sealed dome (`enclosed`): the real gel fills a closed volume — the skin over a rigid
+base — so what a contact pushes in must come out elsewhere. A half-space has no such
+bound: its surface sinks in around a press (the contact radius is Hertz's √(Rδ), half
+the geometric overlap's area) and the displaced volume is lost to infinity; on the
+TacTip an edge 6 mm from the centre then never enters a 2–4 mm press. The enclosed
+model adds the gel's pressure change p as a Lagrange multiplier: p acts on every cap
+node (force p·A·n) and is set by the gel's volume balance, the skin's volume change
+equal to the gel's compression: Aᵀu = −p V / K (V the gel's volume, K its bulk modulus;
+K = ∞ at ν = 0.5, where the volume is conserved exactly). With h = C A (the nodes'
+displacement per Pa), the constrained compliance is C − h hᵀ / (Aᵀh + V/K): symmetric,
+positive semi-definite, a rank-one update of the half-space's. (C is symmetric to
+0.06 % here — Maxwell–Betti, broken only by the per-node tangent half-spaces — so
+h is averaged with Cᵀ A.) Only the modelled cap carries the pressure: the skin beyond
+`extent_deg` is taken as held by the base.
+
 Everything in the tool frame (m): apex at the origin, +z out of the tip.
 """
 from __future__ import annotations
@@ -207,7 +222,8 @@ def _unit(v: np.ndarray) -> np.ndarray:
 
 
 class DomeCompliance:
-    """The dome's influence matrices for a material, filled lazily column by column.
+    """The dome's influence matrices for a material, filled lazily column by column
+    (all at once on first contact when `enclosed`: the gel pressure's mode needs them).
 
     Everything in the tool frame. `block(rows, cols)`:
     displacements of nodes `rows` per unit force at nodes `cols` (m/N); pin_displacement:
@@ -216,12 +232,12 @@ class DomeCompliance:
     kept for the life of the dome: the matrices are never assembled whole.
     """
 
-    def __init__(self, surface: CapSurface, young: float, poisson: float) -> None:
+    def __init__(self, surface: CapSurface, young: float, poisson: float, enclosed: bool = True) -> None:
         if not (young > 0 and 0.0 <= poisson <= 0.5):
             raise ValueError(f"dome material: need young > 0 Pa and 0 <= poisson <= 0.5, got {young}, {poisson}")
         self.surface = surface
         self.pin_tips = surface.geometry.pin_tip_points()
-        self.young, self.poisson = young, poisson
+        self.young, self.poisson, self.enclosed = young, poisson, enclosed
         self.shear_modulus = young / (2.0 * (1.0 + poisson))
         n = surface.count
         # stored by source node (column), so an untouched column's pages are never mapped
@@ -244,18 +260,51 @@ class DomeCompliance:
         self._pins[todo] = np.transpose(pins, (2, 3, 0, 1))
         self._filled[todo] = True
 
+    @property
+    def gel_volume(self) -> float:
+        """m³: the gel's volume, a hemisphere inside the skin (the dome's base is rigid)."""
+        return 2.0 / 3.0 * math.pi * self.surface.geometry.skin_inner_radius ** 3
+
+    @cached_property
+    def pressure_mode(self) -> tuple[np.ndarray, np.ndarray, float]:
+        """The sealed gel's pressure mode (module doc): the nodes' displacement per unit
+        gel pressure h (N, 3) m/Pa, the pin tips' (127, 3) m/Pa, and the volume compliance
+        Aᵀh + V/K (m³/Pa). Needs every column (the one-off cost of `enclosed`)."""
+        s = self.surface
+        self.fill(np.arange(s.count))
+        pressure_forces = s.area * s.normals                      # N per Pa of gel pressure
+        h = 0.5 * (np.einsum("jbia,jb->ia", self._surface, pressure_forces)
+                   + np.einsum("jbia,ia->jb", self._surface, pressure_forces))
+        pins = np.einsum("jbia,jb->ia", self._pins, pressure_forces)
+        bulk = self.young / (3.0 * (1.0 - 2.0 * self.poisson)) if self.poisson < 0.5 else math.inf
+        return h, pins, float(np.sum(pressure_forces * h)) + self.gel_volume / bulk
+
+    def gel_pressure(self, cols: np.ndarray, forces: np.ndarray) -> float:
+        """Pa: the sealed gel's pressure change under forces (len(cols), 3) N at `cols`
+        (0 for an open half-space)."""
+        if not self.enclosed:
+            return 0.0
+        h, _, volume_compliance = self.pressure_mode
+        return -float(np.sum(h[cols] * forces)) / volume_compliance
+
     def block(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
         """(3·len(rows), 3·len(cols)) m/N: displacements of `rows` per force at `cols`."""
         self.fill(cols)
         stored = self._surface[np.ix_(cols, range(3), rows, range(3))]
-        return np.transpose(stored, (2, 3, 0, 1)).reshape(3 * len(rows), 3 * len(cols))
+        block = np.transpose(stored, (2, 3, 0, 1)).reshape(3 * len(rows), 3 * len(cols))
+        if self.enclosed:
+            h, _, volume_compliance = self.pressure_mode
+            block -= np.outer(h[rows].ravel(), h[cols].ravel()) / volume_compliance
+        return block
 
     def surface_displacement(self, cols: np.ndarray, forces: np.ndarray) -> np.ndarray:
         """(N, 3) m: every node's displacement under forces (len(cols), 3) N at `cols`."""
         self.fill(cols)
-        return np.einsum("jbia,jb->ia", self._surface[cols], forces)
+        u = np.einsum("jbia,jb->ia", self._surface[cols], forces)
+        return u + self.gel_pressure(cols, forces) * self.pressure_mode[0] if self.enclosed else u
 
     def pin_displacement(self, cols: np.ndarray, forces: np.ndarray) -> np.ndarray:
         """(127, 3) m: the pin tips' displacement under forces (len(cols), 3) N at `cols`."""
         self.fill(cols)
-        return np.einsum("jbia,jb->ia", self._pins[cols], forces)
+        u = np.einsum("jbia,jb->ia", self._pins[cols], forces)
+        return u + self.gel_pressure(cols, forces) * self.pressure_mode[1] if self.enclosed else u

@@ -9,7 +9,7 @@ every increment of the path:
   ray per surface node from the dome's sphere centre along the node's normal
   (mj_multiRay), which gives every node's rigid gap to the object along its normal;
 * the dome is the influence model of twin.world.dome.compliance (Boussinesq–Cerruti, a
-  node every `spacing` on the cap);
+  node every `spacing` on the cap, and the sealed gel's pressure keeping its volume);
 * each increment is one frictional contact problem (twin.world.dome.contact): Signorini
   contact and Coulomb friction whose stick/slip state and tractions carry over from the
   previous increment — the path dependence the paper is about;
@@ -53,9 +53,9 @@ class CompliantParams:
     """Material, resolution and solver parameters of the compliant dome (SI units).
 
     young (Pa), poisson (–): the skin + gel as one elastic solid. The gel is a silicone
-      (ν ≈ 0.5, incompressible); young is the effective modulus of skin over gel, set so
-      that a 4 mm press centred on a straight edge gives the same force as the flex model
-      (≈ 4.3 N, "a few N at 4 mm" as the real sensor) — assets/tactip/README.md.
+      (ν ≈ 0.5, incompressible); young is the effective modulus of skin over sealed gel,
+      set so that a 4 mm press centred on a straight edge gives the same force as the flex
+      model (4.29 N; ≈ 4.3 N, "a few N at 4 mm" as the real sensor) — assets/tactip/README.md.
     spacing (m): node spacing on the outer surface (the pins are 3.3 mm apart).
     extent_deg (deg): half-angle of the modelled cap; the pins reach 61°, a 6 mm press on
       a flat 51°.
@@ -68,9 +68,11 @@ class CompliantParams:
     tolerance (m), max_iterations: contact solver residual and iteration limit (1 px of
       pin motion ≈ 75 µm; 0.1 µm moved the pins ≤ 0.003 px from 0.01 µm).
     max_penetration (m), max_force (N), max_pin_excursion (m): the per-increment checks.
+    enclosed: the gel is sealed in the dome and keeps its volume (twin.world.dome.compliance);
+      False is an open half-space, the body of the closed-form contact checks.
     """
 
-    young: float = 9.1e4
+    young: float = 5.3e4
     poisson: float = 0.5
     spacing: float = 0.0015
     extent_deg: float = 65.0
@@ -82,6 +84,7 @@ class CompliantParams:
     max_penetration: float = 1e-6
     max_force: float = 50.0
     max_pin_excursion: float = 0.012
+    enclosed: bool = True
 
     def with_(self, **changes) -> "CompliantParams":
         return replace(self, **changes)
@@ -115,7 +118,7 @@ class CompliantPhysics:
         self.scenario_name = scenario_name
         self.geometry = TacTipGeometry() if geometry is None else geometry
         self.surface = CapSurface(self.geometry, params.spacing, params.extent_deg)
-        self.compliance = dome_compliance(self.surface, params.young, params.poisson)
+        self.compliance = dome_compliance(self.surface, params.young, params.poisson, params.enclosed)
         self.world2work = np.eye(4) if work2world is None else invert_transform(np.asarray(work2world, float))
         self.stimulus2world = np.eye(4) if stimulus2world is None else np.asarray(stimulus2world, float)
         self.angular_speed = math.radians(angular_speed_deg_s)
@@ -304,7 +307,7 @@ class CompliantPhysics:
 
 
 @lru_cache(maxsize=4)
-def dome_compliance(surface: CapSurface, young: float, poisson: float) -> DomeCompliance:
+def dome_compliance(surface: CapSurface, young: float, poisson: float, enclosed: bool) -> DomeCompliance:
     """The influence matrices for this surface and material, shared within the process
     (columns computed once, on first contact)."""
-    return DomeCompliance(surface, young, poisson)
+    return DomeCompliance(surface, young, poisson, enclosed)
