@@ -16,8 +16,9 @@ import pytest
 from twin.world.dome.flex import FIDELITY_LEVELS
 from twin.core.errors import PhysicsError
 from twin.world.dome.testbed import edge_scene, sensor_down
-from twin.tools.sweep import (CSV_COLUMNS, DEFAULT, REFERENCE, Probe, Setting, dominates, dominators, markdown_table,
-                        pareto_flags, quick_settings, run_sweep)
+from twin.core.errors import UserError
+from twin.tools.sweep import (COMPLIANT_REFERENCE, CSV_COLUMNS, DEFAULT, REFERENCE, Probe, Setting, dominates, dominators,
+                              markdown_table, pareto_flags, peers, quick_settings, run_sweep)
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -180,3 +181,38 @@ def test_converged_pins_are_near_the_frame_and_leave_the_simulation_untouched() 
     assert physics.steps == physics0.steps
     assert np.array_equal(data.qpos, data0.qpos) and np.array_equal(data.qvel, data0.qvel)
     assert np.array_equal(data.qacc_warmstart, data0.qacc_warmstart)
+
+
+@pytest.mark.slow
+def test_compliant_settings_are_measured_against_their_own_reference(tmp_path) -> None:
+    """Both dome models in one sweep: each setting's pin error is against its own model's
+    reference (the compliant reference against itself: 0), pin fronts never mix the models,
+    the contour front does; without its reference a model's settings are refused."""
+    tiny = Probe(tap_orientations_deg=(0.0, 180.0), slide_orientations_deg=(0.0,), directions_deg=(90.0,),
+                 lateral_mm=(9.9, 4.0, 0.0, -4.0), tap_depths_mm=(2.0, 4.0), contour_max_steps=3, gp_restarts=0)
+    pins = ("contact", "friction")
+    settings = [Setting(REFERENCE, "reference", "fast", effects=pins),
+                Setting(COMPLIANT_REFERENCE, "compliant dome", "default", effects=pins, dome="compliant"),
+                Setting("compliant_fast", "compliant dome", "fast", effects=pins, dome="compliant")]
+    rows = run_sweep(tmp_path, settings=settings, probe=tiny, workers=1, verbose=False)
+    flex_ref, ref, fast = rows
+    assert all(r["status"] == "ok" for r in rows), [(r["setting"], r["error"]) for r in rows]
+    assert ref["dome"] == fast["dome"] == "compliant" and flex_ref["dome"] == "flex"
+    assert ref["pin_rms_px"] == 0.0 and flex_ref["pin_rms_px"] == 0.0
+    assert 0.0 < fast["pin_rms_px"] < 5.0  # 2.5 mm against 1.5 mm nodes: close, not equal
+    assert ref["on_front"] is True and flex_ref["on_front"] is True  # one front per model
+    assert ref["cellcount"] == "1.5 mm nodes" and ref["timestep_s"] is None
+    assert all(isinstance(r["on_front_contour"], bool) for r in rows)
+    md = (tmp_path / "sweep.md").read_text()
+    assert "compliant_reference" in md and "contour front" in md
+    with pytest.raises(UserError, match="compliant_reference"):
+        run_sweep(tmp_path / "no_ref", settings=settings[:1] + settings[2:], probe=tiny, workers=1, verbose=False)
+
+
+def test_pin_fronts_stay_within_a_dome_model_and_the_contour_front_spans_both() -> None:
+    flex = {**_row("flex_slow", 100.0, 1.0, output="pins"), "dome": "flex", "contour_path_mean_mm": 3.0}
+    comp = {**_row("compliant_fast", 10.0, 0.5, output="pins"), "dome": "compliant", "contour_path_mean_mm": 1.0}
+    assert not peers(comp, flex) and peers(comp, flex, "contour_path_mean_mm")
+    assert pareto_flags([flex, comp]) == [True, True]  # faster and "more accurate", but against another reference
+    assert pareto_flags([flex, comp], "contour_path_mean_mm") == [False, True]
+    assert pareto_flags([flex, comp], by_output=False) == [True, True]

@@ -83,3 +83,17 @@ def test_write_shear_figure_returns_the_numbers(tmp_path):
     for n in numbers["directions"].values():
         assert set(n) == {"mean_shift_px", "mean_abs_shift_px", "max_shift_px", "central_pin_shift_px"}
         assert np.all(np.isfinite(n["mean_shift_px"]))
+
+
+@pytest.mark.parametrize("friction", [False, True])
+def test_compliant_dome_figure(tmp_path, friction):
+    """`twin figure shear --dome compliant`: without friction each slide sample is the tap
+    at the same lateral position (quasi-static, path-independent: < 0.3 px, the taps being
+    interpolated between 2 mm apart positions); with friction sliding shifts the pins."""
+    numbers = write_shear_figure(tmp_path / "fig2_compliant.png", fidelity="fast", friction=friction, dome="compliant")
+    assert numbers["dome"] == "compliant" and (tmp_path / "fig2_compliant.png").is_file()
+    along = numbers["directions"][90.0]  # along the edge, 6 mm onto the object: the tap there is exact
+    if friction:
+        assert along["mean_abs_shift_px"] > 1.0
+    else:
+        assert along["mean_abs_shift_px"] < 0.3

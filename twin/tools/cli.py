@@ -160,7 +160,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
 def _cmd_figure(args: argparse.Namespace) -> int:
 
-    numbers = write_shear_figure(Path(args.out), fidelity=args.fidelity, friction=not args.no_friction)
+    numbers = write_shear_figure(Path(args.out), fidelity=args.fidelity, friction=not args.no_friction, dome=args.dome)
     print(f"wrote {args.out}")
     for key, value in numbers.items():
         print(f"  {key}: {value}")
@@ -261,6 +261,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="out/fig2_shear.png")
     p.add_argument("--fidelity", choices=("fast", "default", "reference"), default="default")
     p.add_argument("--no-friction", action="store_true", help="frictionless contact: slides should match taps")
+    p.add_argument("--dome", choices=("flex", "compliant"), default="flex", help="the dome model (scenario `dome`)")
     p.set_defaults(func=_cmd_figure)
 
     p = sub.add_parser("demo", help="the main job: the six-object contour-following demo")

@@ -37,25 +37,26 @@ DEPTH_MM = 3.0
 CENTRAL_PIN = 0  # pin order of twin.core.sensor: the central pin first
 
 
-def _environment(fidelity: str, friction: bool):
+def _environment(fidelity: str, friction: bool, dome: str = "flex"):
 
     effects = ["contact", "friction"] if friction else ["contact"]
     scenario = scenario_from_dict({
-        "name": f"shear_figure_{fidelity}_{'friction' if friction else 'frictionless'}",
-        "object": {"name": "rectangle"}, "fidelity": fidelity, "effects": effects,
+        "name": f"shear_figure_{dome}_{fidelity}_{'friction' if friction else 'frictionless'}",
+        "object": {"name": "rectangle"}, "fidelity": fidelity, "effects": effects, "dome": dome,
     })
     return SimEnvironment(scenario, start_pose=hover_over(60.0, 0.0, 0.0))
 
 
-def collect_shear_data(fidelity: str = "default", friction: bool = True) -> dict:
-    """Run the taps and the 8 slides; returns the raw traces.
+def collect_shear_data(fidelity: str = "default", friction: bool = True, dome: str = "flex") -> dict:
+    """Run the taps and the 8 slides on the `dome` model ('flex' or 'compliant'); returns
+    the raw traces.
 
     Returns a dict with
       tap_lateral_mm (8,), tap_pins_px (8, 127, 2): the taps across the edge;
       slides: {direction_deg: {"lateral_mm": (8,), "pins_px": (8, 127, 2)}};
       rest_pins_px (127, 2): the no-contact frame.
     """
-    env = _environment(fidelity, friction)
+    env = _environment(fidelity, friction, dome)
     try:
         rest = env.reset().pins_px
         tap_lateral, tap_pins = [], []
@@ -152,14 +153,14 @@ def plot_shear_figure(data: dict, out_png: Path, title: str = "") -> Path:
     return out_png
 
 
-def write_shear_figure(out_png: Path, fidelity: str = "default", friction: bool = True) -> dict:
+def write_shear_figure(out_png: Path, fidelity: str = "default", friction: bool = True, dome: str = "flex") -> dict:
     """Collect the taps and slides, write Fig. 2 to `out_png`, return the numbers.
 
-    Returns shear_numbers(...) plus "png" (path), "fidelity", "friction".
+    Returns shear_numbers(...) plus "png" (path), "fidelity", "friction", "dome".
     """
-    data = collect_shear_data(fidelity, friction)
+    data = collect_shear_data(fidelity, friction, dome)
     label = "with friction" if friction else "frictionless"
-    plot_shear_figure(data, Path(out_png), f"Sliding vs tapping across an edge ({fidelity}, {label})")
+    plot_shear_figure(data, Path(out_png), f"Sliding vs tapping across an edge ({dome} dome, {fidelity}, {label})")
     numbers = shear_numbers(data)
-    numbers.update({"png": str(out_png), "fidelity": fidelity, "friction": friction})
+    numbers.update({"png": str(out_png), "fidelity": fidelity, "friction": friction, "dome": dome})
     return numbers

@@ -48,7 +48,11 @@ Figures per setting (units in the column names; the CSV's columns are `CSV_COLUM
   step limit, lost the contour, or out of the arm's reach: run_contour's stop rules).
 
 The reference setting is the `reference` fidelity level with projected pins (no render:
-exact pins, so its pin error is 0 by construction). **Pareto front** (primary): a setting
+exact pins, so its pin error is 0 by construction). The compliant dome's settings
+(`compliant_*`, twin.world.dome.compliant) are measured against their own reference,
+`compliant_reference`: the two models' pins are not one another's truth, so pin errors
+are compared within a dome model only, while the θ and contour fronts (errors against
+the true orientation and the true contour) place both models together. **Pareto front** (primary): a setting
 is on it when no *peer* setting dominates it, i.e. is no slower and no worse in every
 physics-accuracy figure (pin error *and* settling error, `PRIMARY`) and better beyond the
 noise margins in time or in one of them (`dominates`); the θ and contour fronts weigh one
@@ -110,6 +114,15 @@ if TYPE_CHECKING:
 BASE_EFFECTS: tuple[str, ...] = ("contact", "friction", "render")
 REFERENCE = "reference"
 DEFAULT = "default"
+#: Each dome model's accuracy reference (its reference level, exact projected pins): a
+#: setting's pin error is measured against the reference of its own dome — the two models'
+#: pins are not one another's truth, so their pin errors are never compared.
+COMPLIANT_REFERENCE = "compliant_reference"
+REFERENCES: dict[str, str] = {"flex": REFERENCE, "compliant": COMPLIANT_REFERENCE}
+#: Accuracy columns measured against the dome's own reference (compared within a dome only).
+PIN_METRICS: tuple[str, ...] = ("pin_rms_px", "pin_physics_rms_px", "pin_settling_rms_px")
+#: pareto.png's marker per dome model
+DOME_MARKERS: dict[str, str] = {"flex": "o", "compliant": "^"}
 #: Reference camera resolution (W, H) px: pin errors are expressed at this resolution.
 REFERENCE_RESOLUTION = (640, 480)
 #: The timing pass (`time_setting`): best of this many passes per setting (full, quick
@@ -138,8 +151,10 @@ class Setting:
     """One point of the sweep: the default scenario with one knob turned.
 
     name: short id (CSV `setting`); knob: which knob it turns (groups the table).
-    fidelity: twin.world.dome.flex.FIDELITY_LEVELS key. physics: scenario `physics` overrides
-    (cellcount [i, j, k], timestep_s s, settle_px px, surface_spacing_mm mm, skin_spacing_mm mm).
+    fidelity: the dome model's fidelity level (twin.world.dome.flex.FIDELITY_LEVELS or
+    twin.world.dome.compliant.COMPLIANT_LEVELS). physics: scenario `physics` overrides
+    (cellcount [i, j, k], timestep_s s, settle_px px, surface_spacing_mm mm, skin_spacing_mm mm,
+    gel_enclosed). dome: the scenario's dome model ('flex' or 'compliant').
     effects: scenario effects. camera: scenario `sensor.camera` overrides (width px,
     height px, msaa samples, noise_std grey levels). note: what the setting shows.
     """
@@ -151,6 +166,7 @@ class Setting:
     effects: tuple[str, ...] = BASE_EFFECTS
     camera: dict = field(default_factory=dict)
     note: str = ""
+    dome: str = "flex"
 
     @property
     def renders(self) -> bool:
@@ -164,7 +180,7 @@ class Setting:
     def scenario(self, protocol: dict, seed: int = 0) -> Scenario:
         """The scenario of this setting on the rectangle with `protocol` (a protocol dict)."""
 
-        data = {"name": f"sweep_{self.name}", "object": {"name": "rectangle"},
+        data = {"name": f"sweep_{self.name}", "object": {"name": "rectangle"}, "dome": self.dome,
                 "placement": {"position_mm": [400, 0], "yaw_deg": 0}, "fidelity": self.fidelity,
                 "physics": dict(self.physics), "effects": list(self.effects),
                 "sensor": {"camera": dict(self.camera)}, "seed": seed, "protocol": protocol}
@@ -207,6 +223,18 @@ def full_settings() -> list[Setting]:
         Setting("camera_noise", "effect", effects=BASE_EFFECTS + ("camera_noise",)),
         Setting("friction_off", "effect", effects=("contact", "render"), note="no shear"),
         Setting("arm_dynamics", "effect", effects=BASE_EFFECTS + ("arm_dynamics",)),
+        # the compliant dome (twin.world.dome.compliant): its levels and effects, pin errors
+        # against its own reference
+        Setting(COMPLIANT_REFERENCE, "compliant dome", "reference", effects=no_render, dome="compliant",
+                note="compliant reference level (1 mm nodes, 0.25 mm increments), exact projected pins: its accuracy reference"),
+        Setting("compliant_fast", "compliant dome", "fast", dome="compliant", note="2.5 mm nodes, 1 mm increments"),
+        Setting("compliant_default", "compliant dome", "default", dome="compliant", note="1.5 mm nodes, 0.5 mm increments"),
+        Setting("compliant_render_off", "compliant dome", "default", effects=no_render, dome="compliant",
+                note="compliant, pins projected"),
+        Setting("compliant_friction_off", "compliant dome", "default", effects=("contact", "render"), dome="compliant",
+                note="compliant, no tangential problem"),
+        Setting("compliant_open_gel", "compliant dome", "default", physics={"gel_enclosed": False}, dome="compliant",
+                note="compliant, the gel as an open half-space (not sealed)"),
     ]
 
 
@@ -376,7 +404,8 @@ def probe_setting(setting: Setting, probe: Probe, seed: int = 0) -> dict:
     """
 
     wall0 = time.perf_counter()
-    row: dict = {"setting": setting.name, "knob": setting.knob, "output": setting.output, "fidelity": setting.fidelity,
+    row: dict = {"setting": setting.name, "knob": setting.knob, "output": setting.output, "dome": setting.dome,
+                 "fidelity": setting.fidelity,
                  "effects": "+".join(setting.effects), "status": "ok", "stage": "", "error": "", "note": setting.note}
     out: dict = {"row": row, "slide_pins_px": None, "slide_truth_px": None}
     stage = "build"
@@ -386,8 +415,12 @@ def probe_setting(setting: Setting, probe: Probe, seed: int = 0) -> dict:
         scenario = setting.scenario(probe.contour(), seed)
         params = dome_params(scenario)
         cam = scenario.sensor.camera
-        row.update({"cellcount": "x".join(str(c) for c in params.cellcount), "timestep_s": params.timestep,
-                    "settle_px": params.settle_px, "camera": f"{cam.width}x{cam.height}" if setting.renders else "—",
+        if scenario.dome == "compliant":  # quasi-static: no time step, nothing to settle
+            resolution = {"cellcount": f"{params.spacing * 1e3:g} mm nodes", "timestep_s": None, "settle_px": None}
+        else:
+            resolution = {"cellcount": "x".join(str(c) for c in params.cellcount), "timestep_s": params.timestep,
+                          "settle_px": params.settle_px}
+        row.update({**resolution, "camera": f"{cam.width}x{cam.height}" if setting.renders else "—",
                     "msaa": cam.msaa if setting.renders else 0, "effects": "+".join(scenario.effects)})
         env = SimEnvironment(scenario, seed=seed)
         stage = "taps"
@@ -497,7 +530,7 @@ METRIC_LABELS: dict[str, str] = {
 
 #: Column order of the CSV (everything a row can hold; missing values are blank).
 CSV_COLUMNS: tuple[str, ...] = (
-    "setting", "knob", "output", "fidelity", "cellcount", "timestep_s", "settle_px", "camera", "msaa", "effects",
+    "setting", "knob", "output", "dome", "fidelity", "cellcount", "timestep_s", "settle_px", "camera", "msaa", "effects",
     "status", "stage", "error",
     "physics_ms", "render_ms", "track_ms", "perception_ms", "total_ms",
     "physics_wall_ms", "render_wall_ms", "track_wall_ms", "perception_wall_ms", "total_wall_ms",
@@ -545,7 +578,8 @@ def pareto_flags(rows: list[dict], metrics: str | tuple[str, ...] = PRIMARY,
     (None: a failed row, or no time or first-column figure; failed settings are no
     alternative, so they neither sit on a front nor push others off).
 
-    by_output: compare only peer rows (`peers`: same output kind and camera)."""
+    by_output: compare only peer rows (`peers`: same output kind and camera); pin metrics
+    always compare rows of one dome only."""
     first = metrics if isinstance(metrics, str) else metrics[0]
     flags: list[bool | None] = []
     ok = [r for r in rows if r.get("status") == "ok"]
@@ -553,20 +587,28 @@ def pareto_flags(rows: list[dict], metrics: str | tuple[str, ...] = PRIMARY,
         if b.get("status") != "ok" or not (_finite(b.get("total_ms")) and _finite(b.get(first))):
             flags.append(None)
             continue
-        rivals = [a for a in ok if a is not b and (not by_output or peers(a, b))]
+        rivals = [a for a in ok if a is not b
+                  and (peers(a, b, metrics) if by_output else _same_dome_if_pins(a, b, metrics))]
         flags.append(not any(dominates(a, b, metrics) for a in rivals))
     return flags
 
 
-def peers(a: dict, b: dict) -> bool:
-    """Whether two rows compete on the same front: same output kind ('frames' or 'pins')
-    and, for frames, the same camera resolution (module docstring)."""
-    return a["output"] == b["output"] and a.get("camera") == b.get("camera")
+def peers(a: dict, b: dict, metrics: str | tuple[str, ...] = PRIMARY) -> bool:
+    """Whether two rows compete on the front of `metrics`: same output kind ('frames' or
+    'pins') and, for frames, the same camera resolution (module docstring); for a pin
+    metric (PIN_METRICS, measured against each dome's own reference) also the same dome."""
+    return a["output"] == b["output"] and a.get("camera") == b.get("camera") and _same_dome_if_pins(a, b, metrics)
+
+
+def _same_dome_if_pins(a: dict, b: dict, metrics: str | tuple[str, ...]) -> bool:
+    """Pin metrics compare rows of one dome only (PIN_METRICS); other metrics any two rows."""
+    pin = any(m in PIN_METRICS for m in ((metrics,) if isinstance(metrics, str) else metrics))
+    return not pin or a.get("dome", "flex") == b.get("dome", "flex")
 
 
 def dominators(rows: list[dict], row: dict, metrics: str | tuple[str, ...] = PRIMARY) -> list[str]:
     """Names of the ok peer settings (`peers`) that dominate `row` in total_ms and `metrics`."""
-    return [a["setting"] for a in rows if a is not row and a.get("status") == "ok" and peers(a, row)
+    return [a["setting"] for a in rows if a is not row and a.get("status") == "ok" and peers(a, row, metrics)
             and dominates(a, row, metrics)]
 
 
@@ -585,8 +627,10 @@ def run_sweep(out: Path, quick: bool = False, workers: int | None = None, cluste
     settings = settings if settings is not None else (quick_settings() if quick else full_settings())
     probe = probe if probe is not None else (QUICK_PROBE if quick else FULL_PROBE)
     names = [s.name for s in settings]
-    if REFERENCE not in names:
-        raise UserError(f"the sweep needs the {REFERENCE!r} setting (the pin error is measured against it)")
+    for dome in sorted({s.dome for s in settings}):
+        if REFERENCES[dome] not in names:
+            raise UserError(f"the sweep needs the {REFERENCES[dome]!r} setting: the pin error of every {dome} "
+                            "setting is measured against it")
     if len(set(names)) != len(names):
         raise UserError(f"sweep settings need distinct names, got {names}")
     n_workers = 1 if cluster is None and workers == 1 else (workers or default_workers())
@@ -613,10 +657,9 @@ def run_sweep(out: Path, quick: bool = False, workers: int | None = None, cluste
         if verbose:
             print(f"[timing {i + 1}/{len(settings)}] {row['setting']:18s} {row['total_ms']:7.1f} ms/frame", flush=True)
     wall = time.perf_counter() - wall0
-    ref = results[names.index(REFERENCE)]
-    ref_truth = ref["slide_truth_px"]
-    for result in results:
+    for setting, result in zip(settings, results):
         row = result["row"]
+        ref_truth = results[names.index(REFERENCES[setting.dome])]["slide_truth_px"]
         if ref_truth is not None and result["slide_pins_px"] is not None and len(result["slide_pins_px"]) == len(ref_truth):
             row["pin_rms_px"] = _rms_px(result["slide_pins_px"], ref_truth)
             row["pin_physics_rms_px"] = _rms_px(result["slide_truth_px"], ref_truth)
@@ -625,7 +668,8 @@ def run_sweep(out: Path, quick: bool = False, workers: int | None = None, cluste
         "quick": quick, "probe": asdict(probe), "seed": seed, "workers": n_workers if cluster is None else f"ray {cluster}",
         "wall_s": wall, "machine": f"{platform.machine()}, {os.cpu_count()} cores, {platform.python_version()}",
         "gl": gl.GL_BACKEND, "failures": [f"{r['setting']} ({r['stage']}): {r['error']}" for r in rows if r["status"] != "ok"],
-        "reference": REFERENCE, "default": DEFAULT if DEFAULT in names else None,
+        "reference": REFERENCE, "references": {d: r for d, r in REFERENCES.items() if r in names},
+        "default": DEFAULT if DEFAULT in names else None,
         "timing": {"repeats": repeats, "orientations_deg": list(probe.slide_orientations_deg[:TIMING_ORIENTATIONS])},
         "date": time.strftime("%Y-%m-%d"),
     }
@@ -740,20 +784,22 @@ def _timing_note(meta: dict) -> str:
 def markdown_table(rows: list[dict], meta: dict) -> str:
     """The README's table: one line per setting, then the verdict and how it was measured."""
     head = ("| setting | knob | physics | render | tracking | perception | **total ms/frame** | "
-            "pin err px (phys / track) | settling err px | θ err ° | l err mm | contour err mm (steps, end) | front |")
+            "pin err px (phys / track) | settling err px | θ err ° | l err mm | contour err mm (steps, end) | front | "
+            "contour front |")
     lines = [head, "|" + "|".join(["---"] * (head.count("|") - 1)) + "|"]
     for r in rows:
-        name = f"**{r['setting']}**" if r["setting"] in (DEFAULT, REFERENCE) else r["setting"]
+        name = f"**{r['setting']}**" if r["setting"] in (DEFAULT, *REFERENCES.values()) else r["setting"]
         if r["status"] != "ok":
             name += f" ⚠ failed in {r['stage']}"
         pin = (f"{_fmt(r.get('pin_rms_px'), 2)} ({_fmt(r.get('pin_physics_rms_px'), 2)} / "
                f"{_fmt(r.get('pin_tracking_rms_px'), 2)})")
         front = {True: "●", False: "", None: "—"}[r.get("on_front")]
+        contour_front = {True: "●", False: "", None: "—"}[r.get("on_front_contour")]
         lines.append(f"| {name} | {r['knob']} | {_fmt(r.get('physics_ms'))} | {_fmt(r.get('render_ms'))} | "
                      f"{_fmt(r.get('track_ms'))} | {_fmt(r.get('perception_ms'))} | **{_fmt(r.get('total_ms'))}** | "
                      f"{pin} | {_fmt(r.get('pin_settling_rms_px'), 2)} | {_fmt(r.get('theta_rms_deg'))} | "
                      f"{_fmt(r.get('lateral_rms_mm'), 2)} | "
-                     f"{_contour_cell(r)} | {front} |")
+                     f"{_contour_cell(r)} | {front} | {contour_front} |")
     on = default_on_front(rows)
     default_camera = next((r.get("camera") for r in rows if r["setting"] == DEFAULT), "—")
     if on is None:
@@ -777,8 +823,10 @@ def markdown_table(rows: list[dict], meta: dict) -> str:
         f"Probe: {len(p['tap_orientations_deg'])} orientations × {len(p['lateral_mm'])} lateral × "
         f"{len(p['tap_depths_mm'])} depths taps train PCA + GP; {len(p['slide_orientations_deg'])} orientations × "
         f"{len(p['directions_deg'])} directions × {len(p['lateral_mm'])} samples of slides test it; contour following "
-        f"of the rectangle (≤ {p['contour_max_steps']} steps). {_timing_note(meta)} Pin error: px RMS at 640×480 against the reference's true pins "
-        "at the same poses (physics part: the setting's true pins; tracking part: tracked vs its own true pins). "
+        f"of the rectangle (≤ {p['contour_max_steps']} steps). {_timing_note(meta)} Pin error: px RMS at 640×480 against the true pins "
+        "of its own dome model's reference (flex: reference, compliant: compliant_reference) at the same poses (physics "
+        "part: the setting's true pins; tracking part: tracked vs its own true pins); the two models' pin errors are "
+        "never compared with each other. "
         "Settling error: px RMS at 640×480 of the setting's true pins against the same frames settled on to "
         "convergence (untimed): what the settle tolerance leaves, which the pin error (mostly the grid's "
         "discretisation) cannot see. "
@@ -788,7 +836,9 @@ def markdown_table(rows: list[dict], meta: dict) -> str:
         "projected pins) and, for frames, the same camera (the resolution is the simulated camera's spec, not a "
         "fidelity knob; other resolutions show what a different camera would cost), with noise margins "
         f"({TIME_MARGIN:.0%} time; {ERROR_MARGIN_REL:.0%} or {ERROR_MARGIN_ABS['pin_rms_px']} px pin error, "
-        f"{ERROR_MARGIN_ABS['pin_settling_rms_px']} px settling error). Full figures: sweep.csv; plot: pareto.png.",
+        f"{ERROR_MARGIN_ABS['pin_settling_rms_px']} px settling error) and of the same dome model. Contour front: "
+        "time vs the contour error, the same peers but across both dome models (the error is against the true "
+        f"contour), margin {ERROR_MARGIN_ABS['contour_path_mean_mm']} mm. Full figures: sweep.csv; plot: pareto.png.",
     ]
     return "\n".join(lines + notes) + "\n"
 
@@ -822,22 +872,30 @@ def plot_pareto(rows: list[dict], path: Path) -> Path:
                                 textcoords="offset points", color="red")
             if not pts:
                 continue
-            ax.scatter([r["total_ms"] for r in pts], [r[metric] for r in pts], c=colour, s=22, zorder=3,
-                       label="rendered + tracked" if output == "frames" else "projected pins")
-            front = sorted((r for r in pts if r.get(key)), key=lambda r: r["total_ms"])
-            if front and ringed:
-                ax.scatter([r["total_ms"] for r in front], [r[metric] for r in front], s=90, facecolor="none",
-                           edgecolor=colour, lw=1.0, zorder=2, label="on the pin + settling error front")
-            elif front:
-                ax.step([r["total_ms"] for r in front], [r[metric] for r in front], where="post", color=colour,
-                        lw=1.0, alpha=0.7, zorder=2)
+            for dome, marker in DOME_MARKERS.items():
+                mine = [r for r in pts if r.get("dome", "flex") == dome]
+                if mine:
+                    ax.scatter([r["total_ms"] for r in mine], [r[metric] for r in mine], c=colour, s=22, zorder=3,
+                               marker=marker, label=("rendered + tracked" if output == "frames" else "projected pins")
+                               + ("" if dome == "flex" else f" ({dome} dome)"))
+            # a pin metric's front is per dome model (each against its own reference), the others across both
+            groups = DOME_MARKERS if metric in PIN_METRICS else {None: None}
+            for dome in groups:
+                front = sorted((r for r in pts if r.get(key) and (dome is None or r.get("dome", "flex") == dome)),
+                               key=lambda r: r["total_ms"])
+                if front and ringed:
+                    ax.scatter([r["total_ms"] for r in front], [r[metric] for r in front], s=90, facecolor="none",
+                               edgecolor=colour, lw=1.0, zorder=2, label="on the pin + settling error front")
+                elif front:
+                    ax.step([r["total_ms"] for r in front], [r[metric] for r in front], where="post", color=colour,
+                            lw=1.0, alpha=0.7, zorder=2)
             for r in pts:
                 ax.annotate(r["setting"], (r["total_ms"], r[metric]), fontsize=6, xytext=(3, 3),
                             textcoords="offset points")
                 if r["setting"] == DEFAULT:
                     ax.scatter([r["total_ms"]], [r[metric]], marker="*", s=220, facecolor="none", edgecolor="red",
                                lw=1.2, zorder=4, label="default")
-                if r["setting"] == REFERENCE:
+                if r["setting"] in REFERENCES.values():
                     ax.scatter([r["total_ms"]], [r[metric]], marker="s", s=90, facecolor="none", edgecolor="k",
                                lw=1.0, zorder=4, label="reference")
         ax.set_xscale("log")
