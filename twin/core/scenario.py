@@ -202,7 +202,7 @@ class Scenario(StrictModel):
     @model_validator(mode="after")
     def _overrides_fit_the_dome(self) -> "Scenario":
         other = "flex" if self.dome == "compliant" else "compliant"
-        only = PhysicsOverrides.FLEX_ONLY if other == "flex" else PhysicsOverrides.COMPLIANT_ONLY
+        only = {"flex": PhysicsOverrides.FLEX_ONLY, "compliant": PhysicsOverrides.COMPLIANT_ONLY}[other]
         given = [f"physics.{k}" for k in only if getattr(self.physics, k) is not None]
         if given:
             raise ValueError(f"{', '.join(given)}: only for the {other} dome (this scenario has dome: {self.dome})")

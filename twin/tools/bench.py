@@ -13,9 +13,8 @@ import numpy as np
 
 from twin.world import gl
 from twin.world.render import PinRenderer
-from twin.core.sensor import CameraModel
+from twin.core.sensor import CameraModel, TacTipGeometry
 from twin.core.scenario import ContourProtocol
-from twin.core.sensor import TacTipGeometry
 from twin.world.dome.compliance import CapSurface, DomeCompliance
 from twin.world.dome.compliant import COMPLIANT_LEVELS
 from twin.world.dome.flex import FIDELITY_LEVELS
@@ -174,8 +173,9 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
     wall time of the whole physics calls (stepping or contact increments, pin read-out,
     checks). Returns one dict per (dome, level): ms_per_frame (best), steps_per_frame
     (mean; flex: MuJoCo steps, compliant: contact increments), ms_per_step, precompute_s
-    (compliant: computing every column of the influence matrices, which a run does
-    lazily on first contact and keeps for the process; flex: 0), ratio_to_flex_default.
+    (compliant: DomeCompliance.precompute, every column of the influence matrices and the
+    sealed gel's pressure mode, which a run computes on first contact and keeps for the
+    process; flex: 0), ratio_to_flex_default.
     """
 
     contour = ContourProtocol()
@@ -191,7 +191,7 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
             if dome == "compliant":
                 surface = CapSurface(TacTipGeometry(), params.spacing, params.extent_deg)
                 t0 = time.perf_counter()
-                DomeCompliance(surface, params.young, params.poisson).fill(np.arange(surface.count))
+                DomeCompliance(surface, params.young, params.poisson, params.enclosed).precompute()
                 precompute = time.perf_counter() - t0
             best = np.inf
             for _ in range(repeats + (dome == "compliant")):  # the compliant model's first run fills its columns

@@ -542,6 +542,10 @@ CSV_COLUMNS: tuple[str, ...] = (
 )
 
 
+def _metric_tuple(metrics: str | tuple[str, ...]) -> tuple[str, ...]:
+    return (metrics,) if isinstance(metrics, str) else tuple(metrics)
+
+
 def _finite(v) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
@@ -559,7 +563,7 @@ def dominates(a: dict, b: dict, metrics: str | tuple[str, ...] = PRIMARY) -> boo
     if not (_finite(ta) and _finite(tb)):
         return False
     no_worse, better, compared = ta <= tb * (1 + TIME_MARGIN), ta < tb * (1 - TIME_MARGIN), False
-    for metric in (metrics,) if isinstance(metrics, str) else metrics:
+    for metric in _metric_tuple(metrics):
         ea, eb = a.get(metric), b.get(metric)
         if ea is None and eb is None:
             continue
@@ -580,7 +584,7 @@ def pareto_flags(rows: list[dict], metrics: str | tuple[str, ...] = PRIMARY,
 
     by_output: compare only peer rows (`peers`: same output kind and camera); pin metrics
     always compare rows of one dome only."""
-    first = metrics if isinstance(metrics, str) else metrics[0]
+    first = _metric_tuple(metrics)[0]
     flags: list[bool | None] = []
     ok = [r for r in rows if r.get("status") == "ok"]
     for b in rows:
@@ -602,7 +606,7 @@ def peers(a: dict, b: dict, metrics: str | tuple[str, ...] = PRIMARY) -> bool:
 
 def _same_dome_if_pins(a: dict, b: dict, metrics: str | tuple[str, ...]) -> bool:
     """Pin metrics compare rows of one dome only (PIN_METRICS); other metrics any two rows."""
-    pin = any(m in PIN_METRICS for m in ((metrics,) if isinstance(metrics, str) else metrics))
+    pin = any(m in PIN_METRICS for m in _metric_tuple(metrics))
     return not pin or a.get("dome", "flex") == b.get("dome", "flex")
 
 
@@ -879,8 +883,7 @@ def plot_pareto(rows: list[dict], path: Path) -> Path:
                                marker=marker, label=("rendered + tracked" if output == "frames" else "projected pins")
                                + ("" if dome == "flex" else f" ({dome} dome)"))
             # a pin metric's front is per dome model (each against its own reference), the others across both
-            groups = DOME_MARKERS if metric in PIN_METRICS else {None: None}
-            for dome in groups:
+            for dome in list(DOME_MARKERS) if metric in PIN_METRICS else [None]:
                 front = sorted((r for r in pts if r.get(key) and (dome is None or r.get("dome", "flex") == dome)),
                                key=lambda r: r["total_ms"])
                 if front and ringed:

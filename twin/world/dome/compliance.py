@@ -287,6 +287,13 @@ class DomeCompliance:
         h, _, volume_compliance = self.pressure_mode
         return -float(np.sum(h[cols] * forces)) / volume_compliance
 
+    def precompute(self) -> None:
+        """Everything a run computes at its first contacts: every column, and the sealed
+        gel's pressure mode when `enclosed` (what `twin bench physics` times as one-off)."""
+        self.fill(np.arange(self.surface.count))
+        if self.enclosed:
+            self.pressure_mode  # a cached_property: computed here, once
+
     def block(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
         """(3·len(rows), 3·len(cols)) m/N: displacements of `rows` per force at `cols`."""
         self.fill(cols)
@@ -301,10 +308,14 @@ class DomeCompliance:
         """(N, 3) m: every node's displacement under forces (len(cols), 3) N at `cols`."""
         self.fill(cols)
         u = np.einsum("jbia,jb->ia", self._surface[cols], forces)
-        return u + self.gel_pressure(cols, forces) * self.pressure_mode[0] if self.enclosed else u
+        if self.enclosed:
+            u += self.gel_pressure(cols, forces) * self.pressure_mode[0]
+        return u
 
     def pin_displacement(self, cols: np.ndarray, forces: np.ndarray) -> np.ndarray:
         """(127, 3) m: the pin tips' displacement under forces (len(cols), 3) N at `cols`."""
         self.fill(cols)
         u = np.einsum("jbia,jb->ia", self._pins[cols], forces)
-        return u + self.gel_pressure(cols, forces) * self.pressure_mode[1] if self.enclosed else u
+        if self.enclosed:
+            u += self.gel_pressure(cols, forces) * self.pressure_mode[1]
+        return u
