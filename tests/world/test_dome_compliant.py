@@ -121,16 +121,17 @@ def test_no_contact_effect_solves_nothing():
 
 
 def test_a_calibrated_material_maps_only_onto_parameters_the_model_has():
-    """The compliant dome has no membrane, and the flex grid locks at ν = 0.5: both refused
-    by name; the compliant dome takes ν = 0.5 and its modulus in kPa."""
+    """Both models take the modulus in kPa and a skin membrane in MPa; the flex grid locks
+    at ν = 0.5, refused by name; the compliant dome takes ν = 0.5."""
     from twin.core.errors import UserError
     from twin.world.dome.flex import FIDELITY_LEVELS
     from twin.world.dome.material import apply_dome_material, dome_material_of
 
     compliant = COMPLIANT_LEVELS["default"]
-    assert set(dome_material_of(compliant)) == {"young_kpa", "poisson"}
+    assert dome_material_of(compliant) == {"young_kpa": 53.0, "poisson": 0.5, "membrane_young_mpa": 0.0}
     assert apply_dome_material(compliant, {"young_kpa": 50.0, "poisson": 0.5}).young == pytest.approx(5e4)
-    with pytest.raises(UserError, match="membrane_young_mpa"):
-        apply_dome_material(compliant, {"membrane_young_mpa": 0.3})
+    assert apply_dome_material(compliant, {"membrane_young_mpa": 0.3}).membrane_young == pytest.approx(3e5)
+    with pytest.raises(UserError, match="unknown_kpa"):
+        apply_dome_material(compliant, {"unknown_kpa": 0.3})
     with pytest.raises(UserError, match="poisson"):
         apply_dome_material(FIDELITY_LEVELS["default"], {"poisson": 0.5})

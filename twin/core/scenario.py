@@ -75,8 +75,11 @@ class PhysicsOverrides(StrictModel):
     surface_spacing_mm: float | None = bounded(0.5, 10, "mm", "collision surface spacing", None)
     skin_spacing_mm: float | None = bounded(0, 5, "mm", "skin layer node spacing (twin.world.dome.skin), 0 = off, "
                                             "else ≥ 0.5", None)
-    membrane_young_mpa: float | None = bounded(0, 10, "MPa", "skin membrane's Young's modulus (twin.world.dome.flex), "
-                                               "0 = off", None)
+    membrane_young_mpa: float | None = bounded(0, 10, "MPa", "skin membrane's Young's modulus (flex: "
+                                               "twin.world.dome.flex; compliant: twin.world.dome.compliance), 0 = off",
+                                               None)
+    gel_young_kpa: float | None = bounded(1, 1000, "kPa", "compliant dome: the gel's Young's modulus (the skin "
+                                          "and gel as one solid without a membrane)", None)
     gel_enclosed: bool | None = Field(
         default=None, description="compliant dome: the gel is sealed in the dome and keeps its volume (default true); "
                                   "false = an open elastic half-space, the body of the closed-form contact checks")
@@ -89,15 +92,17 @@ class PhysicsOverrides(StrictModel):
         return v
 
     #: overrides that only the flex dome has
-    FLEX_ONLY: ClassVar[tuple[str, ...]] = ("cellcount", "timestep_s", "settle_px", "skin_spacing_mm", "membrane_young_mpa")
+    FLEX_ONLY: ClassVar[tuple[str, ...]] = ("cellcount", "timestep_s", "settle_px", "skin_spacing_mm")
 
     #: overrides that only the compliant dome has
-    COMPLIANT_ONLY: ClassVar[tuple[str, ...]] = ("gel_enclosed",)
+    COMPLIANT_ONLY: ClassVar[tuple[str, ...]] = ("gel_enclosed", "gel_young_kpa")
 
     def as_compliant_changes(self) -> dict:
         """The overrides for the compliant dome (twin.world.dome.compliant.CompliantParams)."""
         changes = {"spacing": None if self.surface_spacing_mm is None else self.surface_spacing_mm * 1e-3,
-                   "enclosed": self.gel_enclosed}
+                   "enclosed": self.gel_enclosed,
+                   "young": None if self.gel_young_kpa is None else self.gel_young_kpa * 1e3,
+                   "membrane_young": None if self.membrane_young_mpa is None else self.membrane_young_mpa * 1e6}
         return {k: v for k, v in changes.items() if v is not None}
 
     def as_dome_changes(self) -> dict:

@@ -191,7 +191,7 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
             if dome == "compliant":
                 surface = CapSurface(TacTipGeometry(), params.spacing, params.extent_deg)
                 t0 = time.perf_counter()
-                DomeCompliance(surface, params.young, params.poisson, params.enclosed).precompute()
+                DomeCompliance(surface, params.young, params.poisson, params.enclosed, params.membrane_young).precompute()
                 precompute = time.perf_counter() - t0
             best = np.inf
             for _ in range(repeats + (dome == "compliant")):  # the compliant model's first run fills its columns

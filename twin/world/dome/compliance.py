@@ -33,6 +33,15 @@ positive semi-definite, a rank-one update of the half-space's. (C is symmetric t
 h is averaged with Cᵀ A.) Only the modelled cap carries the pressure: the skin beyond
 `extent_deg` is taken as held by the base.
 
+The skin as a membrane (`membrane_young` > 0, off by default): the real skin is a
+rubber shell far stiffer than the gel, which stretches rather than shears. It is added as
+constant-strain membrane triangles through the cap's nodes (`membrane_stiffness`; on a
+sphere it obeys Laplace's law, p = 2 E t w / ((1 − ν) R²), tested), in series with the
+gel: the contact force f is shared between the skin's stiffness K and the gel's
+compliance C, u = (I + C K)⁻¹ C f, and the pins follow the gel under the force the skin
+passes on to it. The skin couples normal and tangential motion (stretching a curved
+membrane moves it normally), which twin.world.dome.contact solves jointly.
+
 Everything in the tool frame (m): apex at the origin, +z out of the tip.
 """
 from __future__ import annotations
@@ -42,6 +51,7 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
+from scipy.spatial import Delaunay
 
 from twin.core.sensor import TacTipGeometry
 
@@ -217,8 +227,54 @@ def post_tip_kernel(geometry: TacTipGeometry, sources: np.ndarray, frames: np.nd
     return tip
 
 
+def _dofs(nodes: np.ndarray) -> np.ndarray:
+    """The (x, y, z) rows of `nodes` in a (3N, ·) matrix."""
+    return (3 * np.asarray(nodes)[:, None] + np.arange(3)).ravel()
+
+
 def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v, axis=1)[:, None]
+
+
+def membrane_stiffness(surface: CapSurface, young: float, poisson: float, thickness: float) -> np.ndarray:
+    """(3N, 3N) N/m: stiffness of the skin as a membrane through the cap's nodes.
+
+    Constant-strain triangles (plane stress, each in its own plane) on the Delaunay
+    triangulation of the nodes' azimuthal-equidistant map; curvature enters through the
+    facets' orientations, so stretching the skin resists normal as well as tangential
+    motion. The skin beyond the modelled cap (to the base, where it is clamped) holds
+    each rim node by a spring of its band's stretching stiffness, E·t·(node's share of
+    the rim) / (band length)."""
+    polar, azimuth = surface.polar, surface.azimuth
+    triangles = Delaunay(np.column_stack([polar * np.cos(azimuth), polar * np.sin(azimuth)])).simplices
+    x = surface.points[triangles]                                     # (T, 3 corners, 3)
+    e1 = _unit(x[:, 1] - x[:, 0])
+    normal = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
+    area = 0.5 * np.linalg.norm(normal, axis=1)
+    e2 = np.cross(normal / (2.0 * area)[:, None], e1)
+    local = np.stack([np.einsum("tck,tk->tc", x - x[:, :1], e) for e in (e1, e2)], axis=2)  # (T, 3, 2)
+    lx, ly = local[..., 0], local[..., 1]
+    b = np.roll(ly, -1, axis=1) - np.roll(ly, -2, axis=1)            # ∂N/∂x · 2A
+    c = np.roll(lx, -2, axis=1) - np.roll(lx, -1, axis=1)            # ∂N/∂y · 2A
+    strain = np.zeros((len(triangles), 3, 3, 2))                      # [t, strain εxx/εyy/γxy, corner, axis]
+    strain[:, 0, :, 0], strain[:, 1, :, 1] = b, c
+    strain[:, 2, :, 0], strain[:, 2, :, 1] = c, b
+    strain /= (2.0 * area)[:, None, None, None]
+    strain = np.einsum("tscl,tlk->tsck", strain, np.stack([e1, e2], axis=1)).reshape(len(triangles), 3, 9)
+    elastic = young / (1.0 - poisson ** 2) * np.array([[1.0, poisson, 0.0], [poisson, 1.0, 0.0],
+                                                        [0.0, 0.0, 0.5 * (1.0 - poisson)]])
+    element = thickness * area[:, None, None] * np.einsum("tsi,sr,trj->tij", strain, elastic, strain)
+    dofs = (3 * triangles[:, :, None] + np.arange(3)).reshape(len(triangles), 9)
+    n = surface.count
+    stiffness = np.zeros((3 * n, 3 * n))
+    np.add.at(stiffness, (dofs[:, :, None], dofs[:, None, :]), element)
+    r = surface.geometry.dome_outer_radius
+    rim = np.flatnonzero(surface.rim)
+    band = r * (0.5 * math.pi - math.radians(surface.extent_deg))
+    share = 2.0 * math.pi * r * math.sin(math.radians(surface.extent_deg)) / len(rim)
+    for i in rim:
+        stiffness[3 * i: 3 * i + 3, 3 * i: 3 * i + 3] += young * thickness * share / band * np.eye(3)
+    return stiffness
 
 
 class DomeCompliance:
@@ -232,12 +288,14 @@ class DomeCompliance:
     kept for the life of the dome: the matrices are never assembled whole.
     """
 
-    def __init__(self, surface: CapSurface, young: float, poisson: float, enclosed: bool = True) -> None:
-        if not (young > 0 and 0.0 <= poisson <= 0.5):
-            raise ValueError(f"dome material: need young > 0 Pa and 0 <= poisson <= 0.5, got {young}, {poisson}")
+    def __init__(self, surface: CapSurface, young: float, poisson: float, enclosed: bool = True,
+                 membrane_young: float = 0.0) -> None:
+        if not (young > 0 and 0.0 <= poisson <= 0.5 and membrane_young >= 0):
+            raise ValueError(f"dome material: need young > 0 Pa, 0 <= poisson <= 0.5 and membrane_young >= 0 Pa, "
+                             f"got {young}, {poisson}, {membrane_young}")
         self.surface = surface
         self.pin_tips = surface.geometry.pin_tip_points()
-        self.young, self.poisson, self.enclosed = young, poisson, enclosed
+        self.young, self.poisson, self.enclosed, self.membrane_young = young, poisson, enclosed, membrane_young
         self.shear_modulus = young / (2.0 * (1.0 + poisson))
         n = surface.count
         # stored by source node (column), so an untouched column's pages are never mapped
@@ -287,15 +345,41 @@ class DomeCompliance:
         h, _, volume_compliance = self.pressure_mode
         return -float(np.sum(h[cols] * forces)) / volume_compliance
 
+    @cached_property
+    def skinned(self) -> tuple[np.ndarray, np.ndarray]:
+        """The dome with its skin as a membrane over the gel (`membrane_young` > 0): the
+        nodes' displacement per nodal force (3N, 3N) m/N and the pin tips' (381, 3N) m/N.
+        The skin's stiffness K and the gel's compliance C act in series with the contact
+        force f: the gel takes g = f − K u and u = C g, so u = (I + C K)⁻¹ C f; the pins
+        follow the gel under g. Needs every column and one dense solve."""
+        s = self.surface
+        self.fill(np.arange(s.count))
+        n = 3 * s.count
+        gel = np.transpose(self._surface, (2, 3, 0, 1)).reshape(n, n)
+        pins = np.transpose(self._pins, (2, 3, 0, 1)).reshape(-1, n)
+        if self.enclosed:
+            h, pins_h, volume_compliance = self.pressure_mode
+            gel = gel - np.outer(h.ravel(), h.ravel()) / volume_compliance
+            pins = pins - np.outer(pins_h.ravel(), h.ravel()) / volume_compliance
+        skin = membrane_stiffness(s, self.membrane_young, 0.5, s.geometry.skin_thickness)
+        nodes = np.linalg.solve(np.eye(n) + gel @ skin, gel)
+        nodes = 0.5 * (nodes + nodes.T)
+        return nodes, pins - (pins @ skin) @ nodes
+
     def precompute(self) -> None:
-        """Everything a run computes at its first contacts: every column, and the sealed
-        gel's pressure mode when `enclosed` (what `twin bench physics` times as one-off)."""
+        """Everything a run computes at its first contacts: every column, the sealed
+        gel's pressure mode when `enclosed`, the skin's coupling when it has one (what
+        `twin bench physics` times as one-off)."""
         self.fill(np.arange(self.surface.count))
         if self.enclosed:
             self.pressure_mode  # a cached_property: computed here, once
+        if self.membrane_young:
+            self.skinned
 
     def block(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
         """(3·len(rows), 3·len(cols)) m/N: displacements of `rows` per force at `cols`."""
+        if self.membrane_young:
+            return self.skinned[0][np.ix_(_dofs(rows), _dofs(cols))]
         self.fill(cols)
         stored = self._surface[np.ix_(cols, range(3), rows, range(3))]
         block = np.transpose(stored, (2, 3, 0, 1)).reshape(3 * len(rows), 3 * len(cols))
@@ -306,6 +390,8 @@ class DomeCompliance:
 
     def surface_displacement(self, cols: np.ndarray, forces: np.ndarray) -> np.ndarray:
         """(N, 3) m: every node's displacement under forces (len(cols), 3) N at `cols`."""
+        if self.membrane_young:
+            return (self.skinned[0][:, _dofs(cols)] @ forces.ravel()).reshape(-1, 3)
         self.fill(cols)
         u = np.einsum("jbia,jb->ia", self._surface[cols], forces)
         if self.enclosed:
@@ -314,6 +400,8 @@ class DomeCompliance:
 
     def pin_displacement(self, cols: np.ndarray, forces: np.ndarray) -> np.ndarray:
         """(127, 3) m: the pin tips' displacement under forces (len(cols), 3) N at `cols`."""
+        if self.membrane_young:
+            return (self.skinned[1][:, _dofs(cols)] @ forces.ravel()).reshape(-1, 3)
         self.fill(cols)
         u = np.einsum("jbia,jb->ia", self._pins[cols], forces)
         if self.enclosed:

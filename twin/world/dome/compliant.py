@@ -70,6 +70,10 @@ class CompliantParams:
     max_penetration (m), max_force (N), max_pin_excursion (m): the per-increment checks.
     enclosed: the gel is sealed in the dome and keeps its volume (twin.world.dome.compliance);
       False is an open half-space, the body of the closed-form contact checks.
+    membrane_young (Pa): the skin as a membrane over the gel (twin.world.dome.compliance.
+      membrane_stiffness), 0 = none; `young` is then the gel's own modulus. Off by default
+      (assets/tactip/README.md: a 0.6 MPa skin over a 26.9 kPa gel, the same 4.3 N, was
+      tried and what it changes is measured there).
     """
 
     young: float = 5.3e4
@@ -85,6 +89,7 @@ class CompliantParams:
     max_force: float = 50.0
     max_pin_excursion: float = 0.012
     enclosed: bool = True
+    membrane_young: float = 0.0
 
     def with_(self, **changes) -> "CompliantParams":
         return replace(self, **changes)
@@ -118,7 +123,7 @@ class CompliantPhysics:
         self.scenario_name = scenario_name
         self.geometry = TacTipGeometry() if geometry is None else geometry
         self.surface = CapSurface(self.geometry, params.spacing, params.extent_deg)
-        self.compliance = dome_compliance(self.surface, params.young, params.poisson, params.enclosed)
+        self.compliance = dome_compliance(self.surface, params.young, params.poisson, params.enclosed, params.membrane_young)
         self.world2work = np.eye(4) if work2world is None else invert_transform(np.asarray(work2world, float))
         self.stimulus2world = np.eye(4) if stimulus2world is None else np.asarray(stimulus2world, float)
         self.angular_speed = math.radians(angular_speed_deg_s)
@@ -307,7 +312,8 @@ class CompliantPhysics:
 
 
 @lru_cache(maxsize=4)
-def dome_compliance(surface: CapSurface, young: float, poisson: float, enclosed: bool) -> DomeCompliance:
+def dome_compliance(surface: CapSurface, young: float, poisson: float, enclosed: bool,
+                    membrane_young: float = 0.0) -> DomeCompliance:
     """The influence matrices for this surface and material, shared within the process
     (columns computed once, on first contact)."""
-    return DomeCompliance(surface, young, poisson, enclosed)
+    return DomeCompliance(surface, young, poisson, enclosed, membrane_young)

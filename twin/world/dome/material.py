@@ -24,7 +24,7 @@ Params = DomeParams | CompliantParams
 
 
 def material_names(params: Params) -> list[str]:
-    """The material names this dome model has (CompliantParams has no membrane)."""
+    """The material names this dome model has."""
     have = {f.name for f in fields(params)}
     return [name for name, (field, _) in _TO_DOME.items() if field in have]
 

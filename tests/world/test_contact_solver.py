@@ -1,0 +1,71 @@
+"""The frictional contact solver (twin.world.dome.contact) on the skinned dome, whose
+skin couples normal and tangential motion, checked against Signorini's and Coulomb's
+conditions themselves: no penetration and no pull, no gap where pressed, the traction
+inside the friction disc, no slip where it is inside, slip against the traction where it
+is on the rim. The two algorithms (semismooth Newton, the alternation) must agree."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from twin.core.sensor import TacTipGeometry
+from twin.world.dome.compliance import CapSurface, DomeCompliance
+from twin.world.dome.contact import alternation_pass, solve_coulomb
+
+TOLERANCE = 1e-8  # m
+MU = 0.7
+
+
+def _problem(membrane_young: float, shift_mm: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """A flat pressed 1.5 mm onto the dome, which then drags the nodes by `shift_mm`
+    along a random direction: (M, offset) in solve_coulomb's convention."""
+    surface = CapSurface(TacTipGeometry(), 0.0025, 65.0)
+    dome = DomeCompliance(surface, 2.7e4, 0.5, enclosed=True, membrane_young=membrane_young)
+    nodes = np.flatnonzero(surface.points[:, 2] > -0.002)
+    frames = surface.frames[nodes]
+    block = dome.block(nodes, nodes).reshape(len(nodes), 3, len(nodes), 3)
+    local = np.einsum("iak,ikjl,jbl->iajb", frames, block, frames).reshape(3 * len(nodes), -1)
+    sign = np.tile([-1.0, 1.0, 1.0], len(nodes))
+    matrix = local * sign[:, None] * sign[None, :]
+    gap = (-surface.points[nodes, 2] - 0.0015) * frames[:, 0, 2]  # the flat at z = −1.5 mm, along each normal
+    direction = np.random.default_rng(seed).normal(size=3) * np.array([1.0, 1.0, 0.0])
+    drag = shift_mm * 1e-3 * direction / np.linalg.norm(direction)
+    offset = np.column_stack([gap, -np.einsum("nij,j->ni", frames[:, 1:], drag)]).ravel()
+    return matrix, offset
+
+
+def _coulomb_violation(matrix: np.ndarray, offset: np.ndarray, forces: np.ndarray) -> float:
+    """The largest violation (m) of Signorini's and Coulomb's conditions at `forces`."""
+    w = (matrix @ forces + offset).reshape(-1, 3)
+    f = forces.reshape(-1, 3)
+    p, h, q, v = f[:, 0], w[:, 0], f[:, 1:], w[:, 1:]
+    scale = 1.0 / np.diag(matrix)[0::3]  # N per m of the node's own motion
+    worst = [np.max(-p / scale), np.max(-h), np.max(np.abs(h[p > 0]), initial=0.0),
+             np.max((np.linalg.norm(q, axis=1) - MU * p) / scale)]
+    rim = np.linalg.norm(q, axis=1) > MU * p - 1e-9 * scale
+    worst.append(np.max(np.linalg.norm(v[~rim], axis=1), initial=0.0))
+    if rim.any():
+        along = q[rim] / np.maximum(np.linalg.norm(q[rim], axis=1), 1e-300)[:, None]
+        worst.append(np.max(np.einsum("ij,ij->i", v[rim], along)))                     # slip opposes q
+        worst.append(np.max(np.abs(v[rim, 0] * along[:, 1] - v[rim, 1] * along[:, 0])))  # and is parallel to it
+    return float(max(worst))
+
+
+@pytest.mark.parametrize("membrane_young", [0.0, 6e5])
+@pytest.mark.parametrize("shift_mm", [0.05, 1.0])
+def test_coulomb_conditions_hold_and_both_algorithms_agree(membrane_young, shift_mm):
+    matrix, offset = _problem(membrane_young, shift_mm, seed=1)
+    newton, iterations, residual = solve_coulomb(matrix, offset, MU, np.zeros_like(offset), TOLERANCE, 20000)
+    assert residual < TOLERANCE
+    assert _coulomb_violation(matrix, offset, newton) < 10 * TOLERANCE
+    pressed = newton[0::3] > 0
+    assert pressed.sum() > 10
+    alternated = np.zeros_like(offset)
+    for _ in range(5000):
+        moved = alternation_pass(matrix, offset, MU, alternated, 0.1 * TOLERANCE, 20000)
+        done = np.max(np.abs(matrix @ (moved - alternated))) < 0.1 * TOLERANCE
+        alternated = moved
+        if done:
+            break
+    assert _coulomb_violation(matrix, offset, alternated) < 10 * TOLERANCE
+    assert np.max(np.abs(newton - alternated)) < 1e-3 * np.max(newton[0::3])
