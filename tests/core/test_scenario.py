@@ -33,6 +33,8 @@ BAD = {
                                    "physics.cellcount", "compliant"),
     "sealed_gel_on_flex": ("name: x\nobject: {name: rectangle}\nphysics: {gel_enclosed: false}\n",
                            "physics.gel_enclosed", "flex"),
+    "gel_modulus_on_flex": ("name: x\nobject: {name: rectangle}\nphysics: {gel_young_kpa: 26.9}\n",
+                            "physics.gel_young_kpa", "flex"),
 }
 
 
