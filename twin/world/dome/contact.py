@@ -277,9 +277,17 @@ def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start
             jacobian[tt.ravel()] = (block / r_t[moving, None, None]).reshape(2 * len(moving), -1)
         lifted = np.flatnonzero(slip & (radius <= 0.0))                     # out of contact: Φt/r = q/r
         jacobian[t_idx[lifted].ravel(), t_idx[lifted].ravel()] = np.repeat(1.0 / r_t[lifted], 2)
+        # rows of nodes out of contact are diagonal: their step is explicit, and only the
+        # nodes in contact need the factorisation
+        explicit = np.concatenate([free, t_idx[lifted].ravel()])
+        coupled = np.setdiff1d(np.arange(len(f)), explicit, assume_unique=True)
+        step = np.empty_like(f)
+        step[explicit] = -phi[explicit] / jacobian[explicit, explicit]
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", LinAlgWarning)  # a singular Jacobian: caught below as a non-finite step
-            step = lu_solve(lu_factor(jacobian, check_finite=False), -phi, check_finite=False)
+            step[coupled] = lu_solve(lu_factor(jacobian[np.ix_(coupled, coupled)], check_finite=False),
+                                     -phi[coupled] - jacobian[np.ix_(coupled, explicit)] @ step[explicit],
+                                     check_finite=False)
         if not np.all(np.isfinite(step)):
             break
         merit, length = float(phi @ phi), 1.0
