@@ -264,7 +264,7 @@ def membrane_stiffness(surface: CapSurface, young: float, poisson: float, thickn
     elastic = young / (1.0 - poisson ** 2) * np.array([[1.0, poisson, 0.0], [poisson, 1.0, 0.0],
                                                         [0.0, 0.0, 0.5 * (1.0 - poisson)]])
     element = thickness * area[:, None, None] * np.einsum("tsi,sr,trj->tij", strain, elastic, strain)
-    dofs = (3 * triangles[:, :, None] + np.arange(3)).reshape(len(triangles), 9)
+    dofs = _dofs(triangles.ravel()).reshape(len(triangles), 9)
     n = surface.count
     stiffness = np.zeros((3 * n, 3 * n))
     np.add.at(stiffness, (dofs[:, :, None], dofs[:, None, :]), element)
@@ -279,7 +279,8 @@ def membrane_stiffness(surface: CapSurface, young: float, poisson: float, thickn
 
 class DomeCompliance:
     """The dome's influence matrices for a material, filled lazily column by column
-    (all at once on first contact when `enclosed`: the gel pressure's mode needs them).
+    (all at once on first contact when `enclosed` or with a skin membrane: the gel
+    pressure's mode and the skin's coupling need them).
 
     Everything in the tool frame. `block(rows, cols)`:
     displacements of nodes `rows` per unit force at nodes `cols` (m/N); pin_displacement:
@@ -353,13 +354,12 @@ class DomeCompliance:
         force f: the gel takes g = f − K u and u = C g, so u = (I + C K)⁻¹ C f; the pins
         follow the gel under g. Needs every column and one dense solve."""
         s = self.surface
-        self.fill(np.arange(s.count))
+        everything = np.arange(s.count)
         n = 3 * s.count
-        gel = np.transpose(self._surface, (2, 3, 0, 1)).reshape(n, n)
+        gel = self._gel_block(everything, everything)
         pins = np.transpose(self._pins, (2, 3, 0, 1)).reshape(-1, n)
         if self.enclosed:
             h, pins_h, volume_compliance = self.pressure_mode
-            gel = gel - np.outer(h.ravel(), h.ravel()) / volume_compliance
             pins = pins - np.outer(pins_h.ravel(), h.ravel()) / volume_compliance
         skin = membrane_stiffness(s, self.membrane_young, 0.5, s.geometry.skin_thickness)
         nodes = np.linalg.solve(np.eye(n) + gel @ skin, gel)
@@ -380,6 +380,10 @@ class DomeCompliance:
         """(3·len(rows), 3·len(cols)) m/N: displacements of `rows` per force at `cols`."""
         if self.membrane_young:
             return self.skinned[0][np.ix_(_dofs(rows), _dofs(cols))]
+        return self._gel_block(rows, cols)
+
+    def _gel_block(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """`block` of the gel alone (sealed when `enclosed`), without the skin membrane."""
         self.fill(cols)
         stored = self._surface[np.ix_(cols, range(3), rows, range(3))]
         block = np.transpose(stored, (2, 3, 0, 1)).reshape(3 * len(rows), 3 * len(cols))

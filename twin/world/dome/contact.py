@@ -190,10 +190,11 @@ def solve_increment(compliance: np.ndarray, gap: np.ndarray, previous_tangential
 
 
 def alternation_pass(matrix: np.ndarray, offset: np.ndarray, friction: float, f: np.ndarray, tolerance: float,
-                     max_iterations: int) -> np.ndarray:
+                     max_iterations: int, lipschitz: float | None = None) -> np.ndarray:
     """One pass of Panagiotopoulos' alternation on `solve_coulomb`'s problem: the normal
     forces for the current tangential ones (exact, `solve_normal`), then the tangential
-    forces within μ·p for those (`projected_gradient`). Returns the new f (3m,) N."""
+    forces within μ·p for those (`projected_gradient`; `lipschitz`: the tangential block's
+    largest eigenvalue, if known). Returns the new f (3m,) N."""
     m = len(offset) // 3
     n_idx = np.arange(m) * 3
     t_idx = np.column_stack([n_idx + 1, n_idx + 2]).ravel()
@@ -201,7 +202,7 @@ def alternation_pass(matrix: np.ndarray, offset: np.ndarray, friction: float, f:
                            np.maximum(f[n_idx], 0.0), tolerance, max_iterations)
     d_tt = matrix[np.ix_(t_idx, t_idx)]
     q, _, _ = projected_gradient(d_tt, offset[t_idx] + matrix[np.ix_(t_idx, n_idx)] @ p, f[t_idx],
-                                 lambda x: project_discs(x, friction * p), tolerance, max_iterations)
+                                 lambda x: project_discs(x, friction * p), tolerance, max_iterations, lipschitz)
     out = np.empty_like(f)
     out[n_idx], out[t_idx] = p, q
     return out
@@ -256,8 +257,6 @@ def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start
         contact, slip, z, size, radius = state
         jacobian = np.zeros_like(matrix)
         jacobian[n_idx[contact]] = matrix[n_idx[contact]]                  # Φn/r = h
-        free = n_idx[~contact]
-        jacobian[free, free] = 1.0 / r_n[~contact]                          # Φn/r = p/r
         stick = ~slip
         rows = t_idx[stick].ravel()
         jacobian[rows] = matrix[rows]                                       # Φt/r = v
@@ -275,14 +274,14 @@ def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start
             dpressure[np.arange(len(moving)), n_idx[moving]] += 1.0
             block -= friction * (pressing[:, None, None] * np.einsum("ka,kj->kaj", zhat, dpressure))
             jacobian[tt.ravel()] = (block / r_t[moving, None, None]).reshape(2 * len(moving), -1)
-        lifted = np.flatnonzero(slip & (radius <= 0.0))                     # out of contact: Φt/r = q/r
-        jacobian[t_idx[lifted].ravel(), t_idx[lifted].ravel()] = np.repeat(1.0 / r_t[lifted], 2)
-        # rows of nodes out of contact are diagonal: their step is explicit, and only the
-        # nodes in contact need the factorisation
-        explicit = np.concatenate([free, t_idx[lifted].ravel()])
+        # out of contact Φn/r = p/r, and Φt/r = q/r where the node slips with no friction
+        # bound: diagonal rows, whose Newton step takes the force to zero explicitly; only
+        # the other rows need the factorisation
+        lifted = np.flatnonzero(slip & (radius <= 0.0))
+        explicit = np.concatenate([n_idx[~contact], t_idx[lifted].ravel()])
         coupled = np.setdiff1d(np.arange(len(f)), explicit, assume_unique=True)
         step = np.empty_like(f)
-        step[explicit] = -phi[explicit] / jacobian[explicit, explicit]
+        step[explicit] = -f[explicit]
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", LinAlgWarning)  # a singular Jacobian: caught below as a non-finite step
             step[coupled] = lu_solve(lu_factor(jacobian[np.ix_(coupled, coupled)], check_finite=False),
@@ -304,8 +303,10 @@ def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start
     # nodes that barely touch): the normal/tangential alternation, linear but steady,
     # finishes from where Newton got to
     done = iteration
+    tangential = t_idx.ravel()
+    lipschitz = largest_eigenvalue(matrix[np.ix_(tangential, tangential)])  # the same for every pass
     for passes in range(1, ALTERNATION_PASSES + 1):
-        moved = alternation_pass(matrix, offset, friction, f, 0.1 * tolerance, max_iterations)
+        moved = alternation_pass(matrix, offset, friction, f, 0.1 * tolerance, max_iterations, lipschitz)
         change = float(np.max(np.abs(matrix @ (moved - f)), initial=0.0))
         f = moved
         if change < tolerance:
