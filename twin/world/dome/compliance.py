@@ -278,15 +278,14 @@ def membrane_stiffness(surface: CapSurface, young: float, poisson: float, thickn
 
 
 class DomeCompliance:
-    """The dome's influence matrices for a material, filled lazily column by column
-    (all at once on first contact when `enclosed` or with a skin membrane: the gel
-    pressure's mode and the skin's coupling need them).
+    """The dome's influence matrices for a material, stored by source node (column).
 
-    Everything in the tool frame. `block(rows, cols)`:
-    displacements of nodes `rows` per unit force at nodes `cols` (m/N); pin_displacement:
-    the pin tips' displacement under local nodal forces. A node's
-    column is computed (closed form, ≈ 0.1 ms) the first time a contact touches it and
-    kept for the life of the dome: the matrices are never assembled whole.
+    Everything in the tool frame. `block(rows, cols)`: displacements of nodes `rows` per
+    unit force at nodes `cols` (m/N); `surface_displacement`, `pin_displacement`: every
+    node's and the pin tips' displacement under nodal forces. A column is closed form
+    (≈ 0.1 ms): the open half-space computes a node's the first time a contact touches it;
+    the sealed gel (`enclosed`) and the skin membrane need them all, computed at the first
+    contact and kept for the life of the dome.
     """
 
     def __init__(self, surface: CapSurface, young: float, poisson: float, enclosed: bool = True,
@@ -303,10 +302,18 @@ class DomeCompliance:
         self._surface = np.zeros((n, 3, n, 3))   # [source j, force axis, node i, displacement axis]
         self._pins = np.zeros((n, 3, len(self.pin_tips), 3))
         self._filled = np.zeros(n, bool)
+        self._sealed = False
         self._self = self_compliance(surface.normals, surface.area, poisson, self.shear_modulus)
 
     def fill(self, nodes: np.ndarray) -> None:
-        """Compute the columns of `nodes` (indices) not computed yet."""
+        """Compute the columns of `nodes` (indices) not computed yet; a sealed gel computes
+        every column at once and folds its pressure into them (`_seal`)."""
+        if self.enclosed:
+            self._seal()
+            return
+        self._compute(nodes)
+
+    def _compute(self, nodes: np.ndarray) -> None:
         todo = nodes[~self._filled[nodes]]
         if not len(todo):
             return
@@ -326,11 +333,11 @@ class DomeCompliance:
 
     @cached_property
     def pressure_mode(self) -> tuple[np.ndarray, np.ndarray, float]:
-        """The sealed gel's pressure mode (module doc): the nodes' displacement per unit
-        gel pressure h (N, 3) m/Pa, the pin tips' (127, 3) m/Pa, and the volume compliance
-        Aᵀh + V/K (m³/Pa). Needs every column (the one-off cost of `enclosed`)."""
+        """The sealed gel's pressure mode (module doc), from the open half-space's columns:
+        the nodes' displacement per unit gel pressure h (N, 3) m/Pa, the pin tips' (127, 3)
+        m/Pa, and the volume compliance Aᵀh + V/K (m³/Pa)."""
         s = self.surface
-        self.fill(np.arange(s.count))
+        self._compute(np.arange(s.count))
         pressure_forces = s.area * s.normals                      # N per Pa of gel pressure
         h = 0.5 * (np.einsum("jbia,jb->ia", self._surface, pressure_forces)
                    + np.einsum("jbia,ia->jb", self._surface, pressure_forces))
@@ -338,13 +345,16 @@ class DomeCompliance:
         bulk = self.young / (3.0 * (1.0 - 2.0 * self.poisson)) if self.poisson < 0.5 else math.inf
         return h, pins, float(np.sum(pressure_forces * h)) + self.gel_volume / bulk
 
-    def gel_pressure(self, cols: np.ndarray, forces: np.ndarray) -> float:
-        """Pa: the sealed gel's pressure change under forces (len(cols), 3) N at `cols`
-        (0 for an open half-space)."""
-        if not self.enclosed:
-            return 0.0
-        h, _, volume_compliance = self.pressure_mode
-        return -float(np.sum(h[cols] * forces)) / volume_compliance
+    def _seal(self) -> None:
+        """Make the stored columns the sealed gel's, once: C − h hᵀ / (Aᵀh + V/K) for the
+        nodes and likewise for the pin tips (the one-off cost of `enclosed`: every column)."""
+        if self._sealed:
+            return
+        h, pins_h, volume_compliance = self.pressure_mode
+        n = 3 * self.surface.count
+        self._surface.reshape(n, n)[...] -= np.outer(h.ravel(), h.ravel() / volume_compliance)
+        self._pins.reshape(n, -1)[...] -= np.outer(h.ravel(), pins_h.ravel() / volume_compliance)
+        self._sealed = True
 
     @cached_property
     def skinned(self) -> tuple[np.ndarray, np.ndarray]:
@@ -357,10 +367,7 @@ class DomeCompliance:
         everything = np.arange(s.count)
         n = 3 * s.count
         gel = self._gel_block(everything, everything)
-        pins = np.transpose(self._pins, (2, 3, 0, 1)).reshape(-1, n)
-        if self.enclosed:
-            h, pins_h, volume_compliance = self.pressure_mode
-            pins = pins - np.outer(pins_h.ravel(), h.ravel()) / volume_compliance
+        pins = self._pins.reshape(n, -1).T
         skin = membrane_stiffness(s, self.membrane_young, 0.5, s.geometry.skin_thickness)
         nodes = np.linalg.solve(np.eye(n) + gel @ skin, gel)
         nodes = 0.5 * (nodes + nodes.T)
@@ -368,11 +375,9 @@ class DomeCompliance:
 
     def precompute(self) -> None:
         """Everything a run computes at its first contacts: every column, the sealed
-        gel's pressure mode when `enclosed`, the skin's coupling when it has one (what
+        gel's pressure folded in when `enclosed`, the skin's coupling when it has one (what
         `twin bench physics` times as one-off)."""
         self.fill(np.arange(self.surface.count))
-        if self.enclosed:
-            self.pressure_mode  # a cached_property: computed here, once
         if self.membrane_young:
             self.skinned
 
@@ -385,29 +390,21 @@ class DomeCompliance:
     def _gel_block(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
         """`block` of the gel alone (sealed when `enclosed`), without the skin membrane."""
         self.fill(cols)
-        stored = self._surface[np.ix_(cols, range(3), rows, range(3))]
-        block = np.transpose(stored, (2, 3, 0, 1)).reshape(3 * len(rows), 3 * len(cols))
-        if self.enclosed:
-            h, _, volume_compliance = self.pressure_mode
-            block -= np.outer(h[rows].ravel(), h[cols].ravel()) / volume_compliance
-        return block
+        n = 3 * self.surface.count
+        return np.ascontiguousarray(self._surface.reshape(n, n)[np.ix_(_dofs(cols), _dofs(rows))].T)
 
     def surface_displacement(self, cols: np.ndarray, forces: np.ndarray) -> np.ndarray:
         """(N, 3) m: every node's displacement under forces (len(cols), 3) N at `cols`."""
         if self.membrane_young:
             return (self.skinned[0][:, _dofs(cols)] @ forces.ravel()).reshape(-1, 3)
         self.fill(cols)
-        u = np.einsum("jbia,jb->ia", self._surface[cols], forces)
-        if self.enclosed:
-            u += self.gel_pressure(cols, forces) * self.pressure_mode[0]
-        return u
+        n = 3 * self.surface.count
+        return np.einsum("j,ji->i", forces.ravel(), self._surface.reshape(n, n)[_dofs(cols)]).reshape(-1, 3)
 
     def pin_displacement(self, cols: np.ndarray, forces: np.ndarray) -> np.ndarray:
         """(127, 3) m: the pin tips' displacement under forces (len(cols), 3) N at `cols`."""
         if self.membrane_young:
             return (self.skinned[1][:, _dofs(cols)] @ forces.ravel()).reshape(-1, 3)
         self.fill(cols)
-        u = np.einsum("jbia,jb->ia", self._pins[cols], forces)
-        if self.enclosed:
-            u += self.gel_pressure(cols, forces) * self.pressure_mode[1]
-        return u
+        pins = self._pins.reshape(3 * self.surface.count, -1)
+        return np.einsum("j,ji->i", forces.ravel(), pins[_dofs(cols)]).reshape(-1, 3)
