@@ -5,16 +5,23 @@ carries it under ``twin/_data`` and it is read through ``importlib.resources``. 
 source checkout the same files are the repository's top-level ``assets/`` and
 ``scenarios/`` folders, which the package finds beside itself.
 
-Caches (trained tap models, compliance matrices) go to the user cache directory
-(``platformdirs``), or to ``$TWIN_CACHE`` when that is set; never into the source tree.
-Each cache entry is keyed on what it depends on, not on source text.
+Caches (trained tap models, the compliant dome's influence matrices) go to the user
+cache directory (``platformdirs``), or to ``$TWIN_CACHE`` when that is set; never into
+the source tree. Each cache entry is keyed on what it depends on and the package version.
 """
 from __future__ import annotations
 
+import contextlib
+import hashlib
+import json
 import os
+import warnings
+import zipfile
+from collections.abc import Callable
 from importlib import metadata, resources
 from pathlib import Path
 
+import numpy as np
 import platformdirs
 
 PACKAGE = "tactip-twin"
@@ -60,3 +67,36 @@ def package_version() -> str:
         return metadata.version(PACKAGE)
     except metadata.PackageNotFoundError:
         return "0+unknown"
+
+
+def cached_arrays(kind: str, key: dict, compute: Callable[[], dict[str, np.ndarray]],
+                  shapes: dict[str, tuple[int, ...]], max_bytes: int = 256 * 2**20) -> dict[str, np.ndarray]:
+    """Arrays computed once and kept in ``cache_dir()/kind``, keyed on `key` (JSON: what
+    they depend on) and the package version. An entry that is missing, unreadable or not
+    of the expected `shapes` is computed again and rewritten; one larger than `max_bytes`
+    (B) is computed every time instead of stored; a cache directory that cannot be
+    written only warns. Entries are written to a temporary file and renamed, so parallel
+    workers computing the same entry never read half of one."""
+    payload = json.dumps({"key": key, "version": package_version()}, sort_keys=True, default=str)
+    path = cache_dir() / kind / f"{hashlib.sha256(payload.encode()).hexdigest()[:16]}.npz"
+    if path.exists():
+        try:
+            with np.load(path, allow_pickle=False) as stored:
+                arrays = {name: stored[name] for name in shapes}
+            if all(arrays[name].shape == tuple(shape) for name, shape in shapes.items()):
+                return arrays
+            warnings.warn(f"{path}: cache entry of the wrong shape; computing it again")
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
+            warnings.warn(f"{path}: unreadable cache entry ({err}); computing it again")
+    arrays = compute()
+    if sum(a.nbytes for a in arrays.values()) <= max_bytes:
+        partial = path.with_name(f"{path.stem}.{os.getpid()}.partial.npz")
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            np.savez(partial, **arrays)
+            os.replace(partial, path)
+        except OSError as err:
+            with contextlib.suppress(OSError):
+                partial.unlink(missing_ok=True)
+            warnings.warn(f"{path}: could not store the cache entry ({err})")
+    return arrays

@@ -46,13 +46,17 @@ Everything in the tool frame (m): apex at the origin, +z out of the tip.
 """
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 import math
 from dataclasses import dataclass
 from functools import cached_property
+from pathlib import Path
 
 import numpy as np
 from scipy.spatial import Delaunay
 
+from twin.core.resources import cached_arrays
 from twin.core.sensor import TacTipGeometry
 
 GOLDEN_ANGLE = math.pi * (3.0 - math.sqrt(5.0))  # rad
@@ -277,6 +281,55 @@ def membrane_stiffness(surface: CapSurface, young: float, poisson: float, thickn
     return stiffness
 
 
+#: what the cached matrices depend on besides their inputs: the code that computes them
+_SOURCE_DIGEST = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
+
+
+def half_space_columns(surface: CapSurface, nodes: np.ndarray, poisson: float,
+                       shear_modulus: float) -> tuple[np.ndarray, np.ndarray]:
+    """The open half-space's columns of `nodes`: every node's displacement (k, 3, N, 3)
+    and the pin tips' (k, 3, 127, 3) per unit force at each (m/N; [source, force axis,
+    point, displacement axis])."""
+    frames, radius = surface.frames, math.sqrt(surface.area / math.pi)
+    block = disc_averaged_kernel(surface.points, surface.points[nodes], frames[nodes], radius, poisson, shear_modulus)
+    block[nodes, :, np.arange(len(nodes)), :] = self_compliance(surface.normals[nodes], surface.area, poisson,
+                                                                shear_modulus)
+    pins = post_tip_kernel(surface.geometry, surface.points[nodes], frames[nodes], radius, poisson, shear_modulus)
+    return np.ascontiguousarray(np.transpose(block, (2, 3, 0, 1))), np.ascontiguousarray(np.transpose(pins, (2, 3, 0, 1)))
+
+
+def sealed_gel(surface: CapSurface, poisson: float, cached: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """The sealed gel's influence matrices at unit shear modulus (G = 1 Pa; at a fixed ν
+    linear elasticity scales as 1/G, so one pair serves every modulus): the nodes'
+    (N, 3, N, 3) and the pin tips' (N, 3, 127, 3), [source, force axis, point,
+    displacement axis], C − h hᵀ / (Aᵀh + V/K) (module doc). Computed once per surface
+    and ν and kept in the cache directory (twin.core.resources.cached_arrays); `cached`
+    False computes them without the cache (what `twin bench physics` times)."""
+    if not cached:
+        arrays = _sealed_gel(surface, poisson)
+        return arrays["nodes"], arrays["pins"]
+    n, pins = surface.count, len(surface.geometry.pin_tip_points())
+    key = {"surface": dataclasses.asdict(surface), "poisson": poisson, "code": _SOURCE_DIGEST}
+    arrays = cached_arrays("compliance", key, lambda: _sealed_gel(surface, poisson),
+                           shapes={"nodes": (n, 3, n, 3), "pins": (n, 3, pins, 3)})
+    return arrays["nodes"], arrays["pins"]
+
+
+def _sealed_gel(surface: CapSurface, poisson: float) -> dict[str, np.ndarray]:
+    nodes, pins = half_space_columns(surface, np.arange(surface.count), poisson, 1.0)
+    pressure_forces = surface.area * surface.normals                        # N per Pa of gel pressure
+    # the nodes' displacement per Pa, symmetrised (C is symmetric to 0.06 %)
+    h = 0.5 * (np.einsum("jbia,jb->ia", nodes, pressure_forces) + np.einsum("jbia,ia->jb", nodes, pressure_forces))
+    pins_h = np.einsum("jbia,jb->ia", pins, pressure_forces)
+    bulk = 2.0 * (1.0 + poisson) / (3.0 * (1.0 - 2.0 * poisson)) if poisson < 0.5 else math.inf  # K / G
+    volume = 2.0 / 3.0 * math.pi * surface.geometry.skin_inner_radius ** 3  # the gel: a hemisphere on a rigid base
+    volume_compliance = float(np.sum(pressure_forces * h)) + volume / bulk
+    n = 3 * surface.count
+    nodes.reshape(n, n)[...] -= np.outer(h.ravel(), h.ravel() / volume_compliance)
+    pins.reshape(n, -1)[...] -= np.outer(h.ravel(), pins_h.ravel() / volume_compliance)
+    return {"nodes": nodes, "pins": pins}
+
+
 class DomeCompliance:
     """The dome's influence matrices for a material, stored by source node (column).
 
@@ -284,8 +337,8 @@ class DomeCompliance:
     unit force at nodes `cols` (m/N); `surface_displacement`, `pin_displacement`: every
     node's and the pin tips' displacement under nodal forces. A column is closed form
     (≈ 0.1 ms): the open half-space computes a node's the first time a contact touches it;
-    the sealed gel (`enclosed`) and the skin membrane need them all, computed at the first
-    contact and kept for the life of the dome.
+    the sealed gel (`enclosed`) needs them all, loaded or computed at the first contact
+    (`sealed_gel`, cached on disk) and kept for the life of the dome.
     """
 
     def __init__(self, surface: CapSurface, young: float, poisson: float, enclosed: bool = True,
@@ -302,59 +355,23 @@ class DomeCompliance:
         self._surface = np.zeros((n, 3, n, 3))   # [source j, force axis, node i, displacement axis]
         self._pins = np.zeros((n, 3, len(self.pin_tips), 3))
         self._filled = np.zeros(n, bool)
-        self._sealed = False
-        self._self = self_compliance(surface.normals, surface.area, poisson, self.shear_modulus)
 
     def fill(self, nodes: np.ndarray) -> None:
-        """Compute the columns of `nodes` (indices) not computed yet; a sealed gel computes
-        every column at once and folds its pressure into them (`_seal`)."""
+        """Compute the columns of `nodes` (indices) not computed yet; the sealed gel takes
+        every column at once (`sealed_gel`, from the cache after the first time)."""
         if self.enclosed:
-            self._seal()
+            if not self._filled.all():
+                nodes, pins = sealed_gel(self.surface, self.poisson)
+                nodes /= self.shear_modulus
+                pins /= self.shear_modulus
+                self._surface, self._pins = nodes, pins
+                self._filled[:] = True
             return
-        self._compute(nodes)
-
-    def _compute(self, nodes: np.ndarray) -> None:
         todo = nodes[~self._filled[nodes]]
-        if not len(todo):
-            return
-        s = self.surface
-        frames, radius = s.frames, math.sqrt(s.area / math.pi)
-        block = disc_averaged_kernel(s.points, s.points[todo], frames[todo], radius, self.poisson, self.shear_modulus)
-        block[todo, :, np.arange(len(todo)), :] = self._self[todo]
-        self._surface[todo] = np.transpose(block, (2, 3, 0, 1))
-        pins = post_tip_kernel(s.geometry, s.points[todo], frames[todo], radius, self.poisson, self.shear_modulus)
-        self._pins[todo] = np.transpose(pins, (2, 3, 0, 1))
-        self._filled[todo] = True
-
-    @property
-    def gel_volume(self) -> float:
-        """m³: the gel's volume, a hemisphere inside the skin (the dome's base is rigid)."""
-        return 2.0 / 3.0 * math.pi * self.surface.geometry.skin_inner_radius ** 3
-
-    @cached_property
-    def pressure_mode(self) -> tuple[np.ndarray, np.ndarray, float]:
-        """The sealed gel's pressure mode (module doc), from the open half-space's columns:
-        the nodes' displacement per unit gel pressure h (N, 3) m/Pa, the pin tips' (127, 3)
-        m/Pa, and the volume compliance Aᵀh + V/K (m³/Pa)."""
-        s = self.surface
-        self._compute(np.arange(s.count))
-        pressure_forces = s.area * s.normals                      # N per Pa of gel pressure
-        h = 0.5 * (np.einsum("jbia,jb->ia", self._surface, pressure_forces)
-                   + np.einsum("jbia,ia->jb", self._surface, pressure_forces))
-        pins = np.einsum("jbia,jb->ia", self._pins, pressure_forces)
-        bulk = self.young / (3.0 * (1.0 - 2.0 * self.poisson)) if self.poisson < 0.5 else math.inf
-        return h, pins, float(np.sum(pressure_forces * h)) + self.gel_volume / bulk
-
-    def _seal(self) -> None:
-        """Make the stored columns the sealed gel's, once: C − h hᵀ / (Aᵀh + V/K) for the
-        nodes and likewise for the pin tips (the one-off cost of `enclosed`: every column)."""
-        if self._sealed:
-            return
-        h, pins_h, volume_compliance = self.pressure_mode
-        n = 3 * self.surface.count
-        self._surface.reshape(n, n)[...] -= np.outer(h.ravel(), h.ravel() / volume_compliance)
-        self._pins.reshape(n, -1)[...] -= np.outer(h.ravel(), pins_h.ravel() / volume_compliance)
-        self._sealed = True
+        if len(todo):
+            self._surface[todo], self._pins[todo] = half_space_columns(self.surface, todo, self.poisson,
+                                                                       self.shear_modulus)
+            self._filled[todo] = True
 
     @cached_property
     def skinned(self) -> tuple[np.ndarray, np.ndarray]:
@@ -374,9 +391,9 @@ class DomeCompliance:
         return nodes, pins - (pins @ skin) @ nodes
 
     def precompute(self) -> None:
-        """Everything a run computes at its first contacts: every column, the sealed
-        gel's pressure folded in when `enclosed`, the skin's coupling when it has one (what
-        `twin bench physics` times as one-off)."""
+        """Everything a run computes (or loads) at its first contacts: every column, the
+        sealed gel's when `enclosed`, the skin's coupling when it has one (what `twin bench
+        physics` times as one-off)."""
         self.fill(np.arange(self.surface.count))
         if self.membrane_young:
             self.skinned

@@ -315,5 +315,5 @@ class CompliantPhysics:
 def dome_compliance(surface: CapSurface, young: float, poisson: float, enclosed: bool,
                     membrane_young: float = 0.0) -> DomeCompliance:
     """The influence matrices for this surface and material, shared within the process
-    (columns computed once, on first contact)."""
+    (the sealed gel's loaded from the cache, or computed, at the first contact)."""
     return DomeCompliance(surface, young, poisson, enclosed, membrane_young)

@@ -1,0 +1,84 @@
+"""The on-disk array cache (twin.core.resources.cached_arrays): computed once, loaded
+after, recomputed when an entry is damaged, never fatal when the directory is not
+writable."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from twin.core.resources import cached_arrays
+
+SHAPES = {"a": (3, 4), "b": (5,)}
+
+
+class Computation:
+    """Counts how often the cache had to compute."""
+
+    def __init__(self) -> None:
+        self.calls = 0
+
+    def __call__(self) -> dict[str, np.ndarray]:
+        self.calls += 1
+        rng = np.random.default_rng(7)
+        return {"a": rng.normal(size=(3, 4)), "b": rng.normal(size=5)}
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("TWIN_CACHE", str(tmp_path / "cache"))
+    return tmp_path / "cache" / "test"
+
+
+def test_computed_once_then_loaded_bit_for_bit(cache):
+    compute = Computation()
+    first = cached_arrays("test", {"x": 1}, compute, SHAPES)
+    second = cached_arrays("test", {"x": 1}, compute, SHAPES)
+    assert compute.calls == 1
+    assert len(list(cache.glob("*.npz"))) == 1
+    for name in SHAPES:
+        assert np.array_equal(first[name], second[name])
+
+
+def test_another_key_is_another_entry(cache):
+    compute = Computation()
+    cached_arrays("test", {"x": 1}, compute, SHAPES)
+    cached_arrays("test", {"x": 2}, compute, SHAPES)
+    assert compute.calls == 2
+    assert len(list(cache.glob("*.npz"))) == 2
+
+
+@pytest.mark.parametrize("damage", ["garbage", "truncated", "wrong shape"])
+def test_a_damaged_entry_is_computed_again_and_rewritten(cache, damage):
+    compute = Computation()
+    cached_arrays("test", {"x": 1}, compute, SHAPES)
+    (entry,) = cache.glob("*.npz")
+    if damage == "garbage":
+        entry.write_bytes(b"not an npz file")
+    elif damage == "truncated":
+        entry.write_bytes(entry.read_bytes()[:100])
+    else:
+        np.savez(entry, a=np.zeros((2, 2)), b=np.zeros(5))
+    with pytest.warns(UserWarning, match="computing it again"):
+        again = cached_arrays("test", {"x": 1}, compute, SHAPES)
+    assert compute.calls == 2
+    assert again["a"].shape == (3, 4)
+    cached_arrays("test", {"x": 1}, compute, SHAPES)
+    assert compute.calls == 2  # the rewritten entry loads
+
+
+def test_entries_over_the_size_limit_are_not_stored(cache):
+    compute = Computation()
+    cached_arrays("test", {"x": 1}, compute, SHAPES, max_bytes=64)
+    cached_arrays("test", {"x": 1}, compute, SHAPES, max_bytes=64)
+    assert compute.calls == 2
+    assert not cache.exists()
+
+
+def test_an_unwritable_cache_only_warns(tmp_path, monkeypatch):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("the cache directory cannot be created under a file")
+    monkeypatch.setenv("TWIN_CACHE", str(blocker))
+    with pytest.warns(UserWarning, match="could not store"):
+        arrays = cached_arrays("test", {"x": 1}, Computation(), SHAPES)
+    assert arrays["b"].shape == (5,)
+    assert not list(tmp_path.glob("**/*.partial.npz"))

@@ -1,0 +1,57 @@
+"""The sealed gel's influence matrices are computed once per surface and Poisson's ratio
+and cached on disk at unit shear modulus (twin.world.dome.compliance.sealed_gel): what
+that relies on, and that a cached dome is the computed one."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from twin.core.sensor import TacTipGeometry
+from twin.world.dome.compliance import CapSurface, DomeCompliance, half_space_columns, sealed_gel
+
+SURFACE = CapSurface(TacTipGeometry(), 0.0025, 65.0)  # the fast level's nodes: quick to compute
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("TWIN_CACHE", str(tmp_path))
+    return tmp_path / "compliance"
+
+
+def test_elastic_columns_scale_as_one_over_the_shear_modulus():
+    """Linear elasticity at a fixed ν: displacement ∝ 1/G (what lets one cached matrix
+    serve every modulus)."""
+    nodes = np.array([0, 40, 200])
+    unit = half_space_columns(SURFACE, nodes, 0.45, 1.0)
+    for g in (1.0e4, 3.3e5):
+        for at_g, at_one in zip(half_space_columns(SURFACE, nodes, 0.45, g), unit):
+            assert np.allclose(at_g * g, at_one, rtol=1e-12, atol=1e-12 * np.abs(at_one).max())
+
+
+def test_sealed_gel_conserves_volume_for_every_force():
+    """ν = 0.5, sealed: no force changes the gel's volume, Σ A n·u = 0 for every column,
+    but for the open half-space's 0.06 % asymmetry (the pressure mode is symmetrised);
+    the open half-space's columns lose volume."""
+    n = SURFACE.count
+    nodes, _ = sealed_gel(SURFACE, 0.5)
+    sealed = np.einsum("jbia,ia->jb", nodes, SURFACE.area * SURFACE.normals)
+    open_nodes, _ = half_space_columns(SURFACE, np.arange(n), 0.5, 1.0)
+    lost = np.einsum("jbia,ia->jb", open_nodes, SURFACE.area * SURFACE.normals)
+    assert np.abs(sealed).max() < 0.005 * np.abs(lost).max()
+
+
+def test_a_cached_dome_is_the_computed_one_at_any_modulus(cache):
+    rows = np.arange(0, SURFACE.count, 5)
+    computed = DomeCompliance(SURFACE, 5.3e4, 0.5)
+    computed.precompute()
+    (entry,) = cache.glob("*.npz")
+    loaded = DomeCompliance(SURFACE, 5.3e4, 0.5)
+    assert np.array_equal(loaded.block(rows, rows), computed.block(rows, rows))
+    forces = np.random.default_rng(0).normal(size=(len(rows), 3))
+    assert np.array_equal(loaded.pin_displacement(rows, forces), computed.pin_displacement(rows, forces))
+    softer = DomeCompliance(SURFACE, 2.0e4, 0.5)
+    reference = computed.block(rows, rows) * 5.3e4
+    assert np.allclose(softer.block(rows, rows) * 2.0e4, reference, rtol=1e-12, atol=1e-12 * np.abs(reference).max())
+    assert list(cache.glob("*.npz")) == [entry]  # the same entry served both moduli
+    DomeCompliance(SURFACE, 5.3e4, 0.45).precompute()
+    assert len(list(cache.glob("*.npz"))) == 2   # another ν is another entry
