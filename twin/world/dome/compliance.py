@@ -295,7 +295,8 @@ def half_space_columns(surface: CapSurface, nodes: np.ndarray, poisson: float,
     block[nodes, :, np.arange(len(nodes)), :] = self_compliance(surface.normals[nodes], surface.area, poisson,
                                                                 shear_modulus)
     pins = post_tip_kernel(surface.geometry, surface.points[nodes], frames[nodes], radius, poisson, shear_modulus)
-    return np.ascontiguousarray(np.transpose(block, (2, 3, 0, 1))), np.ascontiguousarray(np.transpose(pins, (2, 3, 0, 1)))
+    return (np.ascontiguousarray(np.transpose(block, (2, 3, 0, 1))),
+            np.ascontiguousarray(np.transpose(pins, (2, 3, 0, 1))))
 
 
 def sealed_gel(surface: CapSurface, poisson: float, cached: bool = True) -> tuple[np.ndarray, np.ndarray]:

@@ -20,8 +20,11 @@ alternating the two convex problems (Panagiotopoulos) converges slowly or not at
 (a contraction of 0.93 per pass with a 0.6 MPa membrane: the 288 taps failed at 50 passes). So the
 frictional increment is solved jointly (`solve_coulomb`): semismooth Newton on Alart and
 Curnier's functions, warm-started from the previous increment, which converges in a few
-iterations; where Newton stalls (a kink of its merit function, far from the solution, or
-nodes that barely touch) the alternation takes over from there and converges linearly
+iterations (where its line search finds no descent at a kink of the merit function it takes
+the full step anyway, up to FULL_STEPS times); where Newton stalls (far from the solution,
+or nodes that barely touch) it is restarted from the warm start with smaller augmentation
+parameters (AUGMENTATION_SCALES: the same roots; they rescue high friction over the skin
+membrane), and where that stalls too the alternation takes over and converges linearly
 (up to ALTERNATION_PASSES).
 The normal problem alone (frictionless, and each alternation pass) is solved by active
 sets (exact Cholesky solves on the nodes in contact); the tangential one in a pass by
@@ -41,6 +44,11 @@ from scipy.linalg import LinAlgWarning, cho_factor, cho_solve, lu_factor, lu_sol
 
 #: Newton iterations of one frictional increment before it counts as not converged
 NEWTON_ITERATIONS = 100
+#: the augmentation parameter r as a multiple of a node's own stiffness: Newton's first
+#: run, then its restarts where it stalls
+AUGMENTATION_SCALES = (1.0, 0.3, 0.1)
+#: full Newton steps taken where the line search finds no descent, per Newton run
+FULL_STEPS = 10
 #: alternation passes that may take a stalled Newton iteration near the solution
 ALTERNATION_PASSES = 5000
 
@@ -218,21 +226,21 @@ def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start
     q where |q| = μ p, as the roots of Alart & Curnier's functions (1991)
     Φn = p − max(0, p − r h), Φt = q − proj(q − r v, disc of radius μ·max(0, p − r h))
     (r = a node's own stiffness), by semismooth Newton with a backtracking line search on
-    |Φ|²; where that stalls, by `alternation_pass` until it changes the nodes' motion by
-    less than `tolerance`. The residual, Φ/r, is in metres: the largest gap, penetration
+    |Φ|² (where it finds no descent, the full step, up to FULL_STEPS times); where that
+    stalls, by Newton again from `start` with r scaled down (AUGMENTATION_SCALES); where
+    that stalls too, by `alternation_pass` until it changes the nodes' motion by less than
+    `tolerance`. The residual, Φ/r, is in metres: the largest gap, penetration
     or slip left over. max_iterations bounds each projected gradient, and Newton to
-    NEWTON_ITERATIONS. Returns (f, Newton iterations + passes, residual); raises
+    NEWTON_ITERATIONS per run. Returns (f, Newton iterations + passes, residual); raises
     ContactNotConverged.
     """
     m = len(offset) // 3
     n_idx = np.arange(m) * 3
     t_idx = np.column_stack([n_idx + 1, n_idx + 2])
     diagonal = np.diag(matrix)
-    r_n = 1.0 / diagonal[n_idx]
-    r_t = 1.0 / diagonal[t_idx].mean(axis=1)
     eye2 = np.eye(2)
 
-    def evaluate(f: np.ndarray):
+    def evaluate(f: np.ndarray, r_n: np.ndarray, r_t: np.ndarray):
         w = matrix @ f + offset
         p, h, q, v = f[n_idx], w[n_idx], f[t_idx], w[t_idx]
         augmented = np.maximum(0.0, p - r_n * h)
@@ -246,63 +254,89 @@ def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start
         phi[t_idx] = (q - scale[:, None] * z) / r_t[:, None]
         return phi, (p - r_n * h > 0.0, slip, z, size, radius)
 
-    f = start.copy()
-    phi, state = evaluate(f)
-    for iteration in range(1, min(max_iterations, NEWTON_ITERATIONS) + 1):
-        residual = float(np.max(np.abs(phi), initial=0.0))
-        if residual < tolerance:
-            contact = state[0]
-            f.reshape(-1, 3)[~contact] = 0.0  # free nodes carry nothing (not round-off)
-            return f, iteration - 1, residual
-        contact, slip, z, size, radius = state
-        jacobian = np.zeros_like(matrix)
-        jacobian[n_idx[contact]] = matrix[n_idx[contact]]                  # Φn/r = h
-        stick = ~slip
-        rows = t_idx[stick].ravel()
-        jacobian[rows] = matrix[rows]                                       # Φt/r = v
-        # slipping nodes: Φt = q − ρ ẑ, dΦt = dq − ẑ dρ − ρ (I − ẑẑᵀ)/|z| dz, dz = dq − r_t M_t df
-        moving = np.flatnonzero(slip & (radius > 0.0))
-        if len(moving):
-            zhat = z[moving] / size[moving, None]
-            tangent = (eye2 - np.einsum("ka,kb->kab", zhat, zhat)) * (radius[moving] / size[moving])[:, None, None]
-            tt = t_idx[moving]
-            block = r_t[moving, None, None] * np.einsum("kab,kbj->kaj", tangent, matrix[tt])
-            block[np.arange(len(moving))[:, None, None], np.arange(2)[None, :, None], tt[:, None, :]] += \
-                eye2 - tangent
-            pressing = contact[moving]
-            dpressure = -r_n[moving, None] * matrix[n_idx[moving]]
-            dpressure[np.arange(len(moving)), n_idx[moving]] += 1.0
-            block -= friction * (pressing[:, None, None] * np.einsum("ka,kj->kaj", zhat, dpressure))
-            jacobian[tt.ravel()] = (block / r_t[moving, None, None]).reshape(2 * len(moving), -1)
-        # out of contact Φn/r = p/r, and Φt/r = q/r where the node slips with no friction
-        # bound: diagonal rows, whose Newton step takes the force to zero explicitly; only
-        # the other rows need the factorisation
-        lifted = np.flatnonzero(slip & (radius <= 0.0))
-        explicit = np.concatenate([n_idx[~contact], t_idx[lifted].ravel()])
-        coupled = np.setdiff1d(np.arange(len(f)), explicit, assume_unique=True)
-        step = np.empty_like(f)
-        step[explicit] = -f[explicit]
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", LinAlgWarning)  # a singular Jacobian: caught below as a non-finite step
-            step[coupled] = lu_solve(lu_factor(jacobian[np.ix_(coupled, coupled)], check_finite=False),
-                                     -phi[coupled] - jacobian[np.ix_(coupled, explicit)] @ step[explicit],
-                                     check_finite=False)
-        if not np.all(np.isfinite(step)):
-            break
-        merit, length = float(phi @ phi), 1.0
-        while length >= 1e-3:
-            trial = f + length * step
-            phi_trial, state_trial = evaluate(trial)
-            if float(phi_trial @ phi_trial) <= (1.0 - 1e-4 * length) * merit:
+    def newton(f: np.ndarray, r_n: np.ndarray, r_t: np.ndarray, budget: int) -> tuple[np.ndarray, int, float]:
+        """Iterate from f; returns (f, iterations, residual) at convergence, else the best
+        iterate where it stalls or runs out of iterations."""
+        phi, state = evaluate(f, r_n, r_t)
+        best, forced = (np.inf, f, state), FULL_STEPS
+        for iteration in range(budget + 1):
+            residual = float(np.max(np.abs(phi), initial=0.0))
+            if residual < best[0]:
+                best = (residual, f, state)
+            if residual < tolerance or iteration == budget:
                 break
-            length *= 0.5
-        else:
-            break  # no descent along Newton's direction: a kink of Φ
-        f, phi, state = trial, phi_trial, state_trial
-    # Newton stalled (at a kink, a singular Jacobian, or cycling between contact sets at
-    # nodes that barely touch): the normal/tangential alternation, linear but steady,
-    # finishes from where Newton got to
-    done = iteration
+            contact, slip, z, size, radius = state
+            jacobian = np.empty_like(matrix)  # every row that the factorisation reads is written below
+            jacobian[n_idx[contact]] = matrix[n_idx[contact]]                  # Φn/r = h
+            rows = t_idx[~slip].ravel()
+            jacobian[rows] = matrix[rows]                                       # Φt/r = v
+            # slipping nodes: Φt = q − ρ ẑ, dΦt = dq − ẑ dρ − ρ (I − ẑẑᵀ)/|z| dz, dz = dq − r_t M_t df
+            moving = np.flatnonzero(slip & (radius > 0.0))
+            if len(moving):
+                zhat = z[moving] / size[moving, None]
+                tangent = (eye2 - np.einsum("ka,kb->kab", zhat, zhat)) * (radius[moving] / size[moving])[:, None, None]
+                tt = t_idx[moving]
+                block = r_t[moving, None, None] * np.einsum("kab,kbj->kaj", tangent, matrix[tt])
+                block[np.arange(len(moving))[:, None, None], np.arange(2)[None, :, None], tt[:, None, :]] += \
+                    eye2 - tangent
+                pressing = contact[moving]
+                dpressure = -r_n[moving, None] * matrix[n_idx[moving]]
+                dpressure[np.arange(len(moving)), n_idx[moving]] += 1.0
+                block -= friction * (pressing[:, None, None] * np.einsum("ka,kj->kaj", zhat, dpressure))
+                jacobian[tt.ravel()] = (block / r_t[moving, None, None]).reshape(2 * len(moving), -1)
+            # out of contact Φn/r = p/r, and Φt/r = q/r where the node slips with no friction
+            # bound: diagonal rows, whose Newton step takes the force to zero explicitly; only
+            # the other rows need the factorisation
+            lifted = np.flatnonzero(slip & (radius <= 0.0))
+            explicit = np.concatenate([n_idx[~contact], t_idx[lifted].ravel()])
+            coupled = np.setdiff1d(np.arange(len(f)), explicit, assume_unique=True)
+            step = np.empty_like(f)
+            step[explicit] = -f[explicit]
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", LinAlgWarning)  # a singular Jacobian: caught below as a non-finite step
+                step[coupled] = lu_solve(lu_factor(jacobian[np.ix_(coupled, coupled)], check_finite=False),
+                                         -phi[coupled] - jacobian[np.ix_(coupled, explicit)] @ step[explicit],
+                                         check_finite=False)
+            if not np.all(np.isfinite(step)):
+                break
+            merit, length = float(phi @ phi), 1.0
+            while length >= 1e-3:
+                trial = f + length * step
+                phi_trial, state_trial = evaluate(trial, r_n, r_t)
+                if float(phi_trial @ phi_trial) <= (1.0 - 1e-4 * length) * merit:
+                    break
+                length *= 0.5
+            else:
+                # no descent along Newton's direction (a kink of Φ): the full step anyway, a
+                # few times (a watchdog: semismooth Newton converges locally where |Φ|² rises)
+                if not forced:
+                    break
+                forced -= 1
+                trial = f + step
+                phi_trial, state_trial = evaluate(trial, r_n, r_t)
+            f, phi, state = trial, phi_trial, state_trial
+        residual, f, state = best
+        if residual < tolerance:
+            f = f.copy()
+            f.reshape(-1, 3)[~state[0]] = 0.0  # free nodes carry nothing (not round-off)
+        return f, iteration, residual
+
+    # r = a node's own stiffness; where Newton stalls with it (at high friction the
+    # tangential predictor z = q − r v overshoots the disc), again from the start with
+    # smaller r: the same roots, a gentler predictor
+    stiffness_n, stiffness_t = 1.0 / diagonal[n_idx], 1.0 / diagonal[t_idx].mean(axis=1)
+    budget = min(max_iterations, NEWTON_ITERATIONS)
+    done, residual = 0, np.inf
+    for scale in AUGMENTATION_SCALES:
+        attempt, iterations, attempt_residual = newton(start.copy(), scale * stiffness_n, scale * stiffness_t, budget)
+        done += iterations
+        if attempt_residual < residual:
+            f, residual = attempt, attempt_residual
+        if residual < tolerance:
+            return f, done, residual
+    # Newton stalled at every scale (at a kink, a singular Jacobian, or cycling between
+    # contact sets at nodes that barely touch): the normal/tangential alternation, linear
+    # but steady, finishes from Newton's best iterate
     tangential = t_idx.ravel()
     lipschitz = largest_eigenvalue(matrix[np.ix_(tangential, tangential)])  # the same for every pass
     for passes in range(1, ALTERNATION_PASSES + 1):
