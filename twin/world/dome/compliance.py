@@ -332,6 +332,24 @@ def _sealed_gel(surface: CapSurface, poisson: float) -> dict[str, np.ndarray]:
     return {"nodes": nodes, "pins": pins}
 
 
+def skinned(surface: CapSurface, gel_nodes: np.ndarray, gel_pins: np.ndarray,
+            membrane_young: float) -> tuple[np.ndarray, np.ndarray]:
+    """The dome with its skin as a membrane (Young's modulus `membrane_young`, Pa) over the
+    gel whose columns are given, in the same layout ([source, force axis, point,
+    displacement axis], m/N). The skin's stiffness K and the gel's compliance C act in
+    series with the contact force f: the gel takes g = f − K u and u = C g, so
+    u = (I + C K)⁻¹ C f; the pins follow the gel under g. One dense solve."""
+    n = 3 * surface.count
+    gel = gel_nodes.reshape(n, n).T                       # displacement per force
+    pins = gel_pins.reshape(n, -1).T
+    skin = membrane_stiffness(surface, membrane_young, 0.5, surface.geometry.skin_thickness)
+    nodes = np.linalg.solve(np.eye(n) + gel @ skin, gel)
+    nodes = 0.5 * (nodes + nodes.T)
+    pins = pins - (pins @ skin) @ nodes
+    return (np.ascontiguousarray(nodes.T).reshape(gel_nodes.shape),
+            np.ascontiguousarray(pins.T).reshape(gel_pins.shape))
+
+
 class DomeCompliance:
     """The dome's influence matrices for a material, stored by source node (column).
 
@@ -339,8 +357,9 @@ class DomeCompliance:
     unit force at nodes `cols` (m/N); `surface_displacement`, `pin_displacement`: every
     node's and the pin tips' displacement under nodal forces. A column is closed form
     (≈ 0.1 ms): the open half-space computes a node's the first time a contact touches it;
-    the sealed gel (`enclosed`) needs them all, loaded or computed at the first contact
-    (`sealed_gel`, cached on disk) and kept for the life of the dome.
+    the sealed gel (`enclosed`) and the skin membrane need them all, loaded or computed at
+    the first contact (`sealed_gel`, cached on disk; `skinned`) and kept for the life of
+    the dome.
     """
 
     def __init__(self, surface: CapSurface, young: float, poisson: float, enclosed: bool = True,
@@ -359,13 +378,20 @@ class DomeCompliance:
         self._filled = np.zeros(n, bool)
 
     def fill(self, nodes: np.ndarray) -> None:
-        """Compute the columns of `nodes` (indices) not computed yet; the sealed gel takes
-        every column at once (`sealed_gel`, from the cache after the first time)."""
-        if self.enclosed:
+        """Compute the columns of `nodes` (indices) not computed yet. The sealed gel and the
+        skin membrane take every column at once: the gel's (`sealed_gel`, from the cache
+        after the first time), then the skin over it (`skinned`)."""
+        if self.enclosed or self.membrane_young:
             if not self._filled.all():
-                nodes, pins = sealed_gel(self.surface, self.poisson)
-                nodes /= self.shear_modulus
-                pins /= self.shear_modulus
+                if self.enclosed:
+                    nodes, pins = sealed_gel(self.surface, self.poisson)
+                    nodes /= self.shear_modulus
+                    pins /= self.shear_modulus
+                else:
+                    nodes, pins = half_space_columns(self.surface, np.arange(self.surface.count), self.poisson,
+                                                     self.shear_modulus)
+                if self.membrane_young:
+                    nodes, pins = skinned(self.surface, nodes, pins, self.membrane_young)
                 self._surface, self._pins = nodes, pins
                 self._filled[:] = True
             return
@@ -375,55 +401,26 @@ class DomeCompliance:
                                                                        self.shear_modulus)
             self._filled[todo] = True
 
-    @cached_property
-    def skinned(self) -> tuple[np.ndarray, np.ndarray]:
-        """The dome with its skin as a membrane over the gel (`membrane_young` > 0): the
-        nodes' displacement per nodal force (3N, 3N) m/N and the pin tips' (381, 3N) m/N.
-        The skin's stiffness K and the gel's compliance C act in series with the contact
-        force f: the gel takes g = f − K u and u = C g, so u = (I + C K)⁻¹ C f; the pins
-        follow the gel under g. Needs every column and one dense solve."""
-        s = self.surface
-        everything = np.arange(s.count)
-        n = 3 * s.count
-        gel = self._gel_block(everything, everything)
-        pins = self._pins.reshape(n, -1).T
-        skin = membrane_stiffness(s, self.membrane_young, 0.5, s.geometry.skin_thickness)
-        nodes = np.linalg.solve(np.eye(n) + gel @ skin, gel)
-        nodes = 0.5 * (nodes + nodes.T)
-        return nodes, pins - (pins @ skin) @ nodes
-
     def precompute(self) -> None:
         """Everything a run computes (or loads) at its first contacts: every column, the
-        sealed gel's when `enclosed`, the skin's coupling when it has one (what `twin bench
-        physics` times as one-off)."""
+        sealed gel's when `enclosed`, with the skin over it when it has one (what `twin
+        bench physics` times as one-off)."""
         self.fill(np.arange(self.surface.count))
-        if self.membrane_young:
-            self.skinned
 
     def block(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
         """(3·len(rows), 3·len(cols)) m/N: displacements of `rows` per force at `cols`."""
-        if self.membrane_young:
-            return self.skinned[0][np.ix_(_dofs(rows), _dofs(cols))]
-        return self._gel_block(rows, cols)
-
-    def _gel_block(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-        """`block` of the gel alone (sealed when `enclosed`), without the skin membrane."""
         self.fill(cols)
         n = 3 * self.surface.count
         return np.ascontiguousarray(self._surface.reshape(n, n)[np.ix_(_dofs(cols), _dofs(rows))].T)
 
     def surface_displacement(self, cols: np.ndarray, forces: np.ndarray) -> np.ndarray:
         """(N, 3) m: every node's displacement under forces (len(cols), 3) N at `cols`."""
-        if self.membrane_young:
-            return (self.skinned[0][:, _dofs(cols)] @ forces.ravel()).reshape(-1, 3)
         self.fill(cols)
         n = 3 * self.surface.count
         return np.einsum("j,ji->i", forces.ravel(), self._surface.reshape(n, n)[_dofs(cols)]).reshape(-1, 3)
 
     def pin_displacement(self, cols: np.ndarray, forces: np.ndarray) -> np.ndarray:
         """(127, 3) m: the pin tips' displacement under forces (len(cols), 3) N at `cols`."""
-        if self.membrane_young:
-            return (self.skinned[1][:, _dofs(cols)] @ forces.ravel()).reshape(-1, 3)
         self.fill(cols)
         pins = self._pins.reshape(3 * self.surface.count, -1)
         return np.einsum("j,ji->i", forces.ravel(), pins[_dofs(cols)]).reshape(-1, 3)
