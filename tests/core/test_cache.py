@@ -82,3 +82,14 @@ def test_an_unwritable_cache_only_warns(tmp_path, monkeypatch):
         arrays = cached_arrays("test", {"x": 1}, Computation(), SHAPES)
     assert arrays["b"].shape == (5,)
     assert not list(tmp_path.glob("**/*.partial.npz"))
+
+
+def test_refresh_computes_and_stores_even_a_present_entry(cache):
+    compute = Computation()
+    cached_arrays("test", {"x": 1}, compute, SHAPES)
+    (entry,) = cache.glob("*.npz")
+    entry.write_bytes(b"stale")
+    cached_arrays("test", {"x": 1}, compute, SHAPES, refresh=True)
+    assert compute.calls == 2
+    cached_arrays("test", {"x": 1}, compute, SHAPES)
+    assert compute.calls == 2  # the refreshed entry loads

@@ -70,16 +70,17 @@ def package_version() -> str:
 
 
 def cached_arrays(kind: str, key: dict, compute: Callable[[], dict[str, np.ndarray]],
-                  shapes: dict[str, tuple[int, ...]], max_bytes: int = 256 * 2**20) -> dict[str, np.ndarray]:
+                  shapes: dict[str, tuple[int, ...]], max_bytes: int = 256 * 2**20,
+                  refresh: bool = False) -> dict[str, np.ndarray]:
     """Arrays computed once and kept in ``cache_dir()/kind``, keyed on `key` (JSON: what
     they depend on) and the package version. An entry that is missing, unreadable or not
-    of the expected `shapes` is computed again and rewritten; one larger than `max_bytes`
-    (B) is computed every time instead of stored; a cache directory that cannot be
-    written only warns. Entries are written to a temporary file and renamed, so parallel
-    workers computing the same entry never read half of one."""
+    of the expected `shapes` is computed again and rewritten, and so is every entry when
+    `refresh`; one larger than `max_bytes` (B) is computed every time instead of stored; a
+    cache directory that cannot be written only warns. Entries are written to a temporary
+    file and renamed, so parallel workers computing the same entry never read half of one."""
     payload = json.dumps({"key": key, "version": package_version()}, sort_keys=True, default=str)
     path = cache_dir() / kind / f"{hashlib.sha256(payload.encode()).hexdigest()[:16]}.npz"
-    if path.exists():
+    if path.exists() and not refresh:
         try:
             with np.load(path, allow_pickle=False) as stored:
                 arrays = {name: stored[name] for name in shapes}

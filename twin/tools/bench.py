@@ -173,8 +173,8 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
     wall time of the whole physics calls (stepping or contact increments, pin read-out,
     checks). Returns one dict per (dome, level): ms_per_frame (best), steps_per_frame
     (mean; flex: MuJoCo steps, compliant: contact increments), ms_per_step, precompute_s
-    (compliant: computing the sealed gel's influence matrices, once per surface and ν;
-    flex: 0), cached_s (compliant: what a run pays at its first contact once they are in
+    (compliant: computing and storing the sealed gel's influence matrices, once per
+    surface and ν; flex: 0), cached_s (compliant: what a run pays at its first contact once they are in
     the cache, DomeCompliance.precompute; flex: 0), ratio_to_flex_default.
     """
 
@@ -191,9 +191,8 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
             if dome == "compliant":
                 surface = CapSurface(TacTipGeometry(), params.spacing, params.extent_deg)
                 t0 = time.perf_counter()
-                sealed_gel(surface, params.poisson, cached=False)
+                sealed_gel(surface, params.poisson, refresh=True)
                 precompute = time.perf_counter() - t0
-                DomeCompliance(surface, params.young, params.poisson, params.enclosed, params.membrane_young).precompute()  # stores it
                 t0 = time.perf_counter()
                 DomeCompliance(surface, params.young, params.poisson, params.enclosed, params.membrane_young).precompute()
                 cached = time.perf_counter() - t0

@@ -299,21 +299,19 @@ def half_space_columns(surface: CapSurface, nodes: np.ndarray, poisson: float,
             np.ascontiguousarray(np.transpose(pins, (2, 3, 0, 1))))
 
 
-def sealed_gel(surface: CapSurface, poisson: float, cached: bool = True) -> tuple[np.ndarray, np.ndarray]:
+def sealed_gel(surface: CapSurface, poisson: float, refresh: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """The sealed gel's influence matrices at unit shear modulus (G = 1 Pa; at a fixed ν
     linear elasticity scales as 1/G, so one pair serves every modulus): the nodes'
     (N, 3, N, 3) and the pin tips' (N, 3, 127, 3), [source, force axis, point,
     displacement axis], C − h hᵀ / (Aᵀh + V/K) (module doc). Computed once per surface,
-    pin layout and ν and kept in the cache directory (twin.core.resources.cached_arrays); `cached`
-    False computes them without the cache (what `twin bench physics` times)."""
-    if not cached:
-        arrays = _sealed_gel(surface, poisson)
-        return arrays["nodes"], arrays["pins"]
+    pin layout and ν and kept in the cache directory (twin.core.resources.cached_arrays);
+    `refresh` computes and stores them even if they are there (what `twin bench physics`
+    times)."""
     n, pins = surface.count, len(surface.geometry.pin_tip_points())
     pin_bases = hashlib.sha256(surface.geometry.pin_base_points().tobytes()).hexdigest()[:16]
     key = {"surface": dataclasses.asdict(surface), "pin_bases": pin_bases, "poisson": poisson, "code": _SOURCE_DIGEST}
     arrays = cached_arrays("compliance", key, lambda: _sealed_gel(surface, poisson),
-                           shapes={"nodes": (n, 3, n, 3), "pins": (n, 3, pins, 3)})
+                           shapes={"nodes": (n, 3, n, 3), "pins": (n, 3, pins, 3)}, refresh=refresh)
     return arrays["nodes"], arrays["pins"]
 
 
