@@ -46,13 +46,13 @@ def _slide_and_back(env: SimEnvironment, depth: float = 3.0, speed: float = 20.0
 
 
 @pytest.mark.parametrize("level,friction", [(level, mu) for level in LEVELS for mu in (0.0, 3.0)]
-                         + [(MEMBRANE, 0.0), (MEMBRANE, 1.5)])
+                         + [(MEMBRANE, 0.0), (MEMBRANE, 3.0)])
 def test_frictionless_and_very_high_friction(level, friction):
     """μ = 0: no tangential force at all; μ = 3 (rubber on a sticky surface): the skin
     sticks, the tangential force stays below μ·P and changes sign with the direction.
-    Over the skin membrane, which couples normal and tangential motion strongly, μ = 1.5:
-    from μ = 2 some increments of this path have no solution the solver finds (a
-    frictional problem this coupled need not have a unique one), and raise PhysicsError."""
+    Over the skin membrane, which couples normal and tangential motion strongly, Newton
+    stalls at some increments of this path and the alternation with Newton's retries
+    finishes them (without the retries, μ = 2 and 3 raised PhysicsError here)."""
     env = _env(level, obj={"name": "rectangle", "friction": friction})
     forces = _slide_and_back(env)
     tangential, normal = np.linalg.norm(forces[:, :2], axis=1), np.abs(forces[:, 2])

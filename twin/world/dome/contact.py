@@ -24,8 +24,10 @@ iterations (where its line search finds no descent at a kink of the merit functi
 the full step anyway, up to FULL_STEPS times); where Newton stalls (far from the solution,
 or nodes that barely touch) it is restarted from the warm start with smaller augmentation
 parameters (AUGMENTATION_SCALES: the same roots; they rescue high friction over the skin
-membrane), and where that stalls too the alternation takes over and converges linearly
-(up to ALTERNATION_PASSES).
+membrane), and where that stalls too the alternation takes over, converging linearly
+(up to ALTERNATION_PASSES), with Newton retried from its iterate every NEWTON_RETRY_PASSES
+passes: near the solution Newton finishes what the alternation started (μ = 2–3 over the
+skin membrane).
 The normal problem alone (frictionless, and each alternation pass) is solved by active
 sets (exact Cholesky solves on the nodes in contact); the tangential one in a pass by
 accelerated projected gradient with adaptive restart (Nesterov; O'Donoghue & Candès
@@ -51,6 +53,10 @@ AUGMENTATION_SCALES = (1.0, 0.3, 0.1)
 FULL_STEPS = 10
 #: alternation passes that may take a stalled Newton iteration near the solution
 ALTERNATION_PASSES = 5000
+#: during the alternation, Newton is retried from its iterate every this many passes,
+#: with at most this many iterations
+NEWTON_RETRY_PASSES = 20
+NEWTON_RETRY_ITERATIONS = 20
 
 
 class ContactNotConverged(RuntimeError):
@@ -228,9 +234,9 @@ def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start
     (r = a node's own stiffness), by semismooth Newton with a backtracking line search on
     |Φ|² (where it finds no descent, the full step, up to FULL_STEPS times); where that
     stalls, by Newton again from `start` with r scaled down (AUGMENTATION_SCALES); where
-    that stalls too, by `alternation_pass` until it changes the nodes' motion by less than
-    `tolerance`. The residual, Φ/r, is in metres: the largest gap, penetration
-    or slip left over. max_iterations bounds each projected gradient, and Newton to
+    that stalls too, by `alternation_pass`, with Newton retried from its iterate every
+    NEWTON_RETRY_PASSES passes, until the residual is below `tolerance`. The residual, Φ/r,
+    is in metres: the largest gap, penetration or slip left over. max_iterations bounds each projected gradient, and Newton to
     NEWTON_ITERATIONS per run. Returns (f, Newton iterations + passes, residual); raises
     ContactNotConverged.
     """
@@ -336,15 +342,26 @@ def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start
             return f, done, residual
     # Newton stalled at every scale (at a kink, a singular Jacobian, or cycling between
     # contact sets at nodes that barely touch): the normal/tangential alternation, linear
-    # but steady, finishes from Newton's best iterate
+    # but steady, brings the iterate near the solution, and Newton, retried from there
+    # every NEWTON_RETRY_PASSES passes, finishes it. The alternation's own stop is the
+    # residual, not the change per pass: at a contraction of 0.93 a change below the
+    # tolerance still leaves 14 times as much to go.
     tangential = t_idx.ravel()
     lipschitz = largest_eigenvalue(matrix[np.ix_(tangential, tangential)])  # the same for every pass
+    retry_budget = min(budget, NEWTON_RETRY_ITERATIONS)
     for passes in range(1, ALTERNATION_PASSES + 1):
         moved = alternation_pass(matrix, offset, friction, f, 0.1 * tolerance, max_iterations, lipschitz)
         change = float(np.max(np.abs(matrix @ (moved - f)), initial=0.0))
         f = moved
         if change < tolerance:
-            return f, done + passes, change
+            residual = float(np.max(np.abs(evaluate(f, stiffness_n, stiffness_t)[0]), initial=0.0))
+            if residual < tolerance:
+                return f, done + passes, residual
+        if change < tolerance or passes % NEWTON_RETRY_PASSES == 0:
+            attempt, iterations, attempt_residual = newton(f.copy(), stiffness_n, stiffness_t, retry_budget)
+            done += iterations
+            if attempt_residual < tolerance:
+                return attempt, done + passes, attempt_residual
     raise ContactNotConverged(f"semismooth Newton stalled after {done} iterations and the normal/tangential "
                               f"alternation still changes by {change:.3g} m after {ALTERNATION_PASSES} passes "
                               f"(tolerance {tolerance:.3g} m)")
