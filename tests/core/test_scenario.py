@@ -35,6 +35,8 @@ BAD = {
                            "physics.gel_enclosed", "flex"),
     "gel_modulus_on_flex": ("name: x\nobject: {name: rectangle}\nphysics: {gel_young_kpa: 26.9}\n",
                             "physics.gel_young_kpa", "flex"),
+    "bending_without_membrane": ("name: x\nobject: {name: rectangle}\ndome: compliant\nphysics: {skin_bending: true}\n",
+                                 "skin_bending", "membrane_young_mpa"),
 }
 
 

@@ -12,6 +12,8 @@ MuJoCo rays, forces from twin.world.dome.contact.
 * Without friction a slide ends where a static press ends; with friction it does not.
 * Mesh refinement: the default spacing's pins against half the spacing.
 * The skin membrane on its sphere: Laplace's law for a uniform radial displacement.
+* The skin's bending (a thin shell): the energy of a Gaussian dimple against the plate's
+  closed form, and rigid motions costing nothing.
 
 Work frame: +z into the object, so a pose z = δ presses δ mm into the top face.
 """
@@ -245,3 +247,31 @@ def test_skin_membrane_obeys_laplace_law():
     assert np.abs(tangential).max() < 0.02 * pressure * surface.area
     spin = np.cross([0.3, -0.2, 0.5], surface.points - [0.0, 0.0, surface.geometry.sphere_centre_z]) * 1e-3
     assert np.abs((stiffness @ spin.ravel()).reshape(-1, 3)[~surface.rim]).max() < 1e-9 * pressure * surface.area
+
+
+def test_skin_bending_energy_of_a_dimple_matches_plate_theory():
+    """A shallow Gaussian dimple w = c exp(−d²/2s²) (d: arc length from the apex) bends the
+    skin with energy ½ D ∫ ((Δ + 2/R²) w)² dA = π D c² (1/s² − 2/R² + 2 s²/R⁴) for s ≪ R
+    (the plate's ∫ (Δw)² = 2π c²/s², with the sphere's 2/R² terms; D = E t³ / 12(1 − ν²)).
+    The cotangent discretisation is within 5 % of it at the default spacing (measured
+    3.6 % low, s = 4 mm) and converges: within 2 % at 1 mm (1 %). A rigid translation
+    of the same size costs less than 0.1 % of it, a rotation nothing."""
+    from twin.core.sensor import TacTipGeometry
+    from twin.world.dome.compliance import CapSurface, bending_stiffness
+
+    young, poisson, thickness, c, s = 6e5, 0.5, 0.0015, 1e-4, 0.004
+    rigidity = young * thickness ** 3 / (12 * (1 - poisson ** 2))
+    theory = math.pi * rigidity * c * c * (1 / s ** 2 - 2 / R ** 2 + 2 * s ** 2 / R ** 4)
+    for spacing, tolerance in ((PARAMS.spacing, 0.05), (0.001, 0.02)):
+        surface = CapSurface(TacTipGeometry(), spacing, PARAMS.extent_deg)
+        stiffness = bending_stiffness(surface, young, poisson, thickness)
+
+        def energy(u: np.ndarray) -> float:
+            return 0.5 * float(u.ravel() @ stiffness @ u.ravel())
+
+        dimple = c * np.exp(-(R * surface.polar) ** 2 / (2 * s * s))[:, None] * surface.normals
+        assert energy(dimple) == pytest.approx(theory, rel=tolerance)
+        for axis in np.eye(3):
+            assert energy(np.tile(c * axis, (surface.count, 1))) < 1e-3 * theory
+        spin = np.cross([0.3, -0.2, 0.5], surface.points - [0.0, 0.0, surface.geometry.sphere_centre_z]) * 1e-3
+        assert energy(spin) < 1e-9 * theory

@@ -21,13 +21,17 @@ LEVELS = list(COMPLIANT_LEVELS)
 #: the default level with the optional skin membrane (the contact solver's hardest coupling)
 MEMBRANE = "default+membrane"
 WITH_MEMBRANE = LEVELS + [MEMBRANE]
+#: the default level with the skin as a thin shell (membrane and bending)
+SHELL = "default+shell"
+SKINS = {MEMBRANE: {"membrane_young_mpa": 0.6, "gel_young_kpa": 26.9},
+         SHELL: {"membrane_young_mpa": 0.6, "gel_young_kpa": 17.1, "skin_bending": True}}
 
 
 def _env(level: str, obj: dict | None = None, material: dict | None = None, start: Pose = Pose(60, 0, -2, 0, 0, 0),
          effects: tuple[str, ...] = ("contact", "friction"), name: str = "compliant_case") -> SimEnvironment:
-    physics = {"membrane_young_mpa": 0.6, "gel_young_kpa": 26.9} if level == MEMBRANE else {}
     spec = {"name": name, "object": obj or {"name": "rectangle"}, "dome": "compliant",
-            "fidelity": "default" if level == MEMBRANE else level, "effects": list(effects), "physics": physics}
+            "fidelity": "default" if level in SKINS else level, "effects": list(effects),
+            "physics": SKINS.get(level, {})}
     if material is not None:
         spec["sensor"] = {"calibration": {"dome_material": material}}
     env = SimEnvironment(scenario_from_dict(spec), start_pose=start)
@@ -46,11 +50,11 @@ def _slide_and_back(env: SimEnvironment, depth: float = 3.0, speed: float = 20.0
 
 
 @pytest.mark.parametrize("level,friction", [(level, mu) for level in LEVELS for mu in (0.0, 3.0)]
-                         + [(MEMBRANE, 0.0), (MEMBRANE, 3.0)])
+                         + [(MEMBRANE, 0.0), (MEMBRANE, 3.0), (SHELL, 3.0)])
 def test_frictionless_and_very_high_friction(level, friction):
     """μ = 0: no tangential force at all; μ = 3 (rubber on a sticky surface): the skin
     sticks, the tangential force stays below μ·P and changes sign with the direction.
-    Over the skin membrane, which couples normal and tangential motion strongly, Newton
+    Over the skin membrane (and the shell), which couples normal and tangential motion strongly, Newton
     stalls at some increments of this path and the alternation with Newton's retries
     finishes them (without the retries, μ = 2 and 3 raised PhysicsError here)."""
     env = _env(level, obj={"name": "rectangle", "friction": friction})
@@ -147,3 +151,13 @@ def test_a_calibrated_material_maps_only_onto_parameters_the_model_has():
         apply_dome_material(compliant, {"unknown_kpa": 0.3})
     with pytest.raises(UserError, match="poisson"):
         apply_dome_material(FIDELITY_LEVELS["default"], {"poisson": 0.5})
+
+
+@pytest.mark.parametrize("level", ["default", MEMBRANE, SHELL])
+def test_each_skin_is_calibrated_to_the_same_edge_press_force(level):
+    """The compliant dome's moduli were calibrated (assets/tactip/README.md) so that a
+    4 mm press centred on a straight edge takes 4.3 N, as the flex model: the solid
+    alone (E = 53 kPa), the membrane over a 26.9 kPa gel, the shell over a 17.1 kPa gel."""
+    env = _env(level)
+    env.move_to(Pose(60, 0, 4.0, 0, 0, 0), 20.0)
+    assert np.linalg.norm(env.observe_frame().contact_force_tool) == pytest.approx(4.3, rel=0.02)

@@ -80,6 +80,9 @@ class PhysicsOverrides(StrictModel):
                                                None)
     gel_young_kpa: float | None = bounded(1, 1000, "kPa", "compliant dome: the gel's Young's modulus (the skin "
                                           "and gel as one solid without a membrane)", None)
+    skin_bending: bool | None = Field(
+        default=None, description="compliant dome: the skin membrane also resists bending, a thin shell of its "
+                                  "modulus and thickness (default false; needs membrane_young_mpa > 0)")
     gel_enclosed: bool | None = Field(
         default=None, description="compliant dome: the gel is sealed in the dome and keeps its volume (default true); "
                                   "false = an open elastic half-space, the body of the closed-form contact checks")
@@ -91,16 +94,23 @@ class PhysicsOverrides(StrictModel):
             raise ValueError(f"skin_spacing_mm must be 0 (off) or in [0.5, 5] mm, got {v}")
         return v
 
+    @model_validator(mode="after")
+    def _bending_needs_the_membrane(self) -> "PhysicsOverrides":
+        if self.skin_bending and not self.membrane_young_mpa:
+            raise ValueError(f"skin_bending: true needs the skin membrane, membrane_young_mpa > 0 "
+                             f"(got {self.membrane_young_mpa})")
+        return self
+
     #: overrides that only the flex dome has
     FLEX_ONLY: ClassVar[tuple[str, ...]] = ("cellcount", "timestep_s", "settle_px", "skin_spacing_mm")
 
     #: overrides that only the compliant dome has
-    COMPLIANT_ONLY: ClassVar[tuple[str, ...]] = ("gel_enclosed", "gel_young_kpa")
+    COMPLIANT_ONLY: ClassVar[tuple[str, ...]] = ("gel_enclosed", "gel_young_kpa", "skin_bending")
 
     def as_compliant_changes(self) -> dict:
         """The overrides for the compliant dome (twin.world.dome.compliant.CompliantParams)."""
         changes = {"spacing": None if self.surface_spacing_mm is None else self.surface_spacing_mm * 1e-3,
-                   "enclosed": self.gel_enclosed,
+                   "enclosed": self.gel_enclosed, "skin_bending": self.skin_bending,
                    "young": None if self.gel_young_kpa is None else self.gel_young_kpa * 1e3,
                    "membrane_young": None if self.membrane_young_mpa is None else self.membrane_young_mpa * 1e6}
         return {k: v for k, v in changes.items() if v is not None}

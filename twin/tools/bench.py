@@ -194,7 +194,8 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
                 sealed_gel(surface, params.poisson, refresh=True)
                 precompute = time.perf_counter() - t0
                 t0 = time.perf_counter()
-                DomeCompliance(surface, params.young, params.poisson, params.enclosed, params.membrane_young).precompute()
+                DomeCompliance(surface, params.young, params.poisson, params.enclosed, params.membrane_young,
+                               params.skin_bending).precompute()
                 cached = time.perf_counter() - t0
             best = np.inf
             for _ in range(repeats + (dome == "compliant")):  # the compliant model's first run fills its columns

@@ -40,7 +40,9 @@ sphere it obeys Laplace's law, p = 2 E t w / ((1 − ν) R²), tested), in serie
 gel: the contact force f is shared between the skin's stiffness K and the gel's
 compliance C, u = (I + C K)⁻¹ C f, and the pins follow the gel under the force the skin
 passes on to it. The skin couples normal and tangential motion (stretching a curved
-membrane moves it normally), which twin.world.dome.contact solves jointly.
+membrane moves it normally), which twin.world.dome.contact solves jointly. With
+`skin_bending` the skin is a thin shell: its bending stiffness (`bending_stiffness`,
+D = E t³ / 12(1 − ν²), the same E and t) is added to the membrane's.
 
 Everything in the tool frame (m): apex at the origin, +z out of the tip.
 """
@@ -281,6 +283,38 @@ def membrane_stiffness(surface: CapSurface, young: float, poisson: float, thickn
     return stiffness
 
 
+def bending_stiffness(surface: CapSurface, young: float, poisson: float, thickness: float) -> np.ndarray:
+    """(3N, 3N) N/m: the skin's resistance to bending, for the nodes' normal displacement w.
+
+    The shallow-shell energy ½ D ∫ ((Δ + 2/R²) w)² dA on the sphere of radius R, with
+    D = E t³ / 12(1 − ν²): Kirchhoff's plate energy without its Gaussian-curvature term
+    (which for a plate integrates to the boundary); + 2/R² makes rigid translations
+    (w = n·t, the degree-1 harmonics) cost nothing, and rotations have w = 0. Discretised
+    with the cotangent Laplacian and lumped (barycentric) areas on the membrane's
+    triangulation; rim nodes, whose Laplacian is one-sided, carry no energy of their own
+    (a free edge; the skin beyond the cap is held by the membrane's rim springs)."""
+    polar, azimuth = surface.polar, surface.azimuth
+    triangles = Delaunay(np.column_stack([polar * np.cos(azimuth), polar * np.sin(azimuth)])).simplices
+    x = surface.points
+    n = surface.count
+    laplacian = np.zeros((n, n))   # positive semi-definite: wᵀ S w = ∫ |∇w|²
+    area = np.zeros(n)
+    for k in range(3):
+        i, j, o = triangles[:, k], triangles[:, (k + 1) % 3], triangles[:, (k + 2) % 3]
+        a, b = x[i] - x[o], x[j] - x[o]
+        half_cot = 0.5 * np.einsum("ij,ij->i", a, b) / np.linalg.norm(np.cross(a, b), axis=1)  # at the corner o
+        np.add.at(laplacian, (i, j), -half_cot)
+        np.add.at(laplacian, (j, i), -half_cot)
+        np.add.at(laplacian, (i, i), half_cot)
+        np.add.at(laplacian, (j, j), half_cot)
+        np.add.at(area, i, np.linalg.norm(np.cross(x[j] - x[i], x[o] - x[i]), axis=1) / 6.0)
+    r = surface.geometry.dome_outer_radius
+    operator = (2.0 / r ** 2 * np.diag(area) - laplacian)[~surface.rim]  # rows ≈ A_i (Δ + 2/R²) w at node i
+    rigidity = young * thickness ** 3 / (12.0 * (1.0 - poisson ** 2))
+    normal_stiffness = rigidity * operator.T @ (operator / area[~surface.rim, None])
+    normals = surface.normals
+    return np.einsum("ia,ij,jb->iajb", normals, normal_stiffness, normals).reshape(3 * n, 3 * n)
+
 #: what the cached matrices depend on besides their inputs: the code that computes them
 _SOURCE_DIGEST = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
 
@@ -331,16 +365,20 @@ def _sealed_gel(surface: CapSurface, poisson: float) -> dict[str, np.ndarray]:
 
 
 def skinned(surface: CapSurface, gel_nodes: np.ndarray, gel_pins: np.ndarray,
-            membrane_young: float) -> tuple[np.ndarray, np.ndarray]:
-    """The dome with its skin as a membrane (Young's modulus `membrane_young`, Pa) over the
-    gel whose columns are given, in the same layout ([source, force axis, point,
-    displacement axis], m/N). The skin's stiffness K and the gel's compliance C act in
-    series with the contact force f: the gel takes g = f − K u and u = C g, so
-    u = (I + C K)⁻¹ C f; the pins follow the gel under g. One dense solve."""
+            membrane_young: float, bending: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """The dome with its skin as a membrane (Young's modulus `membrane_young`, Pa; with
+    `bending`, a thin shell: `bending_stiffness` too) over the gel whose columns are
+    given, in the same layout ([source, force axis, point, displacement axis], m/N). The
+    skin's stiffness K and the gel's compliance C act in series with the contact force
+    f: the gel takes g = f − K u and u = C g, so u = (I + C K)⁻¹ C f; the pins follow the
+    gel under g. One dense solve."""
     n = 3 * surface.count
     gel = gel_nodes.reshape(n, n).T                       # displacement per force
     pins = gel_pins.reshape(n, -1).T
-    skin = membrane_stiffness(surface, membrane_young, 0.5, surface.geometry.skin_thickness)
+    thickness = surface.geometry.skin_thickness
+    skin = membrane_stiffness(surface, membrane_young, 0.5, thickness)
+    if bending:
+        skin += bending_stiffness(surface, membrane_young, 0.5, thickness)
     nodes = np.linalg.solve(np.eye(n) + gel @ skin, gel)
     nodes = 0.5 * (nodes + nodes.T)
     pins = pins - (pins @ skin) @ nodes
@@ -361,13 +399,16 @@ class DomeCompliance:
     """
 
     def __init__(self, surface: CapSurface, young: float, poisson: float, enclosed: bool = True,
-                 membrane_young: float = 0.0) -> None:
+                 membrane_young: float = 0.0, skin_bending: bool = False) -> None:
         if not (young > 0 and 0.0 <= poisson <= 0.5 and membrane_young >= 0):
             raise ValueError(f"dome material: need young > 0 Pa, 0 <= poisson <= 0.5 and membrane_young >= 0 Pa, "
                              f"got {young}, {poisson}, {membrane_young}")
+        if skin_bending and not membrane_young:
+            raise ValueError("dome material: skin_bending needs the skin membrane (membrane_young > 0 Pa)")
         self.surface = surface
         self.pin_tips = surface.geometry.pin_tip_points()
         self.young, self.poisson, self.enclosed, self.membrane_young = young, poisson, enclosed, membrane_young
+        self.skin_bending = skin_bending
         self.shear_modulus = young / (2.0 * (1.0 + poisson))
         n = surface.count
         # stored by source node (column), so an untouched column's pages are never mapped
@@ -389,7 +430,7 @@ class DomeCompliance:
                     nodes, pins = half_space_columns(self.surface, np.arange(self.surface.count), self.poisson,
                                                      self.shear_modulus)
                 if self.membrane_young:
-                    nodes, pins = skinned(self.surface, nodes, pins, self.membrane_young)
+                    nodes, pins = skinned(self.surface, nodes, pins, self.membrane_young, self.skin_bending)
                 self._surface, self._pins = nodes, pins
                 self._filled[:] = True
             return

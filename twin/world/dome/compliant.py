@@ -76,6 +76,9 @@ class CompliantParams:
       membrane_stiffness), 0 = none; `young` is then the gel's own modulus. Off by default
       (assets/tactip/README.md: a 0.6 MPa skin over a 26.9 kPa gel, the same 4.3 N, was
       tried and what it changes is measured there).
+    skin_bending: the skin membrane also resists bending, as a thin shell of the same
+      modulus and thickness (twin.world.dome.compliance.bending_stiffness); needs
+      membrane_young. Off by default (assets/tactip/README.md).
     """
 
     young: float = 5.3e4
@@ -92,6 +95,7 @@ class CompliantParams:
     max_pin_excursion: float = 0.012
     enclosed: bool = True
     membrane_young: float = 0.0
+    skin_bending: bool = False
 
     def with_(self, **changes) -> "CompliantParams":
         return replace(self, **changes)
@@ -125,7 +129,8 @@ class CompliantPhysics:
         self.scenario_name = scenario_name
         self.geometry = TacTipGeometry() if geometry is None else geometry
         self.surface = CapSurface(self.geometry, params.spacing, params.extent_deg)
-        self.compliance = dome_compliance(self.surface, params.young, params.poisson, params.enclosed, params.membrane_young)
+        self.compliance = dome_compliance(self.surface, params.young, params.poisson, params.enclosed,
+                                          params.membrane_young, params.skin_bending)
         self.world2work = np.eye(4) if work2world is None else invert_transform(np.asarray(work2world, float))
         self.stimulus2world = np.eye(4) if stimulus2world is None else np.asarray(stimulus2world, float)
         self.angular_speed = math.radians(angular_speed_deg_s)
@@ -315,7 +320,7 @@ class CompliantPhysics:
 
 @lru_cache(maxsize=4)
 def dome_compliance(surface: CapSurface, young: float, poisson: float, enclosed: bool,
-                    membrane_young: float = 0.0) -> DomeCompliance:
+                    membrane_young: float = 0.0, skin_bending: bool = False) -> DomeCompliance:
     """The influence matrices for this surface and material, shared within the process
     (the sealed gel's loaded from the cache, or computed, at the first contact)."""
-    return DomeCompliance(surface, young, poisson, enclosed, membrane_young)
+    return DomeCompliance(surface, young, poisson, enclosed, membrane_young, skin_bending)
