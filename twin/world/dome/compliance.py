@@ -315,6 +315,7 @@ def bending_stiffness(surface: CapSurface, young: float, poisson: float, thickne
     normals = surface.normals
     return np.einsum("ia,ij,jb->iajb", normals, normal_stiffness, normals).reshape(3 * n, 3 * n)
 
+
 #: what the cached matrices depend on besides their inputs: the code that computes them
 _SOURCE_DIGEST = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
 

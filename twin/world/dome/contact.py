@@ -235,10 +235,10 @@ def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start
     |Φ|² (where it finds no descent, the full step, up to FULL_STEPS times); where that
     stalls, by Newton again from `start` with r scaled down (AUGMENTATION_SCALES); where
     that stalls too, by `alternation_pass`, with Newton retried from its iterate every
-    NEWTON_RETRY_PASSES passes, until the residual is below `tolerance`. The residual, Φ/r,
-    is in metres: the largest gap, penetration or slip left over. max_iterations bounds each projected gradient, and Newton to
-    NEWTON_ITERATIONS per run. Returns (f, Newton iterations + passes, residual); raises
-    ContactNotConverged.
+    NEWTON_RETRY_PASSES passes, until the residual is below `tolerance`. The residual,
+    Φ/r, is in metres: the largest gap, penetration or slip left over. max_iterations
+    bounds each projected gradient, and Newton to NEWTON_ITERATIONS per run. Returns (f,
+    Newton iterations + passes, residual); raises ContactNotConverged.
     """
     m = len(offset) // 3
     n_idx = np.arange(m) * 3
@@ -362,6 +362,7 @@ def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start
             done += iterations
             if attempt_residual < tolerance:
                 return attempt, done + passes, attempt_residual
+    residual = float(np.max(np.abs(evaluate(f, stiffness_n, stiffness_t)[0]), initial=0.0))
     raise ContactNotConverged(f"semismooth Newton stalled after {done} iterations and the normal/tangential "
-                              f"alternation still changes by {change:.3g} m after {ALTERNATION_PASSES} passes "
-                              f"(tolerance {tolerance:.3g} m)")
+                              f"alternation leaves a residual of {residual:.3g} m (its last pass changed "
+                              f"{change:.3g} m) after {ALTERNATION_PASSES} passes (tolerance {tolerance:.3g} m)")
