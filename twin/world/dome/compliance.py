@@ -124,6 +124,13 @@ class CapSurface:
         return np.concatenate([self.normals[:, None, :], self.tangents], axis=1)
 
     @cached_property
+    def triangles(self) -> np.ndarray:
+        """(T, 3) node indices: the skin's triangles, the Delaunay triangulation of the nodes'
+        azimuthal-equidistant map (the skin membrane's and its bending's elements)."""
+        polar, azimuth = self.polar, self.azimuth
+        return Delaunay(np.column_stack([polar * np.cos(azimuth), polar * np.sin(azimuth)])).simplices
+
+    @cached_property
     def rim(self) -> np.ndarray:
         """(N,) bool: nodes in the outermost spacing of the cap (contact there leaves the model)."""
         return self.polar > math.radians(self.extent_deg) - self.spacing / self.geometry.dome_outer_radius
@@ -245,14 +252,12 @@ def _unit(v: np.ndarray) -> np.ndarray:
 def membrane_stiffness(surface: CapSurface, young: float, poisson: float, thickness: float) -> np.ndarray:
     """(3N, 3N) N/m: stiffness of the skin as a membrane through the cap's nodes.
 
-    Constant-strain triangles (plane stress, each in its own plane) on the Delaunay
-    triangulation of the nodes' azimuthal-equidistant map; curvature enters through the
-    facets' orientations, so stretching the skin resists normal as well as tangential
-    motion. The skin beyond the modelled cap (to the base, where it is clamped) holds
+    Constant-strain triangles (plane stress, each in its own plane) on the surface's
+    `triangles`; curvature enters through the facets' orientations, so stretching the
+    skin resists normal as well as tangential motion. The skin beyond the modelled cap (to the base, where it is clamped) holds
     each rim node by a spring of its band's stretching stiffness, E·t·(node's share of
     the rim) / (band length)."""
-    polar, azimuth = surface.polar, surface.azimuth
-    triangles = Delaunay(np.column_stack([polar * np.cos(azimuth), polar * np.sin(azimuth)])).simplices
+    triangles = surface.triangles
     x = surface.points[triangles]                                     # (T, 3 corners, 3)
     e1 = _unit(x[:, 1] - x[:, 0])
     normal = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
@@ -290,11 +295,10 @@ def bending_stiffness(surface: CapSurface, young: float, poisson: float, thickne
     D = E t³ / 12(1 − ν²): Kirchhoff's plate energy without its Gaussian-curvature term
     (which for a plate integrates to the boundary); + 2/R² makes rigid translations
     (w = n·t, the degree-1 harmonics) cost nothing, and rotations have w = 0. Discretised
-    with the cotangent Laplacian and lumped (barycentric) areas on the membrane's
-    triangulation; rim nodes, whose Laplacian is one-sided, carry no energy of their own
+    with the cotangent Laplacian and lumped (barycentric) areas on the surface's
+    `triangles`; rim nodes, whose Laplacian is one-sided, carry no energy of their own
     (a free edge; the skin beyond the cap is held by the membrane's rim springs)."""
-    polar, azimuth = surface.polar, surface.azimuth
-    triangles = Delaunay(np.column_stack([polar * np.cos(azimuth), polar * np.sin(azimuth)])).simplices
+    triangles = surface.triangles
     x = surface.points
     n = surface.count
     laplacian = np.zeros((n, n))   # positive semi-definite: wᵀ S w = ∫ |∇w|²

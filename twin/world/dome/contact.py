@@ -353,11 +353,8 @@ def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start
         moved = alternation_pass(matrix, offset, friction, f, 0.1 * tolerance, max_iterations, lipschitz)
         change = float(np.max(np.abs(matrix @ (moved - f)), initial=0.0))
         f = moved
-        if change < tolerance:
-            residual = float(np.max(np.abs(evaluate(f, stiffness_n, stiffness_t)[0]), initial=0.0))
-            if residual < tolerance:
-                return f, done + passes, residual
         if change < tolerance or passes % NEWTON_RETRY_PASSES == 0:
+            # Newton measures the residual first and returns at once where it is met
             attempt, iterations, attempt_residual = newton(f.copy(), stiffness_n, stiffness_t, retry_budget)
             done += iterations
             if attempt_residual < tolerance:
