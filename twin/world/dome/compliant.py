@@ -146,6 +146,7 @@ class CompliantPhysics:
         self._collidable = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
         self.forces = np.zeros((n, 3))        # N on the dome, tool frame
         self.displacement = np.zeros((n, 3))  # m, tool frame
+        self._local: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # `_local_compliance`'s last
         self.rest_pins = self.geometry.pin_tip_points()
         self._pins = self.rest_pins.copy()
         self._steps = 0
@@ -270,8 +271,7 @@ class CompliantPhysics:
         for _ in range(10):
             t1 = time.perf_counter()
             f = frames[candidates]
-            local = np.einsum("iak,ikjl,jbl->iajb", f, self.compliance.block(candidates, candidates).reshape(
-                len(candidates), 3, len(candidates), 3), f, optimize=True).reshape(3 * len(candidates), -1)
+            local = self._local_compliance(candidates, f)
             previous = np.einsum("nij,nj->ni", f[:, 1:], self.displacement[candidates])
             shift_t = np.einsum("nij,nj->ni", f[:, 1:], moved[candidates])
             start = np.einsum("nij,nj->ni", f, self.forces[candidates])
@@ -297,6 +297,19 @@ class CompliantPhysics:
         self._pins = self.rest_pins + self.compliance.pin_displacement(candidates, forces)
         self.step_seconds += time.perf_counter() - t0
         self._check(after)
+
+    def _local_compliance(self, nodes: np.ndarray, frames: np.ndarray) -> np.ndarray:
+        """(3m, 3m) m/N: the compliance among `nodes` in their contact frames (m, 3, 3).
+        Kept while the nodes and their frames stay the same (a slide over one face), as
+        they do for most increments: it is recomputed bit for bit otherwise."""
+        kept = self._local
+        if kept is not None and np.array_equal(kept[0], nodes) and np.array_equal(kept[1], frames):
+            return kept[2]
+        m = len(nodes)
+        block = self.compliance.block(nodes, nodes).reshape(m, 3, m, 3)
+        local = np.einsum("iak,ikjl,jbl->iajb", frames, block, frames, optimize=True).reshape(3 * m, -1)
+        self._local = (nodes.copy(), frames.copy(), local)
+        return local
 
     def _check(self, gaps_after: np.ndarray) -> None:
         p = self.params

@@ -272,10 +272,13 @@ def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start
             if residual < tolerance or iteration == budget:
                 break
             contact, slip, z, size, radius = state
-            jacobian = np.empty_like(matrix)  # every row that the factorisation reads is written below
-            jacobian[n_idx[contact]] = matrix[n_idx[contact]]                  # Φn/r = h
-            rows = t_idx[~slip].ravel()
-            jacobian[rows] = matrix[rows]                                       # Φt/r = v
+            # out of contact Φn/r = p/r, and Φt/r = q/r where the node slips with no friction
+            # bound: diagonal rows, whose Newton step takes the force to zero explicitly; only
+            # the other rows (`coupled`) need the factorisation, and only they are assembled
+            lifted = np.flatnonzero(slip & (radius <= 0.0))
+            explicit = np.concatenate([n_idx[~contact], t_idx[lifted].ravel()])
+            coupled = np.setdiff1d(np.arange(len(f)), explicit, assume_unique=True)
+            jacobian = matrix[coupled]  # Φn/r = h where pressed, Φt/r = v where stuck
             # slipping nodes: Φt = q − ρ ẑ, dΦt = dq − ẑ dρ − ρ (I − ẑẑᵀ)/|z| dz, dz = dq − r_t M_t df
             moving = np.flatnonzero(slip & (radius > 0.0))
             if len(moving):
@@ -289,20 +292,14 @@ def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start
                 dpressure = -r_n[moving, None] * matrix[n_idx[moving]]
                 dpressure[np.arange(len(moving)), n_idx[moving]] += 1.0
                 block -= friction * (pressing[:, None, None] * np.einsum("ka,kj->kaj", zhat, dpressure))
-                jacobian[tt.ravel()] = (block / r_t[moving, None, None]).reshape(2 * len(moving), -1)
-            # out of contact Φn/r = p/r, and Φt/r = q/r where the node slips with no friction
-            # bound: diagonal rows, whose Newton step takes the force to zero explicitly; only
-            # the other rows need the factorisation
-            lifted = np.flatnonzero(slip & (radius <= 0.0))
-            explicit = np.concatenate([n_idx[~contact], t_idx[lifted].ravel()])
-            coupled = np.setdiff1d(np.arange(len(f)), explicit, assume_unique=True)
+                jacobian[np.searchsorted(coupled, tt.ravel())] = (block / r_t[moving, None, None]).reshape(
+                    2 * len(moving), -1)
             step = np.empty_like(f)
             step[explicit] = -f[explicit]
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", LinAlgWarning)  # a singular Jacobian: caught below as a non-finite step
-                step[coupled] = lu_solve(lu_factor(jacobian[np.ix_(coupled, coupled)], check_finite=False),
-                                         -phi[coupled] - jacobian[np.ix_(coupled, explicit)] @ step[explicit],
-                                         check_finite=False)
+                step[coupled] = lu_solve(lu_factor(jacobian[:, coupled], check_finite=False),
+                                         -phi[coupled] - jacobian[:, explicit] @ step[explicit], check_finite=False)
             if not np.all(np.isfinite(step)):
                 break
             merit, length = float(phi @ phi), 1.0
