@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from twin.world.dome.compliant import SKIN_PHYSICS
 from twin.world.dome.flex import FIDELITY_LEVELS
 from twin.core.errors import PhysicsError
 from twin.world.dome.testbed import edge_scene, sensor_down
@@ -186,21 +187,27 @@ def test_converged_pins_are_near_the_frame_and_leave_the_simulation_untouched() 
 @pytest.mark.slow
 def test_compliant_settings_are_measured_against_their_own_reference(tmp_path) -> None:
     """Both dome models in one sweep: each setting's pin error is against its own model's
-    reference (the compliant reference against itself: 0), pin fronts never mix the models,
-    the contour front does; without its reference a model's settings are refused."""
+    reference (the compliant reference against itself: 0), a skin (another material) has
+    none, pin fronts never mix the models, the contour front does; without its reference a
+    model's settings are refused."""
     tiny = Probe(tap_orientations_deg=(0.0, 180.0), slide_orientations_deg=(0.0,), directions_deg=(90.0,),
                  lateral_mm=(9.9, 4.0, 0.0, -4.0), tap_depths_mm=(2.0, 4.0), contour_max_steps=3, gp_restarts=0)
     pins = ("contact", "friction")
     settings = [Setting(REFERENCE, "reference", "fast", effects=pins),
                 Setting(COMPLIANT_REFERENCE, "compliant dome", "default", effects=pins, dome="compliant"),
-                Setting("compliant_fast", "compliant dome", "fast", effects=pins, dome="compliant")]
+                Setting("compliant_fast", "compliant dome", "fast", effects=pins, dome="compliant"),
+                Setting("compliant_membrane", "compliant skin", "fast", physics=SKIN_PHYSICS["membrane"], effects=pins,
+                        dome="compliant", pins_comparable=False)]
     rows = run_sweep(tmp_path, settings=settings, probe=tiny, workers=1, verbose=False)
-    flex_ref, ref, fast = rows
+    flex_ref, ref, fast, membrane = rows
     assert all(r["status"] == "ok" for r in rows), [(r["setting"], r["error"]) for r in rows]
     assert ref["dome"] == fast["dome"] == "compliant" and flex_ref["dome"] == "flex"
     assert ref["pin_rms_px"] == 0.0 and flex_ref["pin_rms_px"] == 0.0
     assert 0.0 < fast["pin_rms_px"] < 5.0  # 2.5 mm against 1.5 mm nodes: close, not equal
     assert ref["on_front"] is True and flex_ref["on_front"] is True  # one front per model
+    # a skin is another material, not an approximation of the reference: no pin error, no pin front
+    assert membrane.get("pin_rms_px") is None and membrane["on_front"] is None
+    assert np.isfinite(membrane["theta_rms_deg"]) and isinstance(membrane["on_front_contour"], bool)
     assert ref["cellcount"] == "1.5 mm nodes" and ref["timestep_s"] is None
     assert all(isinstance(r["on_front_contour"], bool) for r in rows)
     md = (tmp_path / "sweep.md").read_text()

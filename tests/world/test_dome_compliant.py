@@ -15,7 +15,7 @@ from twin.core.errors import PhysicsError
 from twin.core.poses import Pose
 from twin.core.scenario import scenario_from_dict
 from twin.runs.sim_env import SimEnvironment
-from twin.world.dome.compliant import COMPLIANT_LEVELS, CompliantPhysics
+from twin.world.dome.compliant import COMPLIANT_LEVELS, SKIN_PHYSICS, CompliantPhysics
 
 LEVELS = list(COMPLIANT_LEVELS)
 #: the default level with the optional skin membrane (the contact solver's hardest coupling)
@@ -23,8 +23,7 @@ MEMBRANE = "default+membrane"
 WITH_MEMBRANE = LEVELS + [MEMBRANE]
 #: the default level with the skin as a thin shell (membrane and bending)
 SHELL = "default+shell"
-SKINS = {MEMBRANE: {"membrane_young_mpa": 0.6, "gel_young_kpa": 26.9},
-         SHELL: {"membrane_young_mpa": 0.6, "gel_young_kpa": 17.1, "skin_bending": True}}
+SKINS = {MEMBRANE: SKIN_PHYSICS["membrane"], SHELL: SKIN_PHYSICS["shell"]}
 
 
 def _env(level: str, obj: dict | None = None, material: dict | None = None, start: Pose = Pose(60, 0, -2, 0, 0, 0),

@@ -19,7 +19,7 @@ import re
 import numpy as np
 import pytest
 
-from twin.world.dome.compliant import COMPLIANT_LEVELS
+from twin.world.dome.compliant import COMPLIANT_LEVELS, SKIN_PHYSICS
 from twin.world.dome.flex import FIDELITY_LEVELS
 from twin.core.errors import PhysicsError
 from twin.core.poses import Pose
@@ -30,7 +30,7 @@ from twin.world.stimuli.outlines import SpiralParams
 
 #: the compliant dome also with its optional skin membrane (README "The compliant dome"),
 #: whose coupling of normal and tangential motion is the contact solver's hardest input
-MEMBRANE = {"membrane_young_mpa": 0.6, "gel_young_kpa": 26.9}
+MEMBRANE = SKIN_PHYSICS["membrane"]
 FIDELITY = [pytest.param(dome, level, id=f"{dome}-{level}")
             for dome in ("flex", "compliant") for level in FIDELITY_LEVELS]
 LEVELS = FIDELITY + [pytest.param("compliant-membrane", "default", id="compliant-membrane-default")]

@@ -109,6 +109,16 @@ COMPLIANT_LEVELS: dict[str, CompliantParams] = {
 }
 
 
+#: The skin over the gel, as scenario `physics` entries (`dome: compliant`): a membrane, or a
+#: thin shell (membrane and bending), each over a gel whose modulus is calibrated so that the
+#: 4 mm press centred on a straight edge takes the default solid's 4.3 N
+#: (assets/tactip/README.md, "The compliant dome's material").
+SKIN_PHYSICS: dict[str, dict[str, float | bool]] = {
+    "membrane": {"membrane_young_mpa": 0.6, "gel_young_kpa": 26.9},
+    "shell": {"membrane_young_mpa": 0.6, "gel_young_kpa": 17.1, "skin_bending": True},
+}
+
+
 class CompliantPhysics:
     """Moves the sensor and solves the dome's frictional contact at every increment.
 
