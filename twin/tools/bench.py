@@ -14,9 +14,9 @@ import numpy as np
 from twin.world import gl
 from twin.world.render import PinRenderer
 from twin.core.sensor import CameraModel, TacTipGeometry
-from twin.core.scenario import ContourProtocol
+from twin.core.scenario import ContourProtocol, PhysicsOverrides
 from twin.world.dome.compliance import CapSurface, DomeCompliance, sealed_gel
-from twin.world.dome.compliant import COMPLIANT_LEVELS
+from twin.world.dome.compliant import COMPLIANT_LEVELS, SKIN_PHYSICS
 from twin.world.dome.flex import FIDELITY_LEVELS
 from twin.world.dome.testbed import edge_scene, sensor_down
 from twin.sensing.perception import benchmark_perception
@@ -175,17 +175,21 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
     (mean; flex: MuJoCo steps, compliant: contact increments), ms_per_step, precompute_s
     (compliant: computing and storing the sealed gel's influence matrices, once per
     surface and ν; flex: 0), cached_s (compliant: what a run pays at its first contact once they are in
-    the cache, DomeCompliance.precompute; flex: 0), ratio_to_flex_default.
+    the cache, DomeCompliance.precompute, with a skin's matrices built over them; flex: 0),
+    ratio_to_flex_default. Besides the levels, the compliant default with each skin
+    (twin.world.dome.compliant.SKIN_PHYSICS), as levels `default+membrane`, `default+shell`.
     """
 
     contour = ContourProtocol()
     depth, step = contour.depth_mm, contour.step_mm
     poses = ([sensor_down(0, 0, depth)] + [sensor_down(0, step * k, depth) for k in range(1, 9)]
              + [sensor_down(0, 8 * step, -2)])
-    models = [("flex", FIDELITY_LEVELS), ("compliant", COMPLIANT_LEVELS)]
+    skins = {f"default+{name}": COMPLIANT_LEVELS["default"].with_(**PhysicsOverrides(**physics).as_compliant_changes())
+             for name, physics in SKIN_PHYSICS.items()}
+    models = [("flex", FIDELITY_LEVELS), ("compliant", COMPLIANT_LEVELS), ("compliant", skins)]
     rows = []
     for dome, table in models:
-        for level in levels or list(table):
+        for level in [level for level in levels or list(table) if level in table]:
             params = table[level]
             precompute = cached = 0.0
             if dome == "compliant":
