@@ -54,11 +54,11 @@ exact pins, so its pin error is 0 by construction). The compliant dome's setting
 are compared within a dome model only, while the θ and contour fronts (errors against
 the true orientation and the true contour) place both models together. The compliant
 skins (`compliant_membrane`, `compliant_shell`) change the material itself, so they have
-no pin error; their time, θ and contour figures are placed as any other's. **Pareto front** (primary): a setting
-is on it when no *peer* setting dominates it, i.e. is no slower and no worse in every
-physics-accuracy figure (pin error *and* settling error, `PRIMARY`) and better beyond the
-noise margins in time or in one of them (`dominates`); the θ and contour fronts weigh one
-figure each against time.
+no pin error; their time, θ and contour figures are placed as any other's.
+**Pareto front** (primary): a setting is on it when no *peer* setting dominates it, i.e.
+is no slower and no worse in every physics-accuracy figure (pin error *and* settling
+error, `PRIMARY`) and better beyond the noise margins in time or in one of them
+(`dominates`); the θ and contour fronts weigh one figure each against time.
 Peers (`peers`) produce the same output from the same sensor:
 * settings that render camera frames (and so exercise the tracker, as the real sensor
   does) are compared with each other, and settings with projected pins with each other.
@@ -677,8 +677,9 @@ def run_sweep(out: Path, quick: bool = False, workers: int | None = None, cluste
     for setting, result in zip(settings, results):
         row = result["row"]
         ref_truth = results[names.index(REFERENCES[setting.dome])]["slide_truth_px"]
-        if setting.pins_comparable and ref_truth is not None and result["slide_pins_px"] is not None and len(result["slide_pins_px"]) == len(ref_truth):
-            row["pin_rms_px"] = _rms_px(result["slide_pins_px"], ref_truth)
+        pins = result["slide_pins_px"]
+        if setting.pins_comparable and ref_truth is not None and pins is not None and len(pins) == len(ref_truth):
+            row["pin_rms_px"] = _rms_px(pins, ref_truth)
             row["pin_physics_rms_px"] = _rms_px(result["slide_truth_px"], ref_truth)
     annotate_fronts(rows)
     meta = {
