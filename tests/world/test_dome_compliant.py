@@ -152,6 +152,23 @@ def test_a_calibrated_material_maps_only_onto_parameters_the_model_has():
         apply_dome_material(FIDELITY_LEVELS["default"], {"poisson": 0.5})
 
 
+def test_skin_bending_takes_the_membrane_from_the_calibration():
+    """`skin_bending` needs the skin membrane. A calibration's dome material may supply it,
+    which the scenario alone cannot see; where neither does, building the dome refuses,
+    naming the field."""
+    from twin.core.errors import UserError
+    from twin.world.scene import dome_params
+
+    shell = {"name": "shell_calibrated", "object": {"name": "rectangle"}, "dome": "compliant",
+             "physics": {"skin_bending": True}}
+    params = dome_params(scenario_from_dict({**shell, "sensor": {"calibration": {
+        "dome_material": {"membrane_young_mpa": 0.6}}}}))
+    assert params.skin_bending and params.membrane_young == pytest.approx(6e5)
+    without = scenario_from_dict({**shell, "sensor": {"calibration": {"dome_material": {"young_kpa": 20.0}}}})
+    with pytest.raises(UserError, match=r"physics\.skin_bending.*membrane_young_mpa"):
+        dome_params(without)
+
+
 @pytest.mark.parametrize("level", ["default", MEMBRANE, SHELL])
 def test_each_skin_is_calibrated_to_the_same_edge_press_force(level):
     """The compliant dome's moduli were calibrated (assets/tactip/README.md) so that a

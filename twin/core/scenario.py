@@ -82,7 +82,8 @@ class PhysicsOverrides(StrictModel):
                                           "and gel as one solid without a membrane)", None)
     skin_bending: bool | None = Field(
         default=None, description="compliant dome: the skin membrane also resists bending, a thin shell of its "
-                                  "modulus and thickness (default false; needs membrane_young_mpa > 0)")
+                                  "modulus and thickness (default false; needs membrane_young_mpa > 0 here or in the "
+                                  "calibration's dome_material)")
     gel_enclosed: bool | None = Field(
         default=None, description="compliant dome: the gel is sealed in the dome and keeps its volume (default true); "
                                   "false = an open elastic half-space, the body of the closed-form contact checks")
@@ -93,13 +94,6 @@ class PhysicsOverrides(StrictModel):
         if v is not None and v != 0 and not 0.5 <= v <= 5:
             raise ValueError(f"skin_spacing_mm must be 0 (off) or in [0.5, 5] mm, got {v}")
         return v
-
-    @model_validator(mode="after")
-    def _bending_needs_the_membrane(self) -> "PhysicsOverrides":
-        if self.skin_bending and not self.membrane_young_mpa:
-            raise ValueError(f"skin_bending: true needs the skin membrane, membrane_young_mpa > 0 "
-                             f"(got {self.membrane_young_mpa})")
-        return self
 
     #: overrides that only the flex dome has
     FLEX_ONLY: ClassVar[tuple[str, ...]] = ("cellcount", "timestep_s", "settle_px", "skin_spacing_mm")
@@ -184,7 +178,8 @@ Protocol = Annotated[Union[RenderProtocol, TapProtocol, SlideProtocol, ContourPr
 
 
 class Scenario(StrictModel):
-    """One run. See scenarios/README.md for every field with units."""
+    """One run. README.md, "Scenarios", shows a whole file; every field's unit and range is in
+    its model's description here (ObjectSpec, SensorSpec, PhysicsOverrides, the protocols)."""
 
     name: str
     description: str = ""
@@ -221,6 +216,15 @@ class Scenario(StrictModel):
         given = [f"physics.{k}" for k in only if getattr(self.physics, k) is not None]
         if given:
             raise ValueError(f"{', '.join(given)}: only for the {other} dome (this scenario has dome: {self.dome})")
+        return self
+
+    @model_validator(mode="after")
+    def _bending_needs_the_membrane(self) -> "Scenario":
+        # with a calibration, its dome material may set the membrane: checked where both
+        # are applied (twin.world.scene.dome_params)
+        if self.physics.skin_bending and not self.physics.membrane_young_mpa and self.sensor.calibration is None:
+            raise ValueError(f"physics.skin_bending: true needs the skin membrane, membrane_young_mpa > 0 in "
+                             f"`physics` or in the calibration's dome_material (got {self.physics.membrane_young_mpa})")
         return self
 
     def has(self, effect: str) -> bool:

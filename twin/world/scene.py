@@ -113,7 +113,12 @@ def dome_params(scenario: Scenario) -> DomeParams | CompliantParams:
     else:
         params = FIDELITY_LEVELS[scenario.fidelity].with_(**scenario.physics.as_dome_changes())
     calibration = scenario.calibration()
-    return params if calibration is None else apply_dome_material(params, calibration.dome_material)
+    if calibration is not None:
+        params = apply_dome_material(params, calibration.dome_material)
+    if isinstance(params, CompliantParams) and params.skin_bending and not params.membrane_young:
+        raise UserError(f"{scenario.source}: physics.skin_bending: true needs the skin membrane, membrane_young_mpa "
+                        f"> 0 in `physics` or in the calibration's dome_material (neither sets it)")
+    return params
 
 
 def build_scene(scenario: Scenario, start_pose: Pose) -> Scene:
