@@ -93,3 +93,26 @@ def test_refresh_computes_and_stores_even_a_present_entry(cache):
     assert compute.calls == 2
     cached_arrays("test", {"x": 1}, compute, SHAPES)
     assert compute.calls == 2  # the refreshed entry loads
+
+
+def test_the_least_recently_used_entries_make_room(cache):
+    """Beyond the kind's limit a stored entry deletes the entries used longest ago; loading
+    an entry counts as using it."""
+    import os
+
+    compute = Computation()
+    cached_arrays("test", {"x": 1}, compute, SHAPES)
+    (first,) = cache.glob("*.npz")
+    cached_arrays("test", {"x": 2}, compute, SHAPES)
+    (second,) = set(cache.glob("*.npz")) - {first}
+    size = first.stat().st_size
+    os.utime(first, (1000, 1000))   # x = 1 stored long ago ...
+    os.utime(second, (2000, 2000))  # ... x = 2 later
+    cached_arrays("test", {"x": 1}, compute, SHAPES)  # ... but x = 1 used now
+    assert compute.calls == 2
+    cached_arrays("test", {"x": 3}, compute, SHAPES, kind_limit_bytes=int(2.5 * size))
+    assert len(list(cache.glob("*.npz"))) == 2 and not second.exists() and first.exists()
+    cached_arrays("test", {"x": 1}, compute, SHAPES)
+    assert compute.calls == 3  # x = 1 kept, x = 3 stored
+    cached_arrays("test", {"x": 2}, compute, SHAPES)
+    assert compute.calls == 4  # x = 2 was the one to go

@@ -7,7 +7,8 @@ source checkout the same files are the repository's top-level ``assets/`` and
 
 Caches (trained tap models, the compliant dome's influence matrices) go to the user
 cache directory (``platformdirs``), or to ``$TWIN_CACHE`` when that is set; never into
-the source tree. Each cache entry is keyed on what it depends on and the package version.
+the source tree. Each cache entry is keyed on what it depends on and the package version;
+a kind of cached arrays keeps at most KIND_LIMIT_BYTES, the least recently used going first.
 """
 from __future__ import annotations
 
@@ -69,15 +70,23 @@ def package_version() -> str:
         return "0+unknown"
 
 
+#: What one kind of cached arrays may keep on disk (B); beyond it the least recently used
+#: entries go (entries of older package versions and code are never used again).
+KIND_LIMIT_BYTES = 2 * 2**30
+
+
 def cached_arrays(kind: str, key: dict, compute: Callable[[], dict[str, np.ndarray]],
                   shapes: dict[str, tuple[int, ...]], max_bytes: int = 256 * 2**20,
-                  refresh: bool = False) -> dict[str, np.ndarray]:
+                  refresh: bool = False, kind_limit_bytes: int = KIND_LIMIT_BYTES) -> dict[str, np.ndarray]:
     """Arrays computed once and kept in ``cache_dir()/kind``, keyed on `key` (JSON: what
     they depend on) and the package version. An entry that is missing, unreadable or not
     of the expected `shapes` is computed again and rewritten, and so is every entry when
     `refresh`; one larger than `max_bytes` (B) is computed every time instead of stored; a
     cache directory that cannot be written only warns. Entries are written to a temporary
-    file and renamed, so parallel workers computing the same entry never read half of one."""
+    file and renamed, so parallel workers computing the same entry never read half of one.
+    A stored entry makes room: the kind's least recently used entries (by modification
+    time, which a load renews) are deleted until the kind holds at most `kind_limit_bytes`
+    (B)."""
     payload = json.dumps({"key": key, "version": package_version()}, sort_keys=True, default=str)
     path = cache_dir() / kind / f"{hashlib.sha256(payload.encode()).hexdigest()[:16]}.npz"
     if path.exists() and not refresh:
@@ -85,6 +94,8 @@ def cached_arrays(kind: str, key: dict, compute: Callable[[], dict[str, np.ndarr
             with np.load(path, allow_pickle=False) as stored:
                 arrays = {name: stored[name] for name in shapes}
             if all(arrays[name].shape == tuple(shape) for name, shape in shapes.items()):
+                with contextlib.suppress(OSError):
+                    os.utime(path)  # used now: the last to go
                 return arrays
             warnings.warn(f"{path}: cache entry of the wrong shape; computing it again")
         except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
@@ -100,4 +111,26 @@ def cached_arrays(kind: str, key: dict, compute: Callable[[], dict[str, np.ndarr
             with contextlib.suppress(OSError):
                 partial.unlink(missing_ok=True)
             warnings.warn(f"{path}: could not store the cache entry ({err})")
+        else:
+            _evict_least_recently_used(path.parent, path, kind_limit_bytes)
     return arrays
+
+
+def _evict_least_recently_used(folder: Path, keep: Path, limit_bytes: int) -> None:
+    """Delete the oldest entries of `folder` (never `keep`) until it holds ≤ `limit_bytes`.
+    Another process may delete the same file first: that is not an error."""
+    entries = []
+    for entry in folder.glob("*.npz"):
+        if entry.name.endswith(".partial.npz"):
+            continue
+        with contextlib.suppress(OSError):
+            info = entry.stat()
+            entries.append((info.st_mtime, info.st_size, entry))
+    total = sum(size for _, size, _ in entries)
+    for _, size, entry in sorted(entries):
+        if total <= limit_bytes:
+            break
+        if entry != keep:
+            with contextlib.suppress(OSError):
+                entry.unlink()
+            total -= size
