@@ -36,3 +36,23 @@ def test_text_table_puts_the_papers_row_under_the_twins() -> None:
     lines = text.splitlines()
     assert lines[1].startswith("twin PCA + GP") and "5.00/—" in lines[1]
     assert lines[2].startswith("paper PCA + GP") and f"{PAPER_TABLE_I['PCA + GP'][90][0]:.2f}/—" in lines[2]
+
+
+def test_heldout_taps_per_lateral_position_with_wrap() -> None:
+    """Held-out taps (a tap run as the test set): θ and lateral RMS per lateral position,
+    angles compared on the circle; figures worked out by hand."""
+    from twin.sensing.perception import Prediction
+    from twin.tools.evaluate import format_heldout, heldout_table
+
+    labels = [(179.0, 5.0), (10.0, 5.0), (-50.0, -3.0)]
+    run = Run(Path("synthetic"), {}, [{"labels": {"theta_deg": t, "lateral_mm": l}, "pins_px": None} for t, l in labels])
+    # l = +5: θ errors 2 (−179 vs 179) and 4 -> RMS sqrt(10); lateral errors 1 and −3 -> sqrt(5)
+    # l = −3: θ error 6, lateral error 0.5
+    pred = Prediction(theta_deg=np.array([-179.0, 14.0, -56.0]), lateral_mm=np.array([6.0, 2.0, -2.5]),
+                      std=np.zeros((3, 2)), ok=np.ones(3, bool), reason=("", "", ""))
+    table = heldout_table(run, {"PCA + GP": pred})["PCA + GP"]
+    assert list(table) == [5.0, -3.0]
+    assert table[5.0]["theta_rms_deg"] == pytest.approx(math.sqrt(10.0))
+    assert table[5.0]["lateral_rms_mm"] == pytest.approx(math.sqrt(5.0)) and table[5.0]["n"] == 2
+    assert table[-3.0] == {"theta_rms_deg": pytest.approx(6.0), "lateral_rms_mm": pytest.approx(0.5), "n": 1}
+    assert "+5.0" in format_heldout({"PCA + GP": table}).splitlines()[1]

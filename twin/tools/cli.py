@@ -21,7 +21,7 @@ from twin.core.scenario import START_POSE
 from twin.world.scene import build_scene
 from twin.runs.sim_env import check_reachable, render_scenario_view
 from twin.runs.run import resume_run, run_scenario
-from twin.tools.evaluate import evaluate, format_table
+from twin.tools.evaluate import evaluate, format_heldout, format_table
 from hardware.virtual_controller import serve_robot
 from twin.tools.compare import compare_runs
 from twin.tools.figures import write_shear_figure
@@ -105,6 +105,13 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
 
     result = evaluate(Path(args.train), Path(args.test), Path(args.out), seed=args.seed)
     _warn_unfinished(result["unfinished"])
+    if "heldout_by_lateral_mm" in result:
+        print(format_heldout(result["heldout_by_lateral_mm"]))
+        for name in result["lateral_rms_mm"]:
+            print(f"{name}, all held-out taps: θ RMS {result['orientation_rms_deg'][name]:.2f}°, "
+                  f"lateral RMS {result['lateral_rms_mm'][name]:.2f} mm")
+        print(f"wrote {args.out}/heldout.csv and heldout.json")
+        return 0
     print(format_table(result["table_i_rms_orientation_deg"]))
     for name, v in result["lateral_rms_mm"].items():
         print(f"lateral RMS error, {name}: {v:.2f} mm (paper: 2.15 mm)")
@@ -218,9 +225,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-wait", action="store_true", help="close the window when the scenario ends")
     p.set_defaults(func=_cmd_view)
 
-    p = sub.add_parser("evaluate", help="the paper's offline test: Table I from a tap run and a slides run")
+    p = sub.add_parser("evaluate", help="the paper's offline test: Table I from a tap run and a slides run "
+                                        "(or the errors on a held-out tap run)")
     p.add_argument("--train", required=True, help="tap run directory")
-    p.add_argument("--test", required=True, help="multi-directional slides run directory")
+    p.add_argument("--test", required=True, help="multi-directional slides run directory, or a held-out tap run "
+                                                 "(scenarios/taps_heldout.yaml)")
     p.add_argument("--out", required=True)
     p.add_argument("--seed", type=int, default=0)
     p.set_defaults(func=_cmd_evaluate)

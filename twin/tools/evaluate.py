@@ -1,6 +1,8 @@
 """`twin evaluate`: the paper's offline experiment (§IV-A) — train PCA+GP and the
 raw-pin baseline on a tap run, test on a multi-directional sliding run, and write
-Table I, the lateral error, the variance explained and the PCA figures."""
+Table I, the lateral error, the variance explained and the PCA figures. Tested on a tap
+run instead (held-out taps, scenarios/taps_heldout.yaml), it writes the orientation and
+lateral errors per lateral position."""
 from __future__ import annotations
 
 import csv
@@ -61,13 +63,44 @@ def format_table(table: dict, paper: bool = True) -> str:
     return "\n".join(lines)
 
 
+def heldout_table(test: Run, predictions: dict) -> dict:
+    """{model: {lateral_mm: {"theta_rms_deg", "lateral_rms_mm", "n"}}} of a tap run's
+    errors per lateral position (mm, as labelled), from predictions with theta_deg and
+    lateral_mm (deg, mm)."""
+    theta, lateral = test.label("theta_deg"), test.label("lateral_mm")
+    table = {}
+    for name, pred in predictions.items():
+        theta_err = angle_error_deg(pred.theta_deg, theta)
+        lateral_err = pred.lateral_mm - lateral
+        table[name] = {float(l): {"theta_rms_deg": _rms(theta_err[lateral == l]),
+                                  "lateral_rms_mm": _rms(lateral_err[lateral == l]), "n": int(np.sum(lateral == l))}
+                       for l in sorted(set(lateral.tolist()), reverse=True)}
+    return table
+
+
+def format_heldout(table: dict) -> str:
+    """The held-out errors as text: one line per model and lateral position."""
+    lines = ["model".ljust(16) + "lateral mm".rjust(12) + "θ RMS °".rjust(10) + "lateral RMS mm".rjust(16) + "taps".rjust(6)]
+    for name, rows in table.items():
+        for l, row in rows.items():
+            lines.append(name.ljust(16) + f"{l:+.1f}".rjust(12) + _fmt(row["theta_rms_deg"]).rjust(10)
+                         + _fmt(row["lateral_rms_mm"]).rjust(16) + str(row["n"]).rjust(6))
+    return "\n".join(lines)
+
+
 def evaluate(train_dir: Path, test_dir: Path, out: Path, seed: int = 0) -> dict:
-    """Train on `train_dir` (tap run), test on `test_dir` (slides run); write results to `out`."""
+    """Train on `train_dir` (tap run), test on `test_dir`: a slides run (Table I) or a
+    held-out tap run (errors per lateral position); write results to `out`."""
     train, test = load_run(train_dir), load_run(test_dir)
-    if not np.all(np.isfinite(test.label("direction_deg"))):
+    taps = not np.isfinite(test.label("direction_deg")).any()
+    if not (taps or np.all(np.isfinite(test.label("direction_deg")))):
         raise UserError(f"{test_dir}: not a multi-directional run (samples need direction_deg labels)")
+    if not np.all(np.isfinite(test.label("theta_deg")) & np.isfinite(test.label("lateral_mm"))):
+        raise UserError(f"{test_dir}: neither a slides nor a tap run (samples need theta_deg and lateral_mm labels)")
     models = {"PCA + GP": train_from_run(train, "pca", seed), "GP baseline": train_from_run(train, "baseline", seed)}
     preds = {name: m.predict(test.pins_px, resolution=test.resolution) for name, m in models.items()}
+    if taps:
+        return _write_heldout(train, test, train_dir, test_dir, preds, out)
     table = table_i(test, {n: p.theta_deg for n, p in preds.items()})
     lateral = test.label("lateral_mm")
     pca = models["PCA + GP"]
@@ -95,6 +128,28 @@ def evaluate(train_dir: Path, test_dir: Path, out: Path, seed: int = 0) -> dict:
     write_pca_figures(train, test, out)
     for name, m in models.items():
         m.save(out / f"model_{'pca' if name == 'PCA + GP' else 'baseline'}.npz")
+    return result
+
+
+def _write_heldout(train: Run, test: Run, train_dir: Path, test_dir: Path, preds: dict, out: Path) -> dict:
+    """The held-out taps' results: heldout.json and heldout.csv in `out`."""
+    table = heldout_table(test, preds)
+    result = {
+        "train_run": str(train_dir), "test_run": str(test_dir), "n_train": len(train.samples), "n_test": len(test.samples),
+        "run_states": {"train": train.state, "test": test.state},
+        "unfinished": [n for n in (train.unfinished_note(), test.unfinished_note()) if n],
+        "heldout_by_lateral_mm": table,
+        "orientation_rms_deg": {n: _rms(angle_error_deg(p.theta_deg, test.label("theta_deg"))) for n, p in preds.items()},
+        "lateral_rms_mm": {n: _rms(p.lateral_mm - test.label("lateral_mm")) for n, p in preds.items()},
+    }
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "heldout.json").write_text(json.dumps(jsonable(result), indent=1))
+    with open(out / "heldout.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["model", "lateral_mm", "theta_rms_deg", "lateral_rms_mm", "n"])
+        for name, rows in table.items():
+            for l, row in rows.items():
+                w.writerow([name, l, row["theta_rms_deg"], row["lateral_rms_mm"], row["n"]])
     return result
 
 
