@@ -56,3 +56,33 @@ def test_heldout_taps_per_lateral_position_with_wrap() -> None:
     assert table[5.0]["lateral_rms_mm"] == pytest.approx(math.sqrt(5.0)) and table[5.0]["n"] == 2
     assert table[-3.0] == {"theta_rms_deg": pytest.approx(6.0), "lateral_rms_mm": pytest.approx(0.5), "n": 1}
     assert "+5.0" in format_heldout({"PCA + GP": table}).splitlines()[1]
+
+
+def test_evaluate_on_a_recorded_heldout_tap_run(tmp_path, capsys) -> None:
+    """`twin evaluate` with a tap run as the test set: trains on a small recorded tap set,
+    tests on taps between its poses, and writes the errors per lateral position."""
+    import json
+
+    import yaml
+
+    from twin.tools.cli import main
+
+    def record(name: str, orientations: list, lateral: list, depths: list) -> Path:
+        scenario = {"name": name, "object": {"name": "rectangle"}, "fidelity": "fast", "effects": ["contact", "friction"],
+                    "protocol": {"kind": "taps", "orientations_deg": orientations, "lateral_mm": lateral,
+                                 "depths_mm": depths, "edge_point_mm": [60, 0], "edge_normal_deg": 0}}
+        path = tmp_path / f"{name}.yaml"
+        path.write_text(yaml.safe_dump(scenario))
+        assert main(["run", str(path), "--out", str(tmp_path / name), "--workers", "1", "--quiet"]) == 0
+        return tmp_path / name
+
+    train = record("train", list(range(-160, 181, 20)), [9.9, 6, 4, 2, 0, -2, -4, -6], [2, 4])
+    heldout = record("heldout", [-110, 10, 130], [3, -1], [3])
+    assert main(["evaluate", "--train", str(train), "--test", str(heldout), "--out", str(tmp_path / "eval")]) == 0
+    assert "θ RMS" in capsys.readouterr().out
+    result = json.loads((tmp_path / "eval" / "heldout.json").read_text())
+    rows = result["heldout_by_lateral_mm"]["PCA + GP"]
+    assert sorted(float(l) for l in rows) == [-1.0, 3.0] and all(r["n"] == 3 for r in rows.values())
+    # read, not guessed: a constant guess is ≈ 100° and ≈ 5 mm RMS off (the fast level reads 5° and 2 mm)
+    assert result["orientation_rms_deg"]["PCA + GP"] < 20.0 and result["lateral_rms_mm"]["PCA + GP"] < 4.0
+    assert (tmp_path / "eval" / "heldout.csv").read_text().count("\n") == 1 + 2 * 2

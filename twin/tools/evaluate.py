@@ -99,18 +99,20 @@ def evaluate(train_dir: Path, test_dir: Path, out: Path, seed: int = 0) -> dict:
         raise UserError(f"{test_dir}: neither a slides nor a tap run (samples need theta_deg and lateral_mm labels)")
     models = {"PCA + GP": train_from_run(train, "pca", seed), "GP baseline": train_from_run(train, "baseline", seed)}
     preds = {name: m.predict(test.pins_px, resolution=test.resolution) for name, m in models.items()}
-    if taps:
-        return _write_heldout(train, test, train_dir, test_dir, preds, out)
-    table = table_i(test, {n: p.theta_deg for n, p in preds.items()})
-    lateral = test.label("lateral_mm")
-    pca = models["PCA + GP"]
-    result = {
+    summary = {
         "train_run": str(train_dir), "test_run": str(test_dir), "n_train": len(train.samples), "n_test": len(test.samples),
         "run_states": {"train": train.state, "test": test.state},
         "unfinished": [n for n in (train.unfinished_note(), test.unfinished_note()) if n],
-        "table_i_rms_orientation_deg": table,
         "orientation_rms_deg": {n: _rms(angle_error_deg(p.theta_deg, test.label("theta_deg"))) for n, p in preds.items()},
-        "lateral_rms_mm": {n: _rms(p.lateral_mm - lateral) for n, p in preds.items()},
+        "lateral_rms_mm": {n: _rms(p.lateral_mm - test.label("lateral_mm")) for n, p in preds.items()},
+    }
+    if taps:
+        return _write_heldout(summary, heldout_table(test, preds), out)
+    table = table_i(test, {n: p.theta_deg for n, p in preds.items()})
+    pca = models["PCA + GP"]
+    result = {
+        **summary,
+        "table_i_rms_orientation_deg": table,
         "variance_explained_3pc": float(np.sum(pca.variance_explained[:3])),
         "paper": {"table_i": PAPER_TABLE_I, "variance_explained_3pc": PAPER_VARIANCE_3PC,
                   "lateral_rms_mm": PAPER_LATERAL_RMS_MM},
@@ -131,17 +133,10 @@ def evaluate(train_dir: Path, test_dir: Path, out: Path, seed: int = 0) -> dict:
     return result
 
 
-def _write_heldout(train: Run, test: Run, train_dir: Path, test_dir: Path, preds: dict, out: Path) -> dict:
-    """The held-out taps' results: heldout.json and heldout.csv in `out`."""
-    table = heldout_table(test, preds)
-    result = {
-        "train_run": str(train_dir), "test_run": str(test_dir), "n_train": len(train.samples), "n_test": len(test.samples),
-        "run_states": {"train": train.state, "test": test.state},
-        "unfinished": [n for n in (train.unfinished_note(), test.unfinished_note()) if n],
-        "heldout_by_lateral_mm": table,
-        "orientation_rms_deg": {n: _rms(angle_error_deg(p.theta_deg, test.label("theta_deg"))) for n, p in preds.items()},
-        "lateral_rms_mm": {n: _rms(p.lateral_mm - test.label("lateral_mm")) for n, p in preds.items()},
-    }
+def _write_heldout(summary: dict, table: dict, out: Path) -> dict:
+    """The held-out taps' results (`summary` with the per-lateral `table`): heldout.json and
+    heldout.csv in `out`."""
+    result = {**summary, "heldout_by_lateral_mm": table}
     out.mkdir(parents=True, exist_ok=True)
     (out / "heldout.json").write_text(json.dumps(jsonable(result), indent=1))
     with open(out / "heldout.csv", "w", newline="") as fh:
