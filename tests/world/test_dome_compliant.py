@@ -152,6 +152,26 @@ def test_a_calibrated_material_maps_only_onto_parameters_the_model_has():
         apply_dome_material(FIDELITY_LEVELS["default"], {"poisson": 0.5})
 
 
+def test_the_increment_length_is_a_scenario_knob():
+    """`physics: {increment_mm}` sets the largest tool motion per contact increment: a 3 mm
+    slide takes 3 increments at 1 mm and 6 at the default 0.5 mm (a flex scenario refuses it)."""
+    from twin.core.errors import UserError
+    from twin.world.scene import dome_params
+
+    spec = {"name": "increments", "object": {"name": "rectangle"}, "dome": "compliant",
+            "effects": ["contact", "friction"]}
+    assert dome_params(scenario_from_dict({**spec, "physics": {"increment_mm": 1.0}})).step_length == pytest.approx(1e-3)
+    for physics, increments in (({"increment_mm": 1.0}, 3), ({}, 6)):
+        env = SimEnvironment(scenario_from_dict({**spec, "physics": physics}), start_pose=Pose(60, 0, -2, 0, 0, 0))
+        env.reset()
+        env.move_to(Pose(58, 0, 3, 0, 0, 0))
+        before = env.physics.steps
+        env.move_to(Pose(58, 3, 3, 0, 0, 0))
+        assert env.physics.steps - before == increments
+    with pytest.raises(UserError, match="increment_mm"):
+        scenario_from_dict({**spec, "dome": "flex", "physics": {"increment_mm": 1.0}})
+
+
 def test_skin_bending_takes_the_membrane_from_the_calibration():
     """`skin_bending` needs the skin membrane. A calibration's dome material may supply it,
     which the scenario alone cannot see; where neither does, building the dome refuses,

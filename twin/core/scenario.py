@@ -84,6 +84,8 @@ class PhysicsOverrides(StrictModel):
         default=None, description="compliant dome: the skin membrane also resists bending, a thin shell of its "
                                   "modulus and thickness (default false; needs membrane_young_mpa > 0 here or in the "
                                   "calibration's dome_material)")
+    increment_mm: float | None = bounded(0.05, 5, "mm", "compliant dome: the largest tool motion per contact increment "
+                                         "(the friction path's resolution; default 0.5 at fidelity default)", None)
     gel_enclosed: bool | None = Field(
         default=None, description="compliant dome: the gel is sealed in the dome and keeps its volume (default true); "
                                   "false = an open elastic half-space, the body of the closed-form contact checks")
@@ -99,14 +101,15 @@ class PhysicsOverrides(StrictModel):
     FLEX_ONLY: ClassVar[tuple[str, ...]] = ("cellcount", "timestep_s", "settle_px", "skin_spacing_mm")
 
     #: overrides that only the compliant dome has
-    COMPLIANT_ONLY: ClassVar[tuple[str, ...]] = ("gel_enclosed", "gel_young_kpa", "skin_bending")
+    COMPLIANT_ONLY: ClassVar[tuple[str, ...]] = ("gel_enclosed", "gel_young_kpa", "skin_bending", "increment_mm")
 
     def as_compliant_changes(self) -> dict:
         """The overrides for the compliant dome (twin.world.dome.compliant.CompliantParams)."""
         changes = {"spacing": None if self.surface_spacing_mm is None else self.surface_spacing_mm * 1e-3,
                    "enclosed": self.gel_enclosed, "skin_bending": self.skin_bending,
                    "young": None if self.gel_young_kpa is None else self.gel_young_kpa * 1e3,
-                   "membrane_young": None if self.membrane_young_mpa is None else self.membrane_young_mpa * 1e6}
+                   "membrane_young": None if self.membrane_young_mpa is None else self.membrane_young_mpa * 1e6,
+                   "step_length": None if self.increment_mm is None else self.increment_mm * 1e-3}
         return {k: v for k, v in changes.items() if v is not None}
 
     def as_dome_changes(self) -> dict:
@@ -114,7 +117,8 @@ class PhysicsOverrides(StrictModel):
                    "settle_px": self.settle_px,
                    "surface_spacing": None if self.surface_spacing_mm is None else self.surface_spacing_mm * 1e-3,
                    "skin_spacing": None if self.skin_spacing_mm is None else self.skin_spacing_mm * 1e-3,
-                   "membrane_young": None if self.membrane_young_mpa is None else self.membrane_young_mpa * 1e6}
+                   "membrane_young": None if self.membrane_young_mpa is None else self.membrane_young_mpa * 1e6,
+                   "step_length": None if self.increment_mm is None else self.increment_mm * 1e-3}
         return {k: v for k, v in changes.items() if v is not None}
 
 

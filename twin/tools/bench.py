@@ -177,16 +177,19 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
     surface and ν; flex: 0), cached_s (compliant: what a run pays at its first contact once they are in
     the cache, DomeCompliance.precompute, with a skin's matrices built over them; flex: 0),
     ratio_to_flex_default. Besides the levels, the compliant default with each skin
-    (twin.world.dome.compliant.SKIN_PHYSICS), as levels `default+membrane`, `default+shell`.
+    (twin.world.dome.compliant.SKIN_PHYSICS), as levels `default+membrane`, `default+shell`,
+    and with 1 mm increments (`default+increment_1mm`, scenario `physics: {increment_mm: 1}`).
     """
 
     contour = ContourProtocol()
     depth, step = contour.depth_mm, contour.step_mm
     poses = ([sensor_down(0, 0, depth)] + [sensor_down(0, step * k, depth) for k in range(1, 9)]
              + [sensor_down(0, 8 * step, -2)])
-    skins = {f"default+{name}": COMPLIANT_LEVELS["default"].with_(**PhysicsOverrides(**physics).as_compliant_changes())
-             for name, physics in SKIN_PHYSICS.items()}
-    models = [("flex", FIDELITY_LEVELS), ("compliant", COMPLIANT_LEVELS), ("compliant", skins)]
+    variant_physics = {**{f"default+{name}": physics for name, physics in SKIN_PHYSICS.items()},
+                       "default+increment_1mm": {"increment_mm": 1.0}}
+    variants = {name: COMPLIANT_LEVELS["default"].with_(**PhysicsOverrides(**physics).as_compliant_changes())
+                for name, physics in variant_physics.items()}
+    models = [("flex", FIDELITY_LEVELS), ("compliant", COMPLIANT_LEVELS), ("compliant", variants)]
     rows = []
     for dome, table in models:
         for level in [level for level in levels or list(table) if level in table]:

@@ -157,7 +157,7 @@ class Setting:
     fidelity: the dome model's fidelity level (twin.world.dome.flex.FIDELITY_LEVELS or
     twin.world.dome.compliant.COMPLIANT_LEVELS). physics: scenario `physics` overrides
     (cellcount [i, j, k], timestep_s s, settle_px px, surface_spacing_mm mm, skin_spacing_mm mm,
-    gel_enclosed). dome: the scenario's dome model ('flex' or 'compliant').
+    gel_enclosed, increment_mm mm, …; twin.core.scenario.PhysicsOverrides). dome: the scenario's dome model ('flex' or 'compliant').
     effects: scenario effects. camera: scenario `sensor.camera` overrides (width px,
     height px, msaa samples, noise_std grey levels). note: what the setting shows.
     pins_comparable: False where the setting changes the dome's material model (a skin over
@@ -242,6 +242,8 @@ def full_settings() -> list[Setting]:
                 note="compliant, no tangential problem"),
         Setting("compliant_open_gel", "compliant dome", "default", physics={"gel_enclosed": False}, dome="compliant",
                 note="compliant, the gel as an open half-space (not sealed)"),
+        Setting("compliant_increment_1mm", "compliant increment", "default", physics={"increment_mm": 1.0},
+                dome="compliant", note="compliant, 1.5 mm nodes, 1 mm increments (the default's are 0.5 mm)"),
         Setting("compliant_membrane", "compliant skin", "default", physics=SKIN_PHYSICS["membrane"], dome="compliant",
                 pins_comparable=False, note="compliant, the skin as a membrane over a softer gel (no pin error: "
                 "another material than compliant_reference)"),

@@ -60,8 +60,9 @@ class CompliantParams:
     extent_deg (deg): half-angle of the modelled cap; the pins reach 61°, a 6 mm press on
       a flat 51°.
     step_length (m), step_angle_deg (deg): largest tool motion per contact increment (the
-      resolution of the friction path). On the benchmark's contour path (twin bench
-      physics) 0.5 mm moves the pins ≤ 0.22 px from 0.25 mm for 0.68× the time, 1 mm ≤ 0.36 px;
+      resolution of the friction path; a scenario sets step_length as `physics:
+      {increment_mm}`). On the benchmark's contour path (twin bench physics) 0.5 mm moves
+      the pins ≤ 0.22 px from 0.25 mm for 0.68× the time, 1 mm ≤ 0.36 px;
       sliding 16 mm along the edge at 4 mm depth ≤ 0.13 / 0.35 px; across the edge and back
       at 3 mm, where the edge enters and leaves the contact, ≤ 1.13 / 2.83 px (RMS 0.17 / 0.50).
     candidate_margin (m): nodes whose rigid gap is below this enter the contact problem
