@@ -117,8 +117,7 @@ class PhysicsOverrides(StrictModel):
                    "settle_px": self.settle_px,
                    "surface_spacing": None if self.surface_spacing_mm is None else self.surface_spacing_mm * 1e-3,
                    "skin_spacing": None if self.skin_spacing_mm is None else self.skin_spacing_mm * 1e-3,
-                   "membrane_young": None if self.membrane_young_mpa is None else self.membrane_young_mpa * 1e6,
-                   "step_length": None if self.increment_mm is None else self.increment_mm * 1e-3}
+                   "membrane_young": None if self.membrane_young_mpa is None else self.membrane_young_mpa * 1e6}
         return {k: v for k, v in changes.items() if v is not None}
 
 
