@@ -118,15 +118,9 @@ def evaluate(train_dir: Path, test_dir: Path, out: Path, seed: int = 0) -> dict:
                   "lateral_rms_mm": PAPER_LATERAL_RMS_MM},
         "training": {n: m.training_summary for n, m in models.items()},
     }
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "table_i.json").write_text(json.dumps(jsonable(result), indent=1))
-    with open(out / "table_i.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["model", "direction_deg", "group", "rms_orientation_error_deg", "paper_deg"])
-        for name, rows in table.items():
-            for d in DIRECTIONS:
-                for i, group in enumerate(("on", "off")):
-                    w.writerow([name, d, group, rows[d][group], PAPER_TABLE_I[name][d][i]])
+    _write_results(out, "table_i", result, ["model", "direction_deg", "group", "rms_orientation_error_deg", "paper_deg"],
+                   [[name, d, group, rows[d][group], PAPER_TABLE_I[name][d][i]]
+                    for name, rows in table.items() for d in DIRECTIONS for i, group in enumerate(("on", "off"))])
     write_pca_figures(train, test, out)
     for name, m in models.items():
         m.save(out / f"model_{'pca' if name == 'PCA + GP' else 'baseline'}.npz")
@@ -137,15 +131,20 @@ def _write_heldout(summary: dict, table: dict, out: Path) -> dict:
     """The held-out taps' results (`summary` with the per-lateral `table`): heldout.json and
     heldout.csv in `out`."""
     result = {**summary, "heldout_by_lateral_mm": table}
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "heldout.json").write_text(json.dumps(jsonable(result), indent=1))
-    with open(out / "heldout.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["model", "lateral_mm", "theta_rms_deg", "lateral_rms_mm", "n"])
-        for name, rows in table.items():
-            for l, row in rows.items():
-                w.writerow([name, l, row["theta_rms_deg"], row["lateral_rms_mm"], row["n"]])
+    _write_results(out, "heldout", result, ["model", "lateral_mm", "theta_rms_deg", "lateral_rms_mm", "n"],
+                   [[name, l, row["theta_rms_deg"], row["lateral_rms_mm"], row["n"]]
+                    for name, rows in table.items() for l, row in rows.items()])
     return result
+
+
+def _write_results(out: Path, stem: str, result: dict, header: list[str], rows: list[list]) -> None:
+    """`result` as out/<stem>.json and its table (`header`, `rows`) as out/<stem>.csv."""
+    out.mkdir(parents=True, exist_ok=True)
+    (out / f"{stem}.json").write_text(json.dumps(jsonable(result), indent=1))
+    with open(out / f"{stem}.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(header)
+        w.writerows(rows)
 
 
 def write_pca_figures(train: Run, test: Run, out: Path) -> list[Path]:

@@ -254,9 +254,9 @@ def membrane_stiffness(surface: CapSurface, young: float, poisson: float, thickn
 
     Constant-strain triangles (plane stress, each in its own plane) on the surface's
     `triangles`; curvature enters through the facets' orientations, so stretching the
-    skin resists normal as well as tangential motion. The skin beyond the modelled cap (to the base, where it is clamped) holds
-    each rim node by a spring of its band's stretching stiffness, E·t·(node's share of
-    the rim) / (band length)."""
+    skin resists normal as well as tangential motion. The skin beyond the modelled cap (to
+    the base, where it is clamped) holds each rim node by a spring of its band's
+    stretching stiffness, E·t·(node's share of the rim) / (band length)."""
     triangles = surface.triangles
     x = surface.points[triangles]                                     # (T, 3 corners, 3)
     e1 = _unit(x[:, 1] - x[:, 0])
