@@ -197,3 +197,51 @@ def test_each_skin_is_calibrated_to_the_same_edge_press_force(level):
     env = _env(level)
     env.move_to(Pose(60, 0, 4.0, 0, 0, 0), 20.0)
     assert np.linalg.norm(env.observe_frame().contact_force_tool) == pytest.approx(4.3, rel=0.02)
+
+
+@pytest.mark.parametrize("obj", ["rectangle", "spiral"])
+def test_the_clearance_bound_is_never_longer_than_a_ray(obj):
+    """The dome skips the rays where its sphere is certainly clear of the object: that
+    bound (each piece's bounding box) may never exceed the shortest ray distance to the
+    object, at random poses and turns around the object, one piece or 94."""
+    from scipy.spatial.transform import Rotation
+
+    physics: CompliantPhysics = _env("default", obj={"name": obj}).physics
+    rng = np.random.default_rng(7)
+    radius, hits = physics.geometry.dome_outer_radius, 0
+    for _ in range(200):
+        pose = physics._commanded.copy()
+        pose[:3, 3] += rng.uniform(-0.03, 0.03, 3) * [1.0, 1.0, 0.2]
+        pose[:3, :3] = pose[:3, :3] @ Rotation.from_rotvec(rng.normal(0.0, 0.3, 3)).as_matrix()
+        physics._contact_geometry(physics._object_pose(pose))
+        hit = (physics._ray_dist >= 0.0) & physics._collidable[physics._ray_geom]
+        if hit.any():
+            hits += 1
+            assert physics._clearance() <= (physics._ray_dist[hit] - radius).min() + 1e-12
+    assert hits > 100
+    if obj == "rectangle":  # 2 mm above its flat top: the bound is close to the truth there
+        physics._contact_geometry(physics._object_pose(physics._commanded))
+        assert 0.0015 < physics._clearance() <= 0.002 + 1e-9
+
+
+def test_increments_out_of_reach_cast_no_rays_and_change_nothing():
+    """Taps with lifts and traverses between them: the increments the clearance bound
+    skips leave every frame's pins and forces bit for bit as solving them does."""
+    def taps(skip: bool) -> tuple[np.ndarray, CompliantPhysics]:
+        env = _env("default")
+        if not skip:
+            env.physics._out_of_reach = lambda tool2world: False
+        frames = []
+        for theta, lateral in ((0, 6), (40, 0), (100, -6)):
+            env.move_to(Pose(60 + lateral, 0, -2, 0, 0, theta), 50.0)
+            for pose in (Pose(60 + lateral, 0, 3, 0, 0, theta), Pose(60 + lateral, 6, 3, 0, 0, theta),
+                         Pose(60 + lateral, 6, -2, 0, 0, theta)):
+                env.move_to(pose, 20.0)
+                frame = env.observe_frame()
+                frames.append(np.concatenate([frame.pins_tool.ravel(), frame.contact_force_tool]))
+        return np.array(frames), env.physics
+
+    skipped, physics = taps(True)
+    solved, reference = taps(False)
+    assert physics.steps == reference.steps and reference.skipped == 0 and physics.skipped > 0.2 * physics.steps
+    assert np.array_equal(skipped, solved)
