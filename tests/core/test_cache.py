@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.core.resources import cached_arrays
+from twin.core.resources import cached_arrays, code_digest
 
 SHAPES = {"a": (3, 4), "b": (5,)}
 
@@ -116,3 +116,32 @@ def test_the_least_recently_used_entries_make_room(cache):
     assert compute.calls == 3  # x = 1 kept, x = 3 stored
     cached_arrays("test", {"x": 2}, compute, SHAPES)
     assert compute.calls == 4  # x = 2 was the one to go
+
+
+def test_the_code_digest_follows_the_code_not_its_comments(tmp_path):
+    """Cache keys carry a digest of the code that computes an entry: editing comments,
+    docstrings or blank lines keeps it (the cached entries stay valid), editing code, adding
+    a module or moving one changes it."""
+    package = tmp_path / "stages"
+    package.mkdir()
+    module = package / "scale.py"
+
+    def digest(text: str) -> str:
+        module.write_text(text)
+        code_digest.cache_clear()  # one digest per process and path: the code of a running process does not change
+        return code_digest(package)
+
+    original = digest('"""A stage."""\nSCALE = 2.0  # mm\n\n\ndef scaled(x):\n    """Twice x."""\n    return SCALE * x\n')
+    assert digest('"""A stage, documented anew."""\n# units: mm\nSCALE = 2.0\n\ndef scaled(x):\n'
+                  '    """x, twice (mm)."""\n\n    return SCALE * x  # the same code\n') == original
+    assert digest('SCALE = 2.0\n\n\ndef scaled(x):\n    return SCALE * x\n') == original
+    assert digest('"""A stage."""\nSCALE = 3.0\n\n\ndef scaled(x):\n    """Twice x."""\n    return SCALE * x\n') != original
+    digest('"""A stage."""\nSCALE = 2.0  # mm\n\n\ndef scaled(x):\n    """Twice x."""\n    return SCALE * x\n')
+    (package / "extra.py").write_text("OFFSET = 1.0\n")
+    code_digest.cache_clear()
+    assert code_digest(package) != original
+    (package / "extra.py").unlink()
+    module.rename(package / "moved.py")
+    code_digest.cache_clear()
+    assert code_digest(package) != original
+    code_digest.cache_clear()

@@ -118,3 +118,16 @@ def test_a_contour_s_tap_model_is_trained_on_its_own_dome_model() -> None:
     taps = tap_scenario_like(contour)
     assert taps.dome == "compliant" and taps.protocol.kind == "taps"
     assert cache_key(taps) != cache_key(tap_scenario_like(contour.with_changes(dome="flex")))
+
+
+def test_a_cached_tap_model_is_keyed_on_the_code_that_made_it(monkeypatch) -> None:
+    """A source checkout whose dome, tracker or trainer changed gets a new tap model, not
+    the cached model of the old code (the version alone does not change there)."""
+    import twin.runs.training as training
+
+    taps = tap_scenario_like(scenario_from_dict({"name": "c", "object": {"name": "rectangle"},
+                                                 "protocol": {"kind": "contour"}}))
+    before = cache_key(taps)
+    assert len(training.model_code_digest()) == 16
+    monkeypatch.setattr(training, "model_code_digest", lambda: "0" * 16)
+    assert cache_key(taps) != before

@@ -7,12 +7,16 @@ source checkout the same files are the repository's top-level ``assets/`` and
 
 Caches (trained tap models, the compliant dome's influence matrices) go to the user
 cache directory (``platformdirs``), or to ``$TWIN_CACHE`` when that is set; never into
-the source tree. Each cache entry is keyed on what it depends on and the package version;
-a kind of cached arrays keeps at most KIND_LIMIT_BYTES, the least recently used going first.
+the source tree. Each cache entry is keyed on what it depends on, the package version and
+the code that computes it (`code_digest`: an edit to the code misses the cache, one to a
+comment or docstring does not); a kind of cached arrays keeps at most KIND_LIMIT_BYTES, the
+least recently used going first.
 """
 from __future__ import annotations
 
+import ast
 import contextlib
+import functools
 import hashlib
 import json
 import os
@@ -68,6 +72,29 @@ def package_version() -> str:
         return metadata.version(PACKAGE)
     except metadata.PackageNotFoundError:
         return "0+unknown"
+
+
+@functools.lru_cache(maxsize=None)
+def code_digest(*paths: Path) -> str:
+    """16 hex digits that change with the code in `paths` (Python files, or folders read
+    recursively in name order) and not with its comments, docstrings or layout: the hash
+    of each module's syntax tree with the docstrings taken out, and of its path relative
+    to the folder named."""
+    digest = hashlib.sha256()
+    for root in paths:
+        root = Path(root)
+        files = sorted(root.rglob("*.py")) if root.is_dir() else [root]
+        for file in files:
+            tree = ast.parse(file.read_text(encoding="utf-8"), filename=str(file))
+            for node in ast.walk(tree):
+                body = getattr(node, "body", None)
+                if (isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)) and body
+                        and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant)
+                        and isinstance(body[0].value.value, str)):
+                    node.body = body[1:] or [ast.Pass()]
+            digest.update(str(file.relative_to(root) if root.is_dir() else file.name).encode())
+            digest.update(ast.dump(tree).encode())
+    return digest.hexdigest()[:16]
 
 
 #: What one kind of cached arrays may keep on disk (B); beyond it the least recently used

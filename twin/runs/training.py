@@ -4,7 +4,9 @@ A contour scenario names its model file, or gets the model trained on the tap se
 the same fidelity, effects and camera — run and trained on the first use, then loaded
 from the cache (twin.core.resources.cache_dir: `$TWIN_CACHE` or the user cache
 directory). A cached model is keyed on what it depends on: the tap scenario, the dome
-parameters it was simulated with and the package version.
+parameters it was simulated with, the package version and the code of the layers that
+simulate, track and train (`model_code_digest`), so that a changed dome or tracker in a
+source checkout trains again instead of loading a model of the old one.
 """
 from __future__ import annotations
 
@@ -12,11 +14,12 @@ import dataclasses
 import hashlib
 import json
 import shutil
+from pathlib import Path
 
 import numpy as np
 
 from twin.core.errors import UserError
-from twin.core.resources import cache_dir, package_version, scenario_path
+from twin.core.resources import cache_dir, code_digest, package_version, scenario_path
 from twin.world.scene import dome_params
 from twin.sensing.perception import PerceptionModel
 from twin.runs.record import Run, load_run
@@ -47,16 +50,27 @@ def tap_scenario_like(scenario: Scenario) -> Scenario:
                              sensor=sensor, seed=scenario.seed)
 
 
+#: the layers whose code a tap model depends on (the controller and the tools above them do not count)
+MODEL_CODE_LAYERS = ("core", "world", "sensing", "runs")
+
+
+def model_code_digest() -> str:
+    """`code_digest` of the package's layers in MODEL_CODE_LAYERS."""
+    package = Path(__file__).resolve().parents[1]
+    return code_digest(*(package / layer for layer in MODEL_CODE_LAYERS))
+
+
 def cache_key(taps: Scenario) -> str:
     """What a cached tap model depends on: the tap scenario (protocol, sensor, effects,
-    fidelity, seed), the dome parameters it simulates and the package version. The sensor's
-    calibration counts by its contents, not by the file that holds them: editing the file
-    changes the key, another file with the same contents does not."""
+    fidelity, seed), the dome parameters it simulates, the package version and the code
+    (`model_code_digest`). The sensor's calibration counts by its contents, not by the
+    file that holds them: editing the file changes the key, another file with the same
+    contents does not."""
     scenario = taps.model_dump(mode="json")
     calibration = taps.calibration()
     scenario["sensor"]["calibration"] = None if calibration is None else calibration.model_dump(mode="json")
-    payload = json.dumps({"scenario": scenario,
-                          "dome": dataclasses.asdict(dome_params(taps)), "version": package_version()},
+    payload = json.dumps({"scenario": scenario, "dome": dataclasses.asdict(dome_params(taps)),
+                          "version": package_version(), "code": model_code_digest()},
                          sort_keys=True, default=str)
     return hashlib.sha256(payload.encode()).hexdigest()[:16]
 

@@ -58,7 +58,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial import Delaunay
 
-from twin.core.resources import cached_arrays
+from twin.core.resources import cached_arrays, code_digest
 from twin.core.sensor import TacTipGeometry
 
 GOLDEN_ANGLE = math.pi * (3.0 - math.sqrt(5.0))  # rad
@@ -321,7 +321,7 @@ def bending_stiffness(surface: CapSurface, young: float, poisson: float, thickne
 
 
 #: what the cached matrices depend on besides their inputs: the code that computes them
-_SOURCE_DIGEST = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
+_SOURCE_DIGEST = code_digest(Path(__file__))
 
 
 def half_space_columns(surface: CapSurface, nodes: np.ndarray, poisson: float,
