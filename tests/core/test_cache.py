@@ -131,12 +131,13 @@ def test_the_code_digest_follows_the_code_not_its_comments(tmp_path):
         code_digest.cache_clear()  # one digest per process and path: the code of a running process does not change
         return code_digest(package)
 
-    original = digest('"""A stage."""\nSCALE = 2.0  # mm\n\n\ndef scaled(x):\n    """Twice x."""\n    return SCALE * x\n')
+    stage = '"""A stage."""\nSCALE = 2.0  # mm\n\n\ndef scaled(x):\n    """Twice x."""\n    return SCALE * x\n'
+    original = digest(stage)
     assert digest('"""A stage, documented anew."""\n# units: mm\nSCALE = 2.0\n\ndef scaled(x):\n'
                   '    """x, twice (mm)."""\n\n    return SCALE * x  # the same code\n') == original
     assert digest('SCALE = 2.0\n\n\ndef scaled(x):\n    return SCALE * x\n') == original
-    assert digest('"""A stage."""\nSCALE = 3.0\n\n\ndef scaled(x):\n    """Twice x."""\n    return SCALE * x\n') != original
-    digest('"""A stage."""\nSCALE = 2.0  # mm\n\n\ndef scaled(x):\n    """Twice x."""\n    return SCALE * x\n')
+    assert digest(stage.replace("SCALE = 2.0", "SCALE = 3.0")) != original
+    digest(stage)
     (package / "extra.py").write_text("OFFSET = 1.0\n")
     code_digest.cache_clear()
     assert code_digest(package) != original

@@ -20,10 +20,11 @@ every increment of the path:
 A move is cut into increments of at most `step_length` of tool travel and
 `step_angle_deg` of rotation; the result of each is an equilibrium, so a frame needs no
 settling (`settle` returns the current state). Quasi-static: the speed only sets the
-simulated time. Out of contact, an increment whose sphere is certainly clear of the object
-(a bound from the pieces' bounding boxes, `_out_of_reach`) casts no rays: it would leave the
-dome at rest, as it is (taps: 0.83–0.85× the time of casting them). Without the `contact` effect the object has no collision pieces, no ray
-hits and no problem is solved; without `friction` only the normal problem is.
+simulated time. Out of contact, an increment whose sphere is certainly clear of the
+object (a bound from the pieces' bounding boxes, `_out_of_reach`) casts no rays: it would
+leave the dome at rest, as it is (taps: 0.83–0.85× the time of casting them). Without the
+`contact` effect the object has no collision pieces, no ray hits and no problem is
+solved; without `friction` only the normal problem is.
 
 Every increment is checked; a failure raises `PhysicsError` naming the scenario, the
 increment, the pose and what failed: a contact problem that did not converge, NaN/Inf,
