@@ -24,9 +24,23 @@ def test_physics_rows_are_consistent() -> None:
     assert [(r["dome"], r["level"]) for r in rows] == [("flex", "fast"), ("compliant", "fast")]
     for row in rows:
         assert set(row) == {"dome", "level", "ms_per_frame", "steps_per_frame", "ms_per_step", "precompute_s",
-                            "cached_s", "ratio_to_flex_default"}
+                            "cached_s", "ratio_to_flex_default", "ratio_min", "ratio_max"}
         assert row["ms_per_frame"] > 0 and row["steps_per_frame"] >= 1
         assert row["ms_per_step"] * row["steps_per_frame"] == pytest.approx(row["ms_per_frame"])
         assert math.isnan(row["ratio_to_flex_default"])  # the flex default was not measured in this run
+        assert math.isnan(row["ratio_min"]) and math.isnan(row["ratio_max"])
     assert rows[0]["precompute_s"] == rows[0]["cached_s"] == 0.0
     assert rows[1]["precompute_s"] > 0.0 and rows[1]["cached_s"] > 0.0
+
+
+def test_physics_ratios_are_taken_round_by_round() -> None:
+    """Every row is timed once per round beside the flex default, so each round gives a
+    ratio: the flex default's own is 1 in every round, every other row's a positive range,
+    and the headline ratio is best time against best time."""
+    rows = {(r["dome"], r["level"]): r for r in benchmark_physics(["fast", "default"], repeats=3, verbose=False)}
+    assert set(rows) == {(dome, level) for dome in ("flex", "compliant") for level in ("fast", "default")}
+    flex = rows[("flex", "default")]
+    assert flex["ratio_min"] == flex["ratio_max"] == flex["ratio_to_flex_default"] == 1.0
+    for row in rows.values():
+        assert 0 < row["ratio_min"] <= row["ratio_max"]
+        assert row["ratio_to_flex_default"] == pytest.approx(row["ms_per_frame"] / flex["ms_per_frame"])

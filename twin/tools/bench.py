@@ -165,20 +165,26 @@ def _print_rows(title: str, rows: list[dict]) -> None:
 
 def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose: bool = True) -> list[dict]:
     """ms of physics per settled frame for each dome model and fidelity level, best of
-    `repeats`, and the compliant default's time as a ratio of the flex default's (same run).
+    `repeats`, and each row's time as a ratio of the flex default's (same run).
 
     A contour-following sequence on the edge scene with the contour protocol's defaults
     (twin.core.scenario.ContourProtocol: depth d, step e, speed): press to d at the edge, then
     eight steps of e along the edge, then lift off. Each frame = move + settle, timed as
     wall time of the whole physics calls (stepping or contact increments, pin read-out,
-    checks). Returns one dict per (dome, level): ms_per_frame (best), steps_per_frame
-    (mean; flex: MuJoCo steps, compliant: contact increments), ms_per_step, precompute_s
-    (compliant: computing and storing the sealed gel's influence matrices, once per
-    surface and ν; flex: 0), cached_s (compliant: what a run pays at its first contact once they are in
-    the cache, DomeCompliance.precompute, with a skin's matrices built over them; flex: 0),
-    ratio_to_flex_default. Besides the levels, the compliant default with each skin
-    (twin.world.dome.compliant.SKIN_PHYSICS), as levels `default+membrane`, `default+shell`,
-    and with 1 mm increments (`default+increment_1mm`, scenario `physics: {increment_mm: 1}`).
+    checks). The rows are timed in rounds, each round running every row once after an
+    untimed round (the compliant model's first run fills its columns), so that a host that
+    speeds up or slows down during the run moves every row alike. Returns one dict per
+    (dome, level): ms_per_frame (best), steps_per_frame (mean; flex: MuJoCo steps,
+    compliant: contact increments), ms_per_step, precompute_s (compliant: computing and
+    storing the sealed gel's influence matrices, once per surface and ν; flex: 0),
+    cached_s (compliant: what a run pays at its first contact once they are in the cache,
+    DomeCompliance.precompute, with a skin's matrices built over them; flex: 0),
+    ratio_to_flex_default (best against best) and ratio_min, ratio_max (the lowest and
+    highest ratio within one round: how far a single run's ratio may be trusted; NaN
+    where the flex default is not among the levels). Besides the levels, the compliant
+    default with each skin (twin.world.dome.compliant.SKIN_PHYSICS), as levels
+    `default+membrane`, `default+shell`, and with 1 mm increments
+    (`default+increment_1mm`, scenario `physics: {increment_mm: 1}`).
     """
 
     contour = ContourProtocol()
@@ -204,25 +210,35 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
                 DomeCompliance(surface, params.young, params.poisson, params.enclosed, params.membrane_young,
                                params.skin_bending).precompute()
                 cached = time.perf_counter() - t0
-            best = np.inf
-            for _ in range(repeats + (dome == "compliant")):  # the compliant model's first run fills its columns
-                model, data, handles, physics = edge_scene(params, scenario=f"benchmark-{dome}-{level}")
-                t0 = time.perf_counter()
-                for pose in poses:
-                    physics.move(pose, contour.speed_mm_s)
-                    physics.settle()
-                elapsed = time.perf_counter() - t0
-                if elapsed < best:
-                    best, steps = elapsed, physics.steps
-            rows.append({"dome": dome, "level": level, "ms_per_frame": 1e3 * best / len(poses),
-                         "steps_per_frame": steps / len(poses), "ms_per_step": 1e3 * best / steps,
-                         "precompute_s": precompute, "cached_s": cached})
-    reference = next((r["ms_per_frame"] for r in rows if r["dome"] == "flex" and r["level"] == "default"), None)
+            rows.append({"dome": dome, "level": level, "params": params, "precompute_s": precompute,
+                         "cached_s": cached, "seconds": []})
+    for round_ in range(repeats + 1):
+        for r in rows:
+            model, data, handles, physics = edge_scene(r["params"], scenario=f"benchmark-{r['dome']}-{r['level']}")
+            t0 = time.perf_counter()
+            for pose in poses:
+                physics.move(pose, contour.speed_mm_s)
+                physics.settle()
+            elapsed = time.perf_counter() - t0
+            if round_:
+                r["seconds"].append(elapsed)
+                r["steps"] = physics.steps
+    flex = next((np.array(r["seconds"]) for r in rows if r["dome"] == "flex" and r["level"] == "default"), None)
     for r in rows:
-        r["ratio_to_flex_default"] = r["ms_per_frame"] / reference if reference else float("nan")
+        seconds, steps = np.array(r.pop("seconds")), r.pop("steps")
+        del r["params"]
+        best = float(seconds.min())
+        r.update({"ms_per_frame": 1e3 * best / len(poses), "steps_per_frame": steps / len(poses),
+                  "ms_per_step": 1e3 * best / steps})
+        if flex is None:
+            r["ratio_to_flex_default"] = r["ratio_min"] = r["ratio_max"] = float("nan")
+        else:
+            r["ratio_to_flex_default"] = best / float(flex.min())
+            r["ratio_min"], r["ratio_max"] = float((seconds / flex).min()), float((seconds / flex).max())
         if verbose:
             print(f"{r['dome']:9s} {r['level']:10s} {r['ms_per_frame']:7.1f} ms/frame  {r['steps_per_frame']:5.1f} "
-                  f"steps/frame  {r['ms_per_step']:.3f} ms/step  ×{r['ratio_to_flex_default']:.2f} of flex default")
+                  f"steps/frame  {r['ms_per_step']:.3f} ms/step  ×{r['ratio_to_flex_default']:.2f} of flex default "
+                  f"({r['ratio_min']:.2f}–{r['ratio_max']:.2f} within a round)")
     return rows
 
 

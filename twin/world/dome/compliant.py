@@ -391,9 +391,10 @@ class CompliantPhysics:
         raise physics_error(self.scenario_name, f"increment {self._steps}", self.time, self.world2work, self._at, what)
 
 
-@lru_cache(maxsize=4)
+@lru_cache(maxsize=8)
 def dome_compliance(surface: CapSurface, young: float, poisson: float, enclosed: bool,
                     membrane_young: float = 0.0, skin_bending: bool = False) -> DomeCompliance:
     """The influence matrices for this surface and material, shared within the process
-    (the sealed gel's loaded from the cache, or computed, at the first contact)."""
+    (the sealed gel's loaded from the cache, or computed, at the first contact). Eight
+    are kept (8–218 MB each): `twin bench physics` alternates between five."""
     return DomeCompliance(surface, young, poisson, enclosed, membrane_young, skin_bending)
