@@ -196,7 +196,7 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
     variants = {name: COMPLIANT_LEVELS["default"].with_(**PhysicsOverrides(**physics).as_compliant_changes())
                 for name, physics in variant_physics.items()}
     models = [("flex", FIDELITY_LEVELS), ("compliant", COMPLIANT_LEVELS), ("compliant", variants)]
-    rows = []
+    rows, params_of_rows = [], []
     for dome, table in models:
         for level in [level for level in levels or list(table) if level in table]:
             params = table[level]
@@ -210,31 +210,30 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
                 DomeCompliance(surface, params.young, params.poisson, params.enclosed, params.membrane_young,
                                params.skin_bending).precompute()
                 cached = time.perf_counter() - t0
-            rows.append({"dome": dome, "level": level, "params": params, "precompute_s": precompute,
-                         "cached_s": cached, "seconds": []})
-    for round_ in range(repeats + 1):
-        for r in rows:
-            model, data, handles, physics = edge_scene(r["params"], scenario=f"benchmark-{r['dome']}-{r['level']}")
+            rows.append({"dome": dome, "level": level, "precompute_s": precompute, "cached_s": cached})
+            params_of_rows.append(params)
+    seconds = np.zeros((repeats, len(rows)))  # [round, row]
+    steps = [0] * len(rows)
+    for round_ in range(-1, repeats):  # round −1 untimed
+        for i, (r, params) in enumerate(zip(rows, params_of_rows)):
+            model, data, handles, physics = edge_scene(params, scenario=f"benchmark-{r['dome']}-{r['level']}")
             t0 = time.perf_counter()
             for pose in poses:
                 physics.move(pose, contour.speed_mm_s)
                 physics.settle()
-            elapsed = time.perf_counter() - t0
-            if round_:
-                r["seconds"].append(elapsed)
-                r["steps"] = physics.steps
-    flex = next((np.array(r["seconds"]) for r in rows if r["dome"] == "flex" and r["level"] == "default"), None)
-    for r in rows:
-        seconds, steps = np.array(r.pop("seconds")), r.pop("steps")
-        del r["params"]
-        best = float(seconds.min())
-        r.update({"ms_per_frame": 1e3 * best / len(poses), "steps_per_frame": steps / len(poses),
-                  "ms_per_step": 1e3 * best / steps})
+            if round_ >= 0:
+                seconds[round_, i], steps[i] = time.perf_counter() - t0, physics.steps
+    flex = next((seconds[:, i] for i, r in enumerate(rows) if r["dome"] == "flex" and r["level"] == "default"), None)
+    for i, r in enumerate(rows):
+        best = float(seconds[:, i].min())
+        r.update({"ms_per_frame": 1e3 * best / len(poses), "steps_per_frame": steps[i] / len(poses),
+                  "ms_per_step": 1e3 * best / steps[i]})
         if flex is None:
             r["ratio_to_flex_default"] = r["ratio_min"] = r["ratio_max"] = float("nan")
         else:
+            per_round = seconds[:, i] / flex
             r["ratio_to_flex_default"] = best / float(flex.min())
-            r["ratio_min"], r["ratio_max"] = float((seconds / flex).min()), float((seconds / flex).max())
+            r["ratio_min"], r["ratio_max"] = float(per_round.min()), float(per_round.max())
         if verbose:
             print(f"{r['dome']:9s} {r['level']:10s} {r['ms_per_frame']:7.1f} ms/frame  {r['steps_per_frame']:5.1f} "
                   f"steps/frame  {r['ms_per_step']:.3f} ms/step  ×{r['ratio_to_flex_default']:.2f} of flex default "

@@ -159,6 +159,7 @@ class CompliantPhysics:
         #: geoms the dome can touch (the scene builds the object without collision when `contact` is off)
         self._collidable = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
         self._bounded = np.flatnonzero(self._collidable)
+        self._unbounded = bool(np.any(model.geom_type[self._bounded] == mujoco.mjtGeom.mjGEOM_PLANE))
         #: where the dome's sphere centre was (lab frame, m) when it was last found farther than
         #: candidate_margin + `_reach` (m) from the object; increments within `_reach` of it skip the rays
         self._clear_centre: np.ndarray | None = None
@@ -274,10 +275,10 @@ class CompliantPhysics:
         an unbounded plane). Every node's ray distance to the object is at least as long."""
         if not len(self._bounded):
             return math.inf
-        m, d = self.model, self.data
-        if np.any(m.geom_type[self._bounded] == mujoco.mjtGeom.mjGEOM_PLANE):
+        if self._unbounded:
             return -math.inf
-        box = m.geom_aabb[self._bounded]  # centre (3) and half sizes (3), geom frame
+        d = self.data
+        box = self.model.geom_aabb[self._bounded]  # centre (3) and half sizes (3), geom frame
         rel = self._centre - d.geom_xpos[self._bounded]
         local = np.einsum("gji,gj->gi", d.geom_xmat[self._bounded].reshape(-1, 3, 3), rel) - box[:, :3]
         outside = np.maximum(np.abs(local) - box[:, 3:], 0.0)
@@ -292,14 +293,17 @@ class CompliantPhysics:
         leave the dome at rest, as it is."""
         if self._clear_centre is None:
             return False
-        centre = tool2world[:3, :3] @ self._centre + tool2world[:3, 3]
-        if np.linalg.norm(centre - self._clear_centre) >= self._reach:
+        if np.linalg.norm(self._sphere_centre(tool2world) - self._clear_centre) >= self._reach:
             return False
         self._steps += 1
         self._since_frame += 1
         self.skipped += 1
         self._object2tool = self._object_pose(tool2world)
         return True
+
+    def _sphere_centre(self, tool2world: np.ndarray) -> np.ndarray:
+        """(3,) m: the dome's sphere centre in the lab frame with the tool at `tool2world`."""
+        return tool2world[:3, :3] @ self._centre + tool2world[:3, 3]
 
     def _increment(self, object2tool: np.ndarray) -> None:
         t0 = time.perf_counter()
@@ -323,7 +327,7 @@ class CompliantPhysics:
             self._pins = self.rest_pins.copy()
             reach = self._clearance() - p.candidate_margin
             if reach > 0.0:
-                self._clear_centre, self._reach = self._at[:3, :3] @ self._centre + self._at[:3, 3], reach
+                self._clear_centre, self._reach = self._sphere_centre(self._at), reach
             self.step_seconds += time.perf_counter() - t0
             return
         points = self.surface.points + self.displacement
