@@ -1,10 +1,12 @@
 """The sealed gel's influence matrices are computed once per surface and Poisson's ratio
 and cached on disk at unit shear modulus (twin.world.dome.compliance.sealed_gel): what
-that relies on, and that a cached dome is the computed one."""
+that relies on, and that a cached dome is the computed one. And the compiled products
+that each contact increment takes of them are the matrices' own."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from twin.core.sensor import TacTipGeometry
 from twin.world.dome.compliance import CapSurface, DomeCompliance, half_space_columns, sealed_gel
@@ -55,3 +57,21 @@ def test_a_cached_dome_is_the_computed_one_at_any_modulus(cache):
     assert list(cache.glob("*.npz")) == [entry]  # the same entry served both moduli
     DomeCompliance(SURFACE, 5.3e4, 0.45).precompute()
     assert len(list(cache.glob("*.npz"))) == 2   # another ν is another entry
+
+
+def test_the_compiled_products_are_the_matrix_products():
+    """`local_block` is `block` turned into each node's frame; `surface_displacement` and
+    `pin_displacement` are the columns' sums weighted by the forces."""
+    dome = DomeCompliance(SURFACE, 5.3e4, 0.5, enclosed=False)
+    nodes = np.array([3, 17, 18, 40, 41, 90, 200])
+    frames = Rotation.random(len(nodes), random_state=2).as_matrix()
+    block = dome.block(nodes, nodes).reshape(len(nodes), 3, len(nodes), 3)
+    turned = np.einsum("iak,ikjl,jbl->iajb", frames, block, frames).reshape(3 * len(nodes), -1)
+    assert np.allclose(dome.local_block(nodes, frames), turned, rtol=0.0, atol=1e-12 * np.abs(turned).max())
+    forces = np.random.default_rng(3).normal(size=(len(nodes), 3))
+    everywhere = np.arange(SURFACE.count)
+    expected = (dome.block(everywhere, nodes) @ forces.ravel()).reshape(-1, 3)
+    assert np.allclose(dome.surface_displacement(nodes, forces), expected, rtol=0.0,
+                       atol=1e-12 * np.abs(expected).max())
+    pins = sum(np.einsum("a,aib->ib", forces[k], dome._pins[node]) for k, node in enumerate(nodes))
+    assert np.allclose(dome.pin_displacement(nodes, forces), pins, rtol=0.0, atol=1e-12 * np.abs(pins).max())

@@ -58,7 +58,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial import Delaunay
 
-from twin.core.resources import cached_arrays, code_digest
+from twin.core.resources import cached_arrays, code_digest, compiled
 from twin.core.sensor import TacTipGeometry
 
 GOLDEN_ANGLE = math.pi * (3.0 - math.sqrt(5.0))  # rad
@@ -457,14 +457,55 @@ class DomeCompliance:
         n = 3 * self.surface.count
         return np.ascontiguousarray(self._surface.reshape(n, n)[np.ix_(_dofs(cols), _dofs(rows))].T)
 
+    def local_block(self, nodes: np.ndarray, frames: np.ndarray) -> np.ndarray:
+        """(3m, 3m) m/N: `block(nodes, nodes)` with each node's displacement and force in its
+        own frame (frames (m, 3, 3), rows the frame's axes in the tool frame)."""
+        self.fill(nodes)
+        return _rotated_block(self._surface, nodes, np.ascontiguousarray(frames, dtype=float))
+
     def surface_displacement(self, cols: np.ndarray, forces: np.ndarray) -> np.ndarray:
         """(N, 3) m: every node's displacement under forces (len(cols), 3) N at `cols`."""
         self.fill(cols)
         n = 3 * self.surface.count
-        return np.einsum("j,ji->i", forces.ravel(), self._surface.reshape(n, n)[_dofs(cols)]).reshape(-1, 3)
+        return _row_combination(self._surface.reshape(n, n), _dofs(cols), forces.ravel()).reshape(-1, 3)
 
     def pin_displacement(self, cols: np.ndarray, forces: np.ndarray) -> np.ndarray:
         """(127, 3) m: the pin tips' displacement under forces (len(cols), 3) N at `cols`."""
         self.fill(cols)
         pins = self._pins.reshape(3 * self.surface.count, -1)
-        return np.einsum("j,ji->i", forces.ravel(), pins[_dofs(cols)]).reshape(-1, 3)
+        return _row_combination(pins, _dofs(cols), forces.ravel()).reshape(-1, 3)
+
+
+@compiled
+def _row_combination(matrix: np.ndarray, rows: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """Σ_k weights[k] · matrix[rows[k]]: the influence of forces at a few dofs, reading only
+    their rows (numpy's fancy indexing would copy them first)."""
+    out = np.zeros(matrix.shape[1])
+    for k in range(len(rows)):
+        weight = weights[k]
+        row = matrix[rows[k]]
+        for i in range(len(out)):
+            out[i] += weight * row[i]
+    return out
+
+
+@compiled
+def _rotated_block(surface: np.ndarray, nodes: np.ndarray, frames: np.ndarray) -> np.ndarray:
+    """(3m, 3m): the compliance among `nodes` in their frames (m, 3, 3), from `surface`
+    (N, 3, N, 3) [source node, force axis, node, displacement axis]: entry (3i + a, 3j + b)
+    is Σ_kl frames[i, a, k] surface[j, l, i, k] frames[j, b, l]."""
+    m = len(nodes)
+    out = np.empty((3 * m, 3 * m))
+    turned = np.empty((3, 3))
+    for j in range(m):
+        for i in range(m):
+            block = surface[nodes[j], :, nodes[i], :]  # [force axis l, displacement axis k]
+            for a in range(3):
+                for l in range(3):
+                    turned[a, l] = (frames[i, a, 0] * block[l, 0] + frames[i, a, 1] * block[l, 1]
+                                    + frames[i, a, 2] * block[l, 2])
+            for a in range(3):
+                for b in range(3):
+                    out[3 * i + a, 3 * j + b] = (turned[a, 0] * frames[j, b, 0] + turned[a, 1] * frames[j, b, 1]
+                                                 + turned[a, 2] * frames[j, b, 2])
+    return out

@@ -36,12 +36,14 @@ converge raises `ContactNotConverged`.
 """
 from __future__ import annotations
 
-import warnings
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import LinAlgWarning, cho_factor, cho_solve, lu_factor, lu_solve
+from scipy.linalg import cho_factor, cho_solve
+
+from twin.core.resources import compiled
 
 
 #: Newton iterations of one frictional increment before it counts as not converged
@@ -172,6 +174,170 @@ def project_discs(q: np.ndarray, radius: np.ndarray) -> np.ndarray:
     return (pairs * scale[:, None]).ravel()
 
 
+# ---------------------------------------------------------------- compiled Newton kernel
+# Semismooth Newton for `solve_coulomb`, compiled (`twin.core.resources.compiled`). Its
+# per-iteration work is many small vector operations and one LU factorisation; in numpy
+# the former cost more than the latter.
+
+
+@compiled
+def _alart_curnier(matrix: np.ndarray, offset: np.ndarray, friction: float, f: np.ndarray, r_n: np.ndarray,
+                   r_t: np.ndarray, phi: np.ndarray, contact: np.ndarray, slip: np.ndarray, z: np.ndarray,
+                   size: np.ndarray, radius: np.ndarray) -> None:
+    """Alart & Curnier's functions at f, in place: phi (3m,) = Φ/r (m) per node (n, t1,
+    t2); contact (m,): p − r h > 0; slip (m,): the tangential predictor z (m, 2) = q − r v
+    lies outside the friction disc, whose radius (m,) is μ·max(0, p − r h); size (m,) |z|."""
+    w = matrix @ f + offset
+    for i in range(len(r_n)):
+        a = 3 * i
+        pressed = f[a] - r_n[i] * w[a]
+        augmented = max(0.0, pressed)
+        contact[i] = pressed > 0.0
+        z0 = f[a + 1] - r_t[i] * w[a + 1]
+        z1 = f[a + 2] - r_t[i] * w[a + 2]
+        z[i, 0], z[i, 1] = z0, z1
+        size[i] = math.sqrt(z0 * z0 + z1 * z1)
+        radius[i] = friction * augmented
+        slip[i] = size[i] > radius[i]
+        scale = radius[i] / max(size[i], 1e-300) if slip[i] else 1.0
+        phi[a] = (f[a] - augmented) / r_n[i]
+        phi[a + 1] = (f[a + 1] - scale * z0) / r_t[i]
+        phi[a + 2] = (f[a + 2] - scale * z1) / r_t[i]
+
+
+@compiled
+def _alart_curnier_residual(matrix: np.ndarray, offset: np.ndarray, friction: float, f: np.ndarray,
+                            r_n: np.ndarray, r_t: np.ndarray) -> np.ndarray:
+    """(3m,) m: Φ/r at f (`_alart_curnier`)."""
+    m = len(r_n)
+    phi = np.empty(3 * m)
+    _alart_curnier(matrix, offset, friction, f, r_n, r_t, phi, np.zeros(m, np.bool_), np.zeros(m, np.bool_),
+                   np.empty((m, 2)), np.empty(m), np.empty(m))
+    return phi
+
+
+@compiled
+def _jacobian_row(matrix: np.ndarray, friction: float, row: int, contact: np.ndarray, slip: np.ndarray,
+                  z: np.ndarray, size: np.ndarray, radius: np.ndarray, r_n: np.ndarray, r_t: np.ndarray,
+                  out: np.ndarray) -> None:
+    """Row `row` of the Jacobian of Φ/r, in place (out (3m,)), where that row is not
+    explicit: Φn/r = h where pressed and Φt/r = v where stuck (rows of the matrix); where
+    the node slips, Φt = q − ρ ẑ, dΦt = dq − ẑ dρ − ρ (I − ẑẑᵀ)/|z| dz, dz = dq − r_t M_t df."""
+    i = row // 3
+    axis = row - 3 * i
+    if axis == 0 or not (slip[i] and radius[i] > 0.0):
+        out[:] = matrix[row]
+        return
+    a = 3 * i
+    zhat0, zhat1 = z[i, 0] / size[i], z[i, 1] / size[i]
+    zhat = zhat0 if axis == 1 else zhat1
+    ratio = radius[i] / size[i]
+    tangent0 = ((1.0 if axis == 1 else 0.0) - zhat * zhat0) * ratio  # row `axis` of ρ (I − ẑẑᵀ)/|z|
+    tangent1 = ((1.0 if axis == 2 else 0.0) - zhat * zhat1) * ratio
+    pressing = friction * zhat if contact[i] else 0.0
+    for j in range(len(out)):
+        value = r_t[i] * (tangent0 * matrix[a + 1, j] + tangent1 * matrix[a + 2, j])
+        dpressure = -r_n[i] * matrix[a, j]
+        if j == a:
+            dpressure += 1.0
+        elif j == a + 1:
+            value += (1.0 if axis == 1 else 0.0) - tangent0
+        elif j == a + 2:
+            value += (1.0 if axis == 2 else 0.0) - tangent1
+        out[j] = (value - pressing * dpressure) / r_t[i]
+
+
+@compiled
+def _newton(matrix: np.ndarray, offset: np.ndarray, friction: float, start: np.ndarray, r_n: np.ndarray,
+            r_t: np.ndarray, budget: int, tolerance: float, full_steps: int):
+    """Semismooth Newton on `_alart_curnier`'s Φ/r from `start` (not changed), with a
+    backtracking line search on |Φ|² (where it finds no descent, the full step, up to
+    `full_steps` times), for at most `budget` iterations. Rows out of contact (Φn/r = p/r)
+    and tangential rows slipping with no friction bound (Φt/r = q/r) are explicit, their
+    step −f; only the others are factorised. Returns the best iterate: (f (3m,),
+    iterations, residual (m), contact (m,) bool at f)."""
+    n = len(offset)
+    m = n // 3
+    f = start.copy()
+    phi, contact, slip = np.empty(n), np.zeros(m, np.bool_), np.zeros(m, np.bool_)
+    z, size, radius = np.empty((m, 2)), np.empty(m), np.empty(m)
+    phi_trial, contact_trial, slip_trial = np.empty(n), np.zeros(m, np.bool_), np.zeros(m, np.bool_)
+    z_trial, size_trial, radius_trial = np.empty((m, 2)), np.empty(m), np.empty(m)
+    _alart_curnier(matrix, offset, friction, f, r_n, r_t, phi, contact, slip, z, size, radius)
+    best_residual, best_f, best_contact = np.inf, f.copy(), contact.copy()
+    forced = full_steps
+    coupled = np.empty(n, np.int64)
+    is_coupled = np.zeros(n, np.bool_)
+    row = np.empty(n)
+    step = np.empty(n)
+    trial = f
+    iteration = 0
+    for iteration in range(budget + 1):
+        residual = np.max(np.abs(phi)) if n else 0.0
+        if residual < best_residual:
+            best_residual = residual
+            best_f[:] = f
+            best_contact[:] = contact
+        if residual < tolerance or iteration == budget:
+            break
+        count = 0
+        for i in range(m):
+            a = 3 * i
+            is_coupled[a] = contact[i]
+            is_coupled[a + 1] = is_coupled[a + 2] = not (slip[i] and radius[i] <= 0.0)
+            for k in range(a, a + 3):
+                if is_coupled[k]:
+                    coupled[count] = k
+                    count += 1
+                else:
+                    step[k] = -f[k]
+        jacobian = np.empty((count, count))
+        rhs = np.empty(count)
+        for c in range(count):
+            _jacobian_row(matrix, friction, coupled[c], contact, slip, z, size, radius, r_n, r_t, row)
+            total = -phi[coupled[c]]
+            for j in range(n):
+                if not is_coupled[j]:
+                    total -= row[j] * step[j]
+            rhs[c] = total
+            for d in range(count):
+                jacobian[c, d] = row[coupled[d]]
+        try:
+            solution = np.linalg.solve(jacobian, rhs)
+        except Exception:  # a singular Jacobian
+            break
+        if not np.all(np.isfinite(solution)):
+            break
+        for c in range(count):
+            step[coupled[c]] = solution[c]
+        merit = phi @ phi
+        length, descent = 1.0, False
+        while length >= 1e-3 and not descent:
+            trial = f + length * step
+            _alart_curnier(matrix, offset, friction, trial, r_n, r_t, phi_trial, contact_trial, slip_trial, z_trial,
+                           size_trial, radius_trial)
+            descent = phi_trial @ phi_trial <= (1.0 - 1e-4 * length) * merit
+            if not descent:
+                length *= 0.5
+        if not descent:
+            # no descent along Newton's direction (a kink of Φ): the full step anyway, a few
+            # times (a watchdog: semismooth Newton converges locally where |Φ|² rises)
+            if forced == 0:
+                break
+            forced -= 1
+            trial = f + step
+            _alart_curnier(matrix, offset, friction, trial, r_n, r_t, phi_trial, contact_trial, slip_trial, z_trial,
+                           size_trial, radius_trial)
+        f = trial
+        phi, phi_trial = phi_trial, phi
+        contact, contact_trial = contact_trial, contact
+        slip, slip_trial = slip_trial, slip
+        z, z_trial = z_trial, z
+        size, size_trial = size_trial, size
+        radius, radius_trial = radius_trial, radius
+    return best_f, iteration, best_residual, best_contact
+
+
 def solve_increment(compliance: np.ndarray, gap: np.ndarray, previous_tangential: np.ndarray,
                     object_shift: np.ndarray, friction: float, pressure0: np.ndarray, traction0: np.ndarray,
                     tolerance: float, max_iterations: int) -> ContactIncrement:
@@ -194,7 +360,7 @@ def solve_increment(compliance: np.ndarray, gap: np.ndarray, previous_tangential
     # gap after deformation and the slip are h = (M f)_n + gap, v = (M f)_t + rigid_t with
     # M = S D S, S = diag(−1, 1, 1) per node (symmetric positive semi-definite as D)
     sign = np.tile([-1.0, 1.0, 1.0], m)
-    matrix = compliance * sign[:, None] * sign[None, :]
+    matrix = compliance * np.outer(sign, sign)
     offset = np.column_stack([gap, -(np.asarray(previous_tangential, float) + np.asarray(object_shift, float))])
     start = np.column_stack([np.maximum(np.asarray(pressure0, float), 0.0), np.asarray(traction0, float)])
     forces, iterations, residual = solve_coulomb(matrix, offset.ravel(), friction, start.ravel(), tolerance,
@@ -240,89 +406,22 @@ def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start
     bounds each projected gradient, and Newton to NEWTON_ITERATIONS per run. Returns (f,
     Newton iterations + passes, residual); raises ContactNotConverged.
     """
+    matrix = np.ascontiguousarray(matrix, dtype=float)
+    offset = np.ascontiguousarray(offset, dtype=float)
     m = len(offset) // 3
     n_idx = np.arange(m) * 3
     t_idx = np.column_stack([n_idx + 1, n_idx + 2])
     diagonal = np.diag(matrix)
-    eye2 = np.eye(2)
-
-    def evaluate(f: np.ndarray, r_n: np.ndarray, r_t: np.ndarray):
-        w = matrix @ f + offset
-        p, h, q, v = f[n_idx], w[n_idx], f[t_idx], w[t_idx]
-        augmented = np.maximum(0.0, p - r_n * h)
-        z = q - r_t[:, None] * v
-        radius = friction * augmented
-        size = np.sqrt(np.einsum("ij,ij->i", z, z))
-        slip = size > radius
-        scale = np.where(slip, radius / np.maximum(size, 1e-300), 1.0)
-        phi = np.empty_like(f)
-        phi[n_idx] = (p - augmented) / r_n
-        phi[t_idx] = (q - scale[:, None] * z) / r_t[:, None]
-        return phi, (p - r_n * h > 0.0, slip, z, size, radius)
+    friction = float(friction)
 
     def newton(f: np.ndarray, r_n: np.ndarray, r_t: np.ndarray, budget: int) -> tuple[np.ndarray, int, float]:
-        """Iterate from f; returns (f, iterations, residual) at convergence, else the best
+        """`_newton` from f; returns (f, iterations, residual) at convergence, else the best
         iterate where it stalls or runs out of iterations."""
-        phi, state = evaluate(f, r_n, r_t)
-        best, forced = (np.inf, f, state), FULL_STEPS
-        for iteration in range(budget + 1):
-            residual = float(np.max(np.abs(phi), initial=0.0))
-            if residual < best[0]:
-                best = (residual, f, state)
-            if residual < tolerance or iteration == budget:
-                break
-            contact, slip, z, size, radius = state
-            # out of contact Φn/r = p/r, and Φt/r = q/r where the node slips with no friction
-            # bound: diagonal rows, whose Newton step takes the force to zero explicitly; only
-            # the other rows (`coupled`) need the factorisation, and only they are assembled
-            lifted = np.flatnonzero(slip & (radius <= 0.0))
-            explicit = np.concatenate([n_idx[~contact], t_idx[lifted].ravel()])
-            coupled = np.setdiff1d(np.arange(len(f)), explicit, assume_unique=True)
-            jacobian = matrix[coupled]  # Φn/r = h where pressed, Φt/r = v where stuck
-            # slipping nodes: Φt = q − ρ ẑ, dΦt = dq − ẑ dρ − ρ (I − ẑẑᵀ)/|z| dz, dz = dq − r_t M_t df
-            moving = np.flatnonzero(slip & (radius > 0.0))
-            if len(moving):
-                zhat = z[moving] / size[moving, None]
-                tangent = (eye2 - np.einsum("ka,kb->kab", zhat, zhat)) * (radius[moving] / size[moving])[:, None, None]
-                tt = t_idx[moving]
-                block = r_t[moving, None, None] * np.einsum("kab,kbj->kaj", tangent, matrix[tt])
-                block[np.arange(len(moving))[:, None, None], np.arange(2)[None, :, None], tt[:, None, :]] += \
-                    eye2 - tangent
-                pressing = contact[moving]
-                dpressure = -r_n[moving, None] * matrix[n_idx[moving]]
-                dpressure[np.arange(len(moving)), n_idx[moving]] += 1.0
-                block -= friction * (pressing[:, None, None] * np.einsum("ka,kj->kaj", zhat, dpressure))
-                jacobian[np.searchsorted(coupled, tt.ravel())] = (block / r_t[moving, None, None]).reshape(
-                    2 * len(moving), -1)
-            step = np.empty_like(f)
-            step[explicit] = -f[explicit]
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", LinAlgWarning)  # a singular Jacobian: caught below as a non-finite step
-                step[coupled] = lu_solve(lu_factor(jacobian[:, coupled], check_finite=False),
-                                         -phi[coupled] - jacobian[:, explicit] @ step[explicit], check_finite=False)
-            if not np.all(np.isfinite(step)):
-                break
-            merit, length = float(phi @ phi), 1.0
-            while length >= 1e-3:
-                trial = f + length * step
-                phi_trial, state_trial = evaluate(trial, r_n, r_t)
-                if float(phi_trial @ phi_trial) <= (1.0 - 1e-4 * length) * merit:
-                    break
-                length *= 0.5
-            else:
-                # no descent along Newton's direction (a kink of Φ): the full step anyway, a
-                # few times (a watchdog: semismooth Newton converges locally where |Φ|² rises)
-                if not forced:
-                    break
-                forced -= 1
-                trial = f + step
-                phi_trial, state_trial = evaluate(trial, r_n, r_t)
-            f, phi, state = trial, phi_trial, state_trial
-        residual, f, state = best
+        f, iterations, residual, contact = _newton(matrix, offset, friction, np.ascontiguousarray(f, dtype=float),
+                                                   r_n, r_t, budget, tolerance, FULL_STEPS)
         if residual < tolerance:
-            f = f.copy()
-            f.reshape(-1, 3)[~state[0]] = 0.0  # free nodes carry nothing (not round-off)
-        return f, iteration, residual
+            f.reshape(-1, 3)[~contact] = 0.0  # free nodes carry nothing (not round-off)
+        return f, iterations, residual
 
     # r = a node's own stiffness; where Newton stalls with it (at high friction the
     # tangential predictor z = q − r v overshoots the disc), again from the start with
@@ -331,7 +430,7 @@ def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start
     budget = min(max_iterations, NEWTON_ITERATIONS)
     done, residual = 0, np.inf
     for scale in AUGMENTATION_SCALES:
-        attempt, iterations, attempt_residual = newton(start.copy(), scale * stiffness_n, scale * stiffness_t, budget)
+        attempt, iterations, attempt_residual = newton(start, scale * stiffness_n, scale * stiffness_t, budget)
         done += iterations
         if attempt_residual < residual:
             f, residual = attempt, attempt_residual
@@ -352,11 +451,12 @@ def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start
         f = moved
         if change < tolerance or passes % NEWTON_RETRY_PASSES == 0:
             # Newton measures the residual first and returns at once where it is met
-            attempt, iterations, attempt_residual = newton(f.copy(), stiffness_n, stiffness_t, retry_budget)
+            attempt, iterations, attempt_residual = newton(f, stiffness_n, stiffness_t, retry_budget)
             done += iterations
             if attempt_residual < tolerance:
                 return attempt, done + passes, attempt_residual
-    residual = float(np.max(np.abs(evaluate(f, stiffness_n, stiffness_t)[0]), initial=0.0))
+    residual = float(np.max(np.abs(_alart_curnier_residual(matrix, offset, friction, f, stiffness_n, stiffness_t)),
+                            initial=0.0))
     raise ContactNotConverged(f"semismooth Newton stalled after {done} iterations and the normal/tangential "
                               f"alternation leaves a residual of {residual:.3g} m (its last pass changed "
                               f"{change:.3g} m) after {ALTERNATION_PASSES} passes (tolerance {tolerance:.3g} m)")
