@@ -479,10 +479,13 @@ class DomeCompliance:
 @compiled
 def _row_combination(matrix: np.ndarray, rows: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """Σ_k weights[k] · matrix[rows[k]]: the influence of forces at a few dofs, reading only
-    their rows (numpy's fancy indexing would copy them first)."""
+    the rows of the nonzero ones (numpy's fancy indexing would copy them all first; the
+    candidates out of contact carry none)."""
     out = np.zeros(matrix.shape[1])
     for k in range(len(rows)):
         weight = weights[k]
+        if weight == 0.0:
+            continue
         row = matrix[rows[k]]
         for i in range(len(out)):
             out[i] += weight * row[i]
