@@ -74,16 +74,6 @@ def package_version() -> str:
         return "0+unknown"
 
 
-def compiled(function: Callable) -> Callable:
-    """`function` compiled to machine code by numba (nopython). The machine code is cached
-    in ``cache_dir()/numba`` (or ``$NUMBA_CACHE_DIR`` where that is set): compiled once per
-    machine and code, then loaded (numba keys it on the source file)."""
-    import numba  # only the modules with compiled kernels pay for importing it
-
-    if not numba.config.CACHE_DIR:
-        numba.config.CACHE_DIR = str(cache_dir() / "numba")
-    return numba.njit(cache=True)(function)
-
 @functools.lru_cache(maxsize=None)
 def code_digest(*paths: Path) -> str:
     """16 hex digits that change with the code in `paths` (Python files, or folders read

@@ -58,7 +58,8 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial import Delaunay
 
-from twin.core.resources import cached_arrays, code_digest, compiled
+from twin.core.resources import cached_arrays, code_digest
+from twin.world.dome.compiled import compiled
 from twin.core.sensor import TacTipGeometry
 
 GOLDEN_ANGLE = math.pi * (3.0 - math.sqrt(5.0))  # rad

@@ -43,7 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 
-from twin.core.resources import compiled
+from twin.world.dome.compiled import compiled
 
 
 #: Newton iterations of one frictional increment before it counts as not converged
@@ -175,7 +175,7 @@ def project_discs(q: np.ndarray, radius: np.ndarray) -> np.ndarray:
 
 
 # ---------------------------------------------------------------- compiled Newton kernel
-# Semismooth Newton for `solve_coulomb`, compiled (`twin.core.resources.compiled`). Its
+# Semismooth Newton for `solve_coulomb`, compiled (`twin.world.dome.compiled`). Its
 # per-iteration work is many small vector operations and one LU factorisation; in numpy
 # the former cost more than the latter.
 
