@@ -59,8 +59,8 @@ import numpy as np
 from scipy.spatial import Delaunay
 
 from twin.core.resources import cached_arrays, code_digest
-from twin.world.dome.compiled import compiled
 from twin.core.sensor import TacTipGeometry
+from twin.world.dome.compiled import compiled
 
 GOLDEN_ANGLE = math.pi * (3.0 - math.sqrt(5.0))  # rad
 #: Radon's 7-point rule on the unit disc: (x, y, weight), exact for polynomials of degree 3

@@ -374,7 +374,7 @@ class CompliantPhysics:
         """(m, 3) N, tool frame: where the solver starts at `candidates`. The last forces;
         where the same nodes carry contact and the object moves as it did over the last
         increment (a straight move), their linear extrapolation, which takes Newton to the
-        same solution in fewer iterations while friction builds up (128 → 107 iterations on
+        same solution in fewer iterations while friction builds up (128 → 106 iterations on
         `twin bench physics`'s path)."""
         if self._before is not None:
             forces, nodes, motion = self._before
