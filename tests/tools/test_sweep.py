@@ -19,8 +19,8 @@ from twin.world.dome.flex import FIDELITY_LEVELS
 from twin.core.errors import PhysicsError
 from twin.world.dome.testbed import edge_scene, sensor_down
 from twin.core.errors import UserError
-from twin.tools.sweep import (COMPLIANT_REFERENCE, CSV_COLUMNS, DEFAULT, REFERENCE, Probe, Setting, dominates, dominators,
-                              markdown_table, pareto_flags, peers, quick_settings, run_sweep)
+from twin.tools.sweep import (COMPLIANT_REFERENCE, CSV_COLUMNS, DEFAULT, REFERENCE, Probe, Setting, annotate_fronts,
+                              dominates, dominators, markdown_table, pareto_flags, peers, quick_settings, run_sweep)
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -228,4 +228,10 @@ def test_pin_fronts_stay_within_a_dome_model_and_the_contour_front_spans_both() 
     # a faster run that lost the contour is not placed and pushes no completed run off
     lost = {**_row("lost_fast", 5.0, 0.5, output="pins"), "dome": "compliant", "contour_completed_mm": math.inf}
     assert pareto_flags([flex, comp, lost], "contour_completed_mm") == [False, True, None]
+    # annotate_fronts derives that figure from the contour error and how the run stopped
+    closed = {**_row("closed", 20.0, 0.5, output="pins"), "contour_path_mean_mm": 2.0, "contour_stop": "loop closed"}
+    gone = {**_row("gone", 5.0, 0.5, output="pins"), "contour_path_mean_mm": 1.0, "contour_stop": "lost the contour"}
+    annotate_fronts([closed, gone])
+    assert closed["contour_completed_mm"] == 2.0 and gone["contour_completed_mm"] == math.inf
+    assert closed["on_front_contour"] is True and gone["on_front_contour"] is None
     assert pareto_flags([flex, comp], by_output=False) == [True, True]

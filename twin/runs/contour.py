@@ -58,6 +58,10 @@ def run_contour(scenario: Scenario, out: Path, seed: int | None = None, progress
     return Path(out)
 
 
+#: the stop reasons of a run that traced its contour (the others: step limit, lost the contour, out of reach)
+COMPLETED_STOPS = ("loop closed", "end of contour")
+
+
 def contour_metrics(run, stimulus) -> dict:
     """The per-run metrics of a contour-following run (units in the key names)."""
     samples = run.samples
@@ -75,7 +79,7 @@ def contour_metrics(run, stimulus) -> dict:
     return {
         "object": stimulus.name,
         "run_state": run.state,
-        "completed": bool(status == "completed" and stop in ("loop closed", "end of contour")),
+        "completed": bool(status == "completed" and stop in COMPLETED_STOPS),
         "stop_reason": stop,
         "steps": len(samples),
         "orientation_rms_deg": float(np.sqrt(np.mean(d_angle[ok] ** 2))) if ok.any() else float("nan"),

@@ -100,7 +100,7 @@ from twin.runs.record import Run
 from twin.runs.runner import chunk_moves, chunk_samples
 from twin.runs.sim_env import SimEnvironment
 from twin.control.contour import ContourFollower
-from twin.runs.contour import contour_metrics
+from twin.runs.contour import COMPLETED_STOPS, contour_metrics
 from twin.world.scene import load_scenario_stimulus
 from twin.sensing.perception import GPConfig, PerceptionModel, angle_error_deg
 from twin.runs.protocols import protocol_moves
@@ -474,8 +474,6 @@ def probe_setting(setting: Setting, probe: Probe, seed: int = 0) -> dict:
         stage = "contour"
         metrics = _contour(env, scenario, model, stages)
         row["contour_path_mean_mm"] = metrics["path_distance_mean_mm"]
-        # the contour front's figure: a run that loses the contour is no alternative however fast
-        row["contour_completed_mm"] = metrics["path_distance_mean_mm"] if metrics["completed"] else math.inf
         row["contour_path_max_mm"] = metrics["path_distance_max_mm"]
         row["contour_orientation_rms_deg"] = metrics["orientation_rms_deg"]
         row["contour_steps"] = metrics["steps"]
@@ -555,7 +553,8 @@ CSV_COLUMNS: tuple[str, ...] = (
     "physics_wall_ms", "render_wall_ms", "track_wall_ms", "perception_wall_ms", "total_wall_ms",
     "pin_rms_px", "pin_physics_rms_px", "pin_tracking_rms_px", "pin_settling_rms_px", "theta_rms_deg",
     "lateral_rms_mm",
-    "contour_path_mean_mm", "contour_completed_mm", "contour_path_max_mm", "contour_orientation_rms_deg", "contour_steps", "contour_stop",
+    "contour_path_mean_mm", "contour_completed_mm", "contour_path_max_mm", "contour_orientation_rms_deg",
+    "contour_steps", "contour_stop",
     "contour_coverage", "on_front", "dominated_by", "on_front_theta", "on_front_contour", "on_front_all",
     "n_taps", "n_slide_frames", "n_timed_frames", "train_s", "wall_s", "note",
 )
@@ -703,7 +702,14 @@ def run_sweep(out: Path, quick: bool = False, workers: int | None = None, cluste
 
 def annotate_fronts(rows: list[dict]) -> list[dict]:
     """Set on_front / on_front_theta / on_front_contour (FRONTS, per output kind),
-    on_front_all (PRIMARY, all kinds together) and dominated_by (primary front) on every row."""
+    on_front_all (PRIMARY, all kinds together) and dominated_by (primary front) on every row,
+    and the contour front's figure, contour_completed_mm: the contour error of a run that
+    completed the contour (COMPLETED_STOPS), infinite for one that did not, which is no
+    alternative however fast."""
+    for row in rows:
+        if _finite(row.get("contour_path_mean_mm")):
+            completed = row.get("contour_stop") in COMPLETED_STOPS
+            row["contour_completed_mm"] = row["contour_path_mean_mm"] if completed else math.inf
     for key, metrics in FRONTS:
         for row, flag in zip(rows, pareto_flags(rows, metrics)):
             row[key] = flag

@@ -251,6 +251,8 @@ class CompliantPhysics:
             return np.full(self.surface.count, np.inf), self.surface.frames
         d = self.data
         d.qpos[self._qadr: self._qadr + 3] = object2tool[:3, 3]
+        # MuJoCo's own conversion into its qpos (w first): scipy's, through matrix_to_quat_wxyz,
+        # cost 0.15 ms of each increment's ~2
         mujoco.mju_mat2Quat(d.qpos[self._qadr + 3: self._qadr + 7], object2tool[:3, :3].ravel())
         mujoco.mj_kinematics(self.model, d)
         r = self.geometry.dome_outer_radius
