@@ -10,6 +10,7 @@ import re
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from twin.core.errors import PhysicsError
 from twin.core.poses import Pose
@@ -204,8 +205,6 @@ def test_the_clearance_bound_is_never_longer_than_a_ray(obj):
     """The dome skips the rays where its sphere is certainly clear of the object: that
     bound (each piece's bounding box) may never exceed the shortest ray distance to the
     object, at random poses and turns around the object, one piece or 94."""
-    from scipy.spatial.transform import Rotation
-
     physics: CompliantPhysics = _env("default", obj={"name": obj}).physics
     rng = np.random.default_rng(7)
     radius, hits = physics.geometry.dome_outer_radius, 0
