@@ -9,7 +9,8 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from twin.core.sensor import TacTipGeometry
-from twin.world.dome.compliance import CapSurface, DomeCompliance, half_space_columns, sealed_gel
+from twin.world.dome.compliance import (CapSurface, DomeCompliance, disc_averaged_kernel, half_space_columns,
+                                        post_tip_kernel, sealed_gel, self_compliance)
 
 SURFACE = CapSurface(TacTipGeometry(), 0.0025, 65.0)  # the fast level's nodes: quick to compute
 
@@ -31,15 +32,46 @@ def test_elastic_columns_scale_as_one_over_the_shear_modulus():
 
 
 def test_sealed_gel_conserves_volume_for_every_force():
-    """ν = 0.5, sealed: no force changes the gel's volume, Σ A n·u = 0 for every column,
+    """ν = 0.5, sealed, the skin beyond the cap held (`free_band=False`, the skin
+    membrane's case): no force changes the cap's volume, Σ A n·u = 0 for every column,
     but for the open half-space's 0.06 % asymmetry (the pressure mode is symmetrised);
     the open half-space's columns lose volume."""
     n = SURFACE.count
-    nodes, _ = sealed_gel(SURFACE, 0.5)
+    nodes, _ = sealed_gel(SURFACE, 0.5, free_band=False)
     sealed = np.einsum("jbia,ia->jb", nodes, SURFACE.area * SURFACE.normals)
     open_nodes, _ = half_space_columns(SURFACE, np.arange(n), 0.5, 1.0)
     lost = np.einsum("jbia,ia->jb", open_nodes, SURFACE.area * SURFACE.normals)
     assert np.abs(sealed).max() < 0.005 * np.abs(lost).max()
+
+
+def test_the_free_skin_to_the_equator_is_sealed_with_the_cap():
+    """With the skin free to the equator (`free_band`, the default), the cap's matrices
+    are those of sealing cap and band as one surface, built here directly from the
+    half-space kernel over all their nodes; that whole surface keeps its volume under
+    every force, while the cap alone now gives some of it to the band."""
+    band_points, band_frames = SURFACE.band
+    points = np.concatenate([SURFACE.points, band_points])
+    frames = np.concatenate([SURFACE.frames, band_frames])
+    count, radius = len(points), np.sqrt(SURFACE.area / np.pi)
+    whole = disc_averaged_kernel(points, points, frames, radius, 0.5, 1.0)   # [point, a, source, b]
+    whole[np.arange(count), :, np.arange(count), :] = self_compliance(frames[:, 0], SURFACE.area, 0.5, 1.0)
+    whole = whole.reshape(3 * count, 3 * count)
+    pins = post_tip_kernel(SURFACE.geometry, points, frames, radius, 0.5, 1.0).reshape(-1, 3 * count)
+    pressure = (SURFACE.area * frames[:, 0]).ravel()
+    h = 0.5 * (whole @ pressure + whole.T @ pressure)
+    sealed = whole - np.outer(h, h) / (pressure @ h)
+    sealed_pins = pins - np.outer(pins @ pressure, h) / (pressure @ h)
+
+    cap = 3 * SURFACE.count
+    nodes, cap_pins = sealed_gel(SURFACE, 0.5)
+    expected = sealed[:cap, :cap]
+    assert np.allclose(nodes.reshape(cap, cap).T, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+    expected_pins = sealed_pins[:, :cap]
+    assert np.allclose(cap_pins.reshape(cap, -1).T, expected_pins, rtol=0, atol=1e-9 * np.abs(expected_pins).max())
+
+    open_loss = np.abs(whole[:, :cap].T @ pressure).max()
+    assert np.abs(sealed[:, :cap].T @ pressure).max() < 0.005 * open_loss   # the whole free skin keeps it
+    assert np.abs(sealed[:cap, :cap].T @ pressure[:cap]).max() > 0.05 * open_loss  # the cap alone does not
 
 
 def test_a_cached_dome_is_the_computed_one_at_any_modulus(cache):

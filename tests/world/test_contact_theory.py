@@ -175,11 +175,10 @@ def test_frictionless_slide_ends_where_a_press_ends():
 def test_mesh_refinement_of_the_pins():
     """The default spacing (1.5 mm) against half of it (0.75 mm) on a press and a slide
     across the straight edge: pins within 0.4 px RMS and 2 px at worst. Measured with the
-    sealed gel: RMS 0.27 / 0.30 / 0.35 px, worst pin 1.61 / 1.72 / 1.70 px (the open
-    half-space: 0.21 / 0.25 / 0.18 and 1.24 / 1.41 / 0.87 px; the sealed gel presses 1.7×
-    harder at the same depth) — the pins beside the edge line, where the corner's
-    pressure peak turns the skin most and the nodes place the line to within half a
-    spacing. (The aim of every pin within 0.5 px is not met there; with the edge elsewhere
+    sealed gel: RMS 0.25 / 0.29 / 0.28 px, worst pin 1.43 / 1.63 / 1.39 px (the open
+    half-space: 0.21 / 0.25 / 0.18 and 1.24 / 1.41 / 0.87 px) — the pins beside the edge
+    line, where the corner's pressure peak turns the skin most and the nodes place the
+    line to within half a spacing. (The aim of every pin within 0.5 px is not met there; with the edge elsewhere
     between the nodes the worst pin is 1.5–3.4 px: README, "Where refinement falls short".)"""
     def frames(spacing_mm: float) -> list[np.ndarray]:
         env = _env(spacing_mm=spacing_mm, x_mm=60.0)
@@ -196,15 +195,17 @@ def test_mesh_refinement_of_the_pins():
 
 
 @pytest.mark.parametrize("depth_mm", [2.0, 4.0])
-def test_sealed_gel_keeps_its_volume_and_widens_the_contact(depth_mm):
-    """The sealed dome (the default): what a flat press pushes in bulges out elsewhere.
-    The cap's volume change Σ A n·u is zero (ν = 0.5: the gel is incompressible) to 0.1 %
-    of the volume pressed in, and the
+def test_sealed_gel_widens_the_contact(depth_mm):
+    """The sealed dome (the default): what a flat press pushes in bulges out elsewhere, on
+    the cap and on the free skin beyond it to the equator (that the two together keep the
+    gel's volume under every force is tests/world/test_compliance_cache.py's). So the
     contact radius lies between the two closed-form limits of a sphere pressed δ into a
-    flat: Hertz's √(Rδ) (the open half-space, whose surface sinks in around the press)
-    and the geometric overlap √(2Rδ − δ²) (no sink-in at all). Measured: radius 7.4 /
-    10.9 mm (the open half-space 6.3 / 8.7) against Hertz 6.3 / 8.9 and the overlap 8.7 /
-    12.0 mm."""
+    flat: Hertz's √(Rδ) (the open half-space, whose surface sinks in around the press and
+    loses what it takes in) and the geometric overlap √(2Rδ − δ²) (no sink-in at all).
+    Measured: the outermost loaded node at 6.9 / 9.9 mm (the open half-space 6.3 / 8.7)
+    against Hertz 6.3 / 8.9 and the overlap 8.7 / 12.0 mm; with the gel's pressure on the
+    cap alone it was 7.4 / 10.9 mm, which is no limit of the real dome (that cap's extent
+    is the model's, not the sensor's)."""
     radii = {}
     for enclosed in (False, True):
         env = _env(("contact",), x_mm=0.0, enclosed=enclosed)
@@ -213,17 +214,15 @@ def test_sealed_gel_keeps_its_volume_and_widens_the_contact(depth_mm):
         surface = physics.surface
         loaded = np.any(physics.forces != 0.0, axis=1)
         radii[enclosed] = float(np.max(np.linalg.norm(surface.points[loaded, :2], axis=1)))
-        volume = surface.area * np.einsum("ij,ij->", surface.normals, physics.displacement)
-        pressed_in = surface.area * np.sum(np.abs(physics.displacement @ np.array([0.0, 0.0, 1.0]))[loaded])
-        if enclosed:
-            assert abs(volume) < 1e-3 * pressed_in  # measured 2e-5 / 7e-5: h is Cᵀ A averaged with C A
-        else:
+        if not enclosed:
+            volume = surface.area * np.einsum("ij,ij->", surface.normals, physics.displacement)
+            pressed_in = surface.area * np.sum(np.abs(physics.displacement @ np.array([0.0, 0.0, 1.0]))[loaded])
             assert volume < -0.5 * pressed_in  # the half-space loses what it takes in
     delta = depth_mm * 1e-3
     hertz, overlap = math.sqrt(R * delta), math.sqrt(2 * R * delta - delta**2)
     spacing = COMPLIANT_LEVELS["default"].spacing
     assert radii[False] == pytest.approx(hertz, abs=spacing)
-    assert hertz + spacing / 2 < radii[True] < overlap
+    assert max(hertz, radii[False]) < radii[True] < overlap
 
 
 def test_skin_membrane_obeys_laplace_law():
@@ -276,3 +275,23 @@ def test_skin_bending_energy_of_a_dimple_matches_plate_theory():
             assert energy(np.tile(c * axis, (surface.count, 1))) < 1e-3 * theory
         spin = np.cross([0.3, -0.2, 0.5], surface.points - [0.0, 0.0, surface.geometry.sphere_centre_z]) * 1e-3
         assert energy(spin) < 1e-9 * theory
+
+
+def test_the_pins_do_not_depend_on_where_the_cap_ends(monkeypatch):
+    """The cap that can take contact ends at a numerical choice (65°); the sealed gel's
+    pressure acts on the free skin beyond it too, down to the equator, so moving the
+    cap's end to 75° moves no pin on the refinement test's press and slides: measured
+    0.002 px RMS, 0.01 px at worst. (With the pressure on the cap alone the pins moved
+    0.78–1.67 px RMS, 3.7 px at worst.)"""
+    def frames() -> list[np.ndarray]:
+        env = _env(x_mm=60.0)
+        out = []
+        for pose in (Pose(60, 0, 3, 0, 0, 0), Pose(60, 4, 3, 0, 0, 0), Pose(57, 4, 3, 0, 0, 0)):
+            env.move_to(pose)
+            out.append(env.observe().pins_px)
+        return out
+
+    at_65 = frames()
+    monkeypatch.setitem(COMPLIANT_LEVELS, "default", PARAMS.with_(extent_deg=75.0))
+    for short, long in zip(at_65, frames()):
+        assert np.linalg.norm(short - long, axis=1).max() < 0.1

@@ -144,7 +144,7 @@ def test_a_calibrated_material_maps_only_onto_parameters_the_model_has():
     from twin.world.dome.material import apply_dome_material, dome_material_of
 
     compliant = COMPLIANT_LEVELS["default"]
-    assert dome_material_of(compliant) == {"young_kpa": 53.0, "poisson": 0.5, "membrane_young_mpa": 0.0}
+    assert dome_material_of(compliant) == {"young_kpa": 67.0, "poisson": 0.5, "membrane_young_mpa": 0.0}
     assert apply_dome_material(compliant, {"young_kpa": 50.0, "poisson": 0.5}).young == pytest.approx(5e4)
     assert apply_dome_material(compliant, {"membrane_young_mpa": 0.3}).membrane_young == pytest.approx(3e5)
     with pytest.raises(UserError, match="unknown_kpa"):
@@ -194,7 +194,7 @@ def test_skin_bending_takes_the_membrane_from_the_calibration():
 def test_each_skin_is_calibrated_to_the_same_edge_press_force(level):
     """The compliant dome's moduli were calibrated (assets/tactip/README.md) so that a
     4 mm press centred on a straight edge takes 4.3 N, as the flex model: the solid
-    alone (E = 53 kPa), the membrane over a 26.9 kPa gel, the shell over a 17.1 kPa gel."""
+    alone (E = 67 kPa), the membrane over a 26.9 kPa gel, the shell over a 17.1 kPa gel."""
     env = _env(level)
     env.move_to(Pose(60, 0, 4.0, 0, 0, 0), 20.0)
     assert np.linalg.norm(env.observe_frame().contact_force_tool) == pytest.approx(4.3, rel=0.02)

@@ -204,7 +204,7 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
             if dome == "compliant":
                 surface = CapSurface(TacTipGeometry(), params.spacing, params.extent_deg)
                 t0 = time.perf_counter()
-                sealed_gel(surface, params.poisson, refresh=True)
+                sealed_gel(surface, params.poisson, free_band=not params.membrane_young, refresh=True)
                 precompute = time.perf_counter() - t0
                 t0 = time.perf_counter()
                 DomeCompliance(surface, params.young, params.poisson, params.enclosed, params.membrane_young,

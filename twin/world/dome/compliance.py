@@ -30,8 +30,13 @@ K = ∞ at ν = 0.5, where the volume is conserved exactly). With h = C A (the n
 displacement per Pa), the constrained compliance is C − h hᵀ / (Aᵀh + V/K): symmetric,
 positive semi-definite, a rank-one update of the half-space's. (C is symmetric to
 0.06 % here — Maxwell–Betti, broken only by the per-node tangent half-spaces — so
-h is averaged with Cᵀ A.) Only the modelled cap carries the pressure: the skin beyond
-`extent_deg` is taken as held by the base.
+h is averaged with Cᵀ A.) The pressure acts on the free skin down to the dome's equator,
+where the base clamps it: on the cap, which can take contact, and on a band of nodes
+beyond it (`CapSurface.band`), which only moves the cap and the pins through h and the
+volume balance, so it costs nothing per contact. (Sealing the cap alone made the pins
+depend on where the cap ends: 0.8–1.7 px RMS between a 65° and a 75° cap on a press and
+slide across an edge, against 0.002 px with the band.) Under a skin membrane the skin
+beyond the cap is held instead (its rim springs), and so is the gel there.
 
 The skin as a membrane (`membrane_young` > 0, off by default): the real skin is a
 rubber shell far stiffer than the gel, which stretches rather than shears. It is added as
@@ -104,25 +109,35 @@ class CapSurface:
 
     @cached_property
     def normals(self) -> np.ndarray:
-        polar, azimuth = self.polar, self.azimuth
-        return np.column_stack([np.sin(polar) * np.cos(azimuth), np.sin(polar) * np.sin(azimuth), np.cos(polar)])
+        return self.frames[:, 0]
 
     @cached_property
     def points(self) -> np.ndarray:
-        g = self.geometry
-        return np.array([0.0, 0.0, g.sphere_centre_z]) + g.dome_outer_radius * self.normals
+        return self._on_dome(self.normals)
 
     @cached_property
     def tangents(self) -> np.ndarray:
-        n, azimuth = self.normals, self.azimuth
-        east = np.column_stack([-np.sin(azimuth), np.cos(azimuth), np.zeros(self.count)])
-        meridian = np.cross(east, n)  # away from the apex, tangent
-        return np.stack([meridian, east], axis=1)
+        return self.frames[:, 1:]
 
     @cached_property
     def frames(self) -> np.ndarray:
         """(N, 3, 3): rows (outward normal, meridian tangent, azimuthal tangent) per node."""
-        return np.concatenate([self.normals[:, None, :], self.tangents], axis=1)
+        return _sphere_frames(self.polar, self.azimuth)
+
+    @cached_property
+    def band(self) -> tuple[np.ndarray, np.ndarray]:
+        """The free skin beyond the cap, down to the dome's equator where the base clamps
+        it: points (M, 3) and frames (M, 3, 3) of an equal-area lattice whose nodes carry
+        the cap's node `area`. It takes the sealed gel's pressure but never contact."""
+        below = math.cos(math.radians(self.extent_deg))  # 1 − cos of the polar angle, at the cap's rim
+        count = max(1, int(round(2 * math.pi * self.geometry.dome_outer_radius ** 2 * below / self.area)))
+        k = np.arange(count) + 0.5
+        frames = _sphere_frames(np.arccos(below * (1.0 - k / count)), (self.count + np.arange(count)) * GOLDEN_ANGLE)
+        return self._on_dome(frames[:, 0]), frames
+
+    def _on_dome(self, normals: np.ndarray) -> np.ndarray:
+        g = self.geometry
+        return np.array([0.0, 0.0, g.sphere_centre_z]) + g.dome_outer_radius * normals
 
     @cached_property
     def triangles(self) -> np.ndarray:
@@ -250,6 +265,14 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v, axis=1)[:, None]
 
 
+def _sphere_frames(polar: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
+    """(N, 3, 3): rows (outward normal, meridian tangent away from the apex, azimuthal
+    tangent) at the points of the dome with these polar and azimuth angles (rad)."""
+    normal = np.column_stack([np.sin(polar) * np.cos(azimuth), np.sin(polar) * np.sin(azimuth), np.cos(polar)])
+    east = np.column_stack([-np.sin(azimuth), np.cos(azimuth), np.zeros(len(azimuth))])
+    return np.stack([normal, np.cross(east, normal), east], axis=1)
+
+
 def membrane_stiffness(surface: CapSurface, young: float, poisson: float, thickness: float) -> np.ndarray:
     """(3N, 3N) N/m: stiffness of the skin as a membrane through the cap's nodes.
 
@@ -339,35 +362,66 @@ def half_space_columns(surface: CapSurface, nodes: np.ndarray, poisson: float,
             np.ascontiguousarray(np.transpose(pins, (2, 3, 0, 1))))
 
 
-def sealed_gel(surface: CapSurface, poisson: float, refresh: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def sealed_gel(surface: CapSurface, poisson: float, free_band: bool = True,
+               refresh: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """The sealed gel's influence matrices at unit shear modulus (G = 1 Pa; at a fixed ν
     linear elasticity scales as 1/G, so one pair serves every modulus): the nodes'
     (N, 3, N, 3) and the pin tips' (N, 3, 127, 3), [source, force axis, point,
-    displacement axis], C − h hᵀ / (Aᵀh + V/K) (module doc). Computed once per surface,
-    pin layout and ν and kept in the cache directory (twin.core.resources.cached_arrays);
-    `refresh` computes and stores them even if they are there (what `twin bench physics`
-    times)."""
+    displacement axis], C − h hᵀ / (fᵀh + V/K) (module doc). `free_band`: the gel's
+    pressure also acts on the skin beyond the cap, to the equator (`CapSurface.band`);
+    otherwise the skin there is held (a skin membrane's rim springs hold it). Computed
+    once per surface, pin layout and ν and kept in the cache directory
+    (twin.core.resources.cached_arrays); `refresh` computes and stores them even if they
+    are there (what `twin bench physics` times)."""
     n, pins = surface.count, len(surface.geometry.pin_tip_points())
     pin_bases = hashlib.sha256(surface.geometry.pin_base_points().tobytes()).hexdigest()[:16]
-    key = {"surface": dataclasses.asdict(surface), "pin_bases": pin_bases, "poisson": poisson, "code": _SOURCE_DIGEST}
-    arrays = cached_arrays("compliance", key, lambda: _sealed_gel(surface, poisson),
+    key = {"surface": dataclasses.asdict(surface), "pin_bases": pin_bases, "poisson": poisson, "free_band": free_band,
+           "code": _SOURCE_DIGEST}
+    arrays = cached_arrays("compliance", key, lambda: _sealed_gel(surface, poisson, free_band),
                            shapes={"nodes": (n, 3, n, 3), "pins": (n, 3, pins, 3)}, refresh=refresh)
     return arrays["nodes"], arrays["pins"]
 
 
-def _sealed_gel(surface: CapSurface, poisson: float) -> dict[str, np.ndarray]:
+def _sealed_gel(surface: CapSurface, poisson: float, free_band: bool) -> dict[str, np.ndarray]:
     nodes, pins = half_space_columns(surface, np.arange(surface.count), poisson, 1.0)
     pressure_forces = surface.area * surface.normals                        # N per Pa of gel pressure
     # the nodes' displacement per Pa, symmetrised (C is symmetric to 0.06 %)
     h = 0.5 * (np.einsum("jbia,jb->ia", nodes, pressure_forces) + np.einsum("jbia,ia->jb", nodes, pressure_forces))
     pins_h = np.einsum("jbia,jb->ia", pins, pressure_forces)
+    volume_compliance = float(np.sum(pressure_forces * h))
+    if free_band:
+        band_h, band_pins_h, band_volume = _band_pressure(surface, poisson)
+        h += band_h
+        pins_h += band_pins_h
+        volume_compliance += band_volume
     bulk = 2.0 * (1.0 + poisson) / (3.0 * (1.0 - 2.0 * poisson)) if poisson < 0.5 else math.inf  # K / G
     volume = 2.0 / 3.0 * math.pi * surface.geometry.skin_inner_radius ** 3  # the gel: a hemisphere on a rigid base
-    volume_compliance = float(np.sum(pressure_forces * h)) + volume / bulk
+    volume_compliance += volume / bulk
     n = 3 * surface.count
     nodes.reshape(n, n)[...] -= np.outer(h.ravel(), h.ravel() / volume_compliance)
     pins.reshape(n, -1)[...] -= np.outer(h.ravel(), pins_h.ravel() / volume_compliance)
     return {"nodes": nodes, "pins": pins}
+
+
+def _band_pressure(surface: CapSurface, poisson: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """What a unit gel pressure (1 Pa, G = 1 Pa) on the free skin beyond the cap
+    (`CapSurface.band`) adds: the cap nodes' displacement (N, 3) m and the pin tips'
+    (127, 3) m, and the volume it pushes out, the band's own share and the cross terms
+    with the cap's pressure (m³; Maxwell–Betti: the cap's pressure moves the band by
+    as much volume as the band's moves the cap)."""
+    points, frames = surface.band
+    radius = math.sqrt(surface.area / math.pi)
+    band_forces = surface.area * frames[:, 0]
+    cap_forces = surface.area * surface.normals
+    cap_from_band = disc_averaged_kernel(surface.points, points, frames, radius, poisson, 1.0)   # [cap, a, band, b]
+    band_from_cap = disc_averaged_kernel(points, surface.points, surface.frames, radius, poisson, 1.0)
+    h = 0.5 * (np.einsum("iajb,jb->ia", cap_from_band, band_forces) + np.einsum("jbia,jb->ia", band_from_cap, band_forces))
+    band = disc_averaged_kernel(points, points, frames, radius, poisson, 1.0)
+    band[np.arange(len(points)), :, np.arange(len(points)), :] = self_compliance(frames[:, 0], surface.area, poisson, 1.0)
+    band_on_band = float(np.einsum("ia,iajb,jb->", band_forces, band, band_forces))
+    pins_h = np.einsum("paqb,qb->pa", post_tip_kernel(surface.geometry, points, frames, radius, poisson, 1.0),
+                       band_forces)
+    return h, pins_h, 2.0 * float(np.sum(cap_forces * h)) + band_on_band
 
 
 def skinned(surface: CapSurface, gel_nodes: np.ndarray, gel_pins: np.ndarray,
@@ -429,7 +483,7 @@ class DomeCompliance:
         if self.enclosed or self.membrane_young:
             if not self._filled.all():
                 if self.enclosed:
-                    nodes, pins = sealed_gel(self.surface, self.poisson)
+                    nodes, pins = sealed_gel(self.surface, self.poisson, free_band=not self.membrane_young)
                     nodes /= self.shear_modulus
                     pins /= self.shear_modulus
                 else:

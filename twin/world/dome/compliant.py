@@ -58,10 +58,11 @@ class CompliantParams:
     young (Pa), poisson (–): the skin + gel as one elastic solid. The gel is a silicone
       (ν ≈ 0.5, incompressible); young is the effective modulus of skin over sealed gel,
       set so that a 4 mm press centred on a straight edge gives the same force as the flex
-      model (4.29 N; ≈ 4.3 N, "a few N at 4 mm" as the real sensor) — assets/tactip/README.md.
+      model (4.30 N; ≈ 4.3 N, "a few N at 4 mm" as the real sensor) — assets/tactip/README.md.
     spacing (m): node spacing on the outer surface (the pins are 3.3 mm apart).
-    extent_deg (deg): half-angle of the modelled cap; the pins reach 61°, a 6 mm press on
-      a flat 51°.
+    extent_deg (deg): half-angle of the cap that can take contact; the pins reach 61°, a
+      6 mm press on a flat 51°. The gel's pressure acts beyond it too, to the equator, so
+      it does not change the pins (twin.world.dome.compliance).
     step_length (m), step_angle_deg (deg): largest tool motion per contact increment (the
       resolution of the friction path; a scenario sets step_length as `physics:
       {increment_mm}`). On the benchmark's contour path (twin bench physics) 0.5 mm moves
@@ -85,7 +86,7 @@ class CompliantParams:
       membrane_young. Off by default (assets/tactip/README.md).
     """
 
-    young: float = 5.3e4
+    young: float = 6.7e4
     poisson: float = 0.5
     spacing: float = 0.0015
     extent_deg: float = 65.0
