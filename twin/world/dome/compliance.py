@@ -129,7 +129,7 @@ class CapSurface:
         """The free skin beyond the cap, down to the dome's equator where the base clamps
         it: points (M, 3) and frames (M, 3, 3) of an equal-area lattice whose nodes carry
         the cap's node `area`. It takes the sealed gel's pressure but never contact."""
-        below = math.cos(math.radians(self.extent_deg))  # 1 − cos of the polar angle, at the cap's rim
+        below = math.cos(math.radians(self.extent_deg))  # the band's area is 2πR² times this
         count = max(1, int(round(2 * math.pi * self.geometry.dome_outer_radius ** 2 * below / self.area)))
         k = np.arange(count) + 0.5
         frames = _sphere_frames(np.arccos(below * (1.0 - k / count)), (self.count + np.arange(count)) * GOLDEN_ANGLE)
