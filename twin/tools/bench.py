@@ -15,7 +15,7 @@ from twin.world import gl
 from twin.world.render import PinRenderer
 from twin.core.sensor import CameraModel, TacTipGeometry
 from twin.core.scenario import ContourProtocol, PhysicsOverrides
-from twin.world.dome.compliance import CapSurface, DomeCompliance, sealed_gel
+from twin.world.dome.compliance import CapSurface, DomeCompliance
 from twin.world.dome.compliant import COMPLIANT_LEVELS, SKIN_PHYSICS
 from twin.world.dome.flex import FIDELITY_LEVELS
 from twin.world.dome.testbed import edge_scene, sensor_down
@@ -203,12 +203,13 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
             precompute = cached = 0.0
             if dome == "compliant":
                 surface = CapSurface(TacTipGeometry(), params.spacing, params.extent_deg)
+                compliance = DomeCompliance(surface, params.young, params.poisson, params.enclosed,
+                                            params.membrane_young, params.skin_bending)
                 t0 = time.perf_counter()
-                sealed_gel(surface, params.poisson, free_band=not params.membrane_young, refresh=True)
+                compliance.sealed_gel(refresh=True)
                 precompute = time.perf_counter() - t0
                 t0 = time.perf_counter()
-                DomeCompliance(surface, params.young, params.poisson, params.enclosed, params.membrane_young,
-                               params.skin_bending).precompute()
+                compliance.precompute()
                 cached = time.perf_counter() - t0
             rows.append({"dome": dome, "level": level, "precompute_s": precompute, "cached_s": cached})
             params_of_rows.append(params)

@@ -483,7 +483,7 @@ class DomeCompliance:
         if self.enclosed or self.membrane_young:
             if not self._filled.all():
                 if self.enclosed:
-                    nodes, pins = sealed_gel(self.surface, self.poisson, free_band=not self.membrane_young)
+                    nodes, pins = self.sealed_gel()
                     nodes /= self.shear_modulus
                     pins /= self.shear_modulus
                 else:
@@ -499,6 +499,12 @@ class DomeCompliance:
             self._surface[todo], self._pins[todo] = half_space_columns(self.surface, todo, self.poisson,
                                                                        self.shear_modulus)
             self._filled[todo] = True
+
+    def sealed_gel(self, refresh: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """This dome's sealed-gel matrices at unit shear modulus (`sealed_gel`): the gel's
+        pressure on the free skin beyond the cap too, unless a skin membrane holds that skin
+        (its rim springs). `refresh`: compute and store them even if they are cached."""
+        return sealed_gel(self.surface, self.poisson, free_band=not self.membrane_young, refresh=refresh)
 
     def precompute(self) -> None:
         """Everything a run computes (or loads) at its first contacts: every column, the
