@@ -57,6 +57,9 @@ def test_quick_sweep_writes_a_consistent_table(tmp_path) -> None:
             assert _f(r[stage]) > 0, (r["setting"], stage, r[stage])
         assert _f(r["total_ms"]) >= _f(r["physics_ms"])
         assert int(r["n_timed_frames"]) > 0 and int(r["n_slide_frames"]) > 0 and int(r["contour_steps"]) > 0
+        for ratio in ("time", "physics"):  # best against best lies within the rounds' own ratios
+            low, best, high = (_f(r[f"{ratio}_x_default{end}"]) for end in ("_min", "", "_max"))
+            assert 0 < low <= best <= high, (r["setting"], ratio, low, best, high)
         assert np.isfinite(_f(r["pin_rms_px"])) and np.isfinite(_f(r["theta_rms_deg"]))
         assert np.isfinite(_f(r["lateral_rms_mm"])) and np.isfinite(_f(r["contour_path_mean_mm"]))
         assert _f(r["pin_settling_rms_px"]) > 0, r  # every quick setting has contact: measured, never exact
@@ -70,6 +73,8 @@ def test_quick_sweep_writes_a_consistent_table(tmp_path) -> None:
     assert by["render_off"]["pin_settling_rms_px"] == by[DEFAULT]["pin_settling_rms_px"] == by["msaa_4"][
         "pin_settling_rms_px"]
     assert _f(by[DEFAULT]["pin_physics_rms_px"]) > 0  # the default grid is coarser than the reference's
+    assert all(_f(by[DEFAULT][f"{ratio}_x_default{end}"]) == 1.0 for ratio in ("time", "physics")
+               for end in ("", "_min", "_max"))
     # every ok row is flagged on or off the front, the default included
     assert all(r["on_front"] in ("True", "False") for r in rows)
     md = (out / "sweep.md").read_text()

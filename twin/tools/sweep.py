@@ -21,10 +21,12 @@ Figures per setting (units in the column names; the CSV's columns are `CSV_COLUM
   settle), render (`env.observe`: the frame, or the projection without `render`),
   tracking (`PinReader.read`) and perception (one single-frame
   `PerceptionModel.predict`); the sum is `total_ms`. CPU ms of one process (all its
-  threads). Physics, render and tracking come from the **timing pass** (`time_setting`):
+  threads). Physics, render and tracking come from the **timing pass** (`time_settings`):
   after the parallel accuracy jobs, every setting replays the slide probe's first
-  orientations alone on the machine, best of TIMING_REPEATS passes; timed inside the
-  parallel jobs instead, physics-identical settings spread over 12–18 ms. Perception
+  orientations alone on the machine, in rounds (each round every setting once), best of
+  TIMING_REPEATS rounds; timed inside the parallel jobs instead, physics-identical
+  settings spread over 12–18 ms. Each setting's time against the default's, best against
+  best and the range of the ratio within one round, is in the `*_x_default` columns. Perception
   (≈ 1 ms, the same model size for every setting) is the accuracy job's mean. The
   accuracy jobs' wall-clock figures (every slide and contour frame, contention included)
   are in the `*_wall_ms` columns. Resets, lifts between slides and the tap probe are not
@@ -130,8 +132,8 @@ PIN_METRICS: tuple[str, ...] = ("pin_rms_px", "pin_physics_rms_px", "pin_settlin
 DOME_MARKERS: dict[str, str] = {"flex": "o", "compliant": "^"}
 #: Reference camera resolution (W, H) px: pin errors are expressed at this resolution.
 REFERENCE_RESOLUTION = (640, 480)
-#: The timing pass (`time_setting`): best of this many passes per setting (full, quick
-#: sweep) over the slide probe's first TIMING_ORIENTATIONS orientations.
+#: The timing pass (`time_settings`): best of this many rounds (full, quick sweep), after
+#: an untimed one, over the slide probe's first TIMING_ORIENTATIONS orientations.
 TIMING_REPEATS = (3, 2)
 TIMING_ORIENTATIONS = 2
 #: Noise margins of the Pareto dominance test: relative time, relative and absolute error.
@@ -495,30 +497,80 @@ def probe_setting(setting: Setting, probe: Probe, seed: int = 0) -> dict:
     return out
 
 
-def time_setting(setting: Setting, probe: Probe, seed: int = 0, repeats: int = TIMING_REPEATS[0]) -> dict:
-    """{physics,render,track}_ms (CPU ms per frame) and n_timed_frames of `setting` on
-    the timing probe: the slide probe's first TIMING_ORIENTATIONS orientations, best of
-    `repeats` passes, each on a fresh environment (min per stage).
+TIMED_STAGES: tuple[str, ...] = ("physics", "render", "track")
 
-    run_sweep calls it for every setting one after the other in its own process, after
-    the parallel accuracy jobs, so no other job competes for the cores: timed inside the
-    parallel jobs, physics-identical settings spread over 12–18 ms per frame (measured),
-    more than the differences the front must resolve."""
 
+def timing_pass(setting: Setting, probe: Probe, seed: int = 0) -> dict:
+    """{physics,render,track}_ms (CPU ms per frame) and n_timed_frames of one pass of
+    `setting` over the timing probe (the slide probe's first TIMING_ORIENTATIONS
+    orientations) on a fresh environment."""
     timing = replace(probe, slide_orientations_deg=probe.slide_orientations_deg[:TIMING_ORIENTATIONS])
     moves = protocol_moves(setting.scenario(timing.slides(), seed).protocol)
-    best: dict[str, float] = {}
-    for _ in range(repeats):
-        env = SimEnvironment(setting.scenario(timing.contour(), seed), seed=seed)
-        stages = _Stages()
-        try:
-            _open_loop(env, moves, stages)
-        finally:
-            env.close()
-        per_frame = stages.ms_per_frame()
-        for key in ("physics_ms", "render_ms", "track_ms"):
-            best[key] = min(best.get(key, math.inf), per_frame[key])
-    return {**best, "n_timed_frames": stages.calls["physics"]}
+    env = SimEnvironment(setting.scenario(timing.contour(), seed), seed=seed)
+    stages = _Stages()
+    try:
+        _open_loop(env, moves, stages)
+    finally:
+        env.close()
+    per_frame = stages.ms_per_frame()
+    return {**{f"{k}_ms": per_frame[f"{k}_ms"] for k in TIMED_STAGES}, "n_timed_frames": stages.calls["physics"]}
+
+
+def time_settings(settings: list[Setting], rows: list[dict], probe: Probe, seed: int = 0,
+                  repeats: int = TIMING_REPEATS[0], verbose: bool = False) -> None:
+    """The timing pass, into `rows` (one per setting; those not "ok" are skipped). After
+    the parallel accuracy jobs, in this one process, so that no other job competes for
+    the cores (timed inside the parallel jobs, physics-identical settings spread over
+    12–18 ms per frame). In rounds: an untimed round (each dome model's first run in a
+    process loads what it caches: influence matrices, compiled kernels, GL contexts), then
+    `repeats` rounds, each running every setting once (`timing_pass`), so that a host that
+    speeds up or slows down during the pass moves every setting alike. Sets each stage's
+    best (min over rounds) as {stage}_ms, n_timed_frames, and against the default in the
+    same run (NaN without it): time_x_default (physics + render + tracking, best against
+    best), physics_x_default, and each one's lowest and highest ratio within one round
+    (`*_x_default_min`, `*_x_default_max`: how far one run's ratio can be trusted). A
+    setting whose pass raises is recorded as failed in the "timing" stage."""
+    live = [i for i, r in enumerate(rows) if r["status"] == "ok"]
+    passes: dict[int, list[dict]] = {i: [] for i in live}
+    for round_ in range(-1, repeats):  # round −1 untimed
+        for i in live:
+            if rows[i]["status"] != "ok":
+                continue
+            try:
+                result = timing_pass(settings[i], probe, seed)
+            except Exception as err:  # recorded like a failed probe (module doc)
+                rows[i].update(status="failed", stage="timing", error=f"{type(err).__name__}: {err}"[:400])
+                continue
+            if round_ >= 0:
+                passes[i].append(result)
+        if verbose and round_ >= 0:
+            print(f"[timing round {round_ + 1}/{repeats}] done", flush=True)
+    names = [s.name for s in settings]
+    default = names.index(DEFAULT) if DEFAULT in names and rows[names.index(DEFAULT)]["status"] == "ok" else None
+
+    def per_round(i: int, stages: tuple[str, ...]) -> np.ndarray:
+        return np.array([sum(p[f"{k}_ms"] for k in stages) for p in passes[i]])
+
+    for i in live:
+        row = rows[i]
+        if row["status"] != "ok":
+            continue
+        for key in TIMED_STAGES:
+            row[f"{key}_ms"] = min(p[f"{key}_ms"] for p in passes[i])
+        row["n_timed_frames"] = passes[i][0]["n_timed_frames"]
+        row["total_ms"] = float(sum(row[f"{k}_ms"] for k in STAGES))
+        for name, stages in (("time", TIMED_STAGES), ("physics", ("physics",))):
+            if default is None:
+                row[f"{name}_x_default"] = row[f"{name}_x_default_min"] = row[f"{name}_x_default_max"] = math.nan
+                continue
+            mine, theirs = per_round(i, stages), per_round(default, stages)
+            row[f"{name}_x_default"] = float(mine.min() / theirs.min())
+            row[f"{name}_x_default_min"], row[f"{name}_x_default_max"] = (float((mine / theirs).min()),
+                                                                          float((mine / theirs).max()))
+        if verbose:
+            print(f"[timing] {row['setting']:18s} {row['total_ms']:7.1f} ms/frame  ×{row['time_x_default']:.2f} "
+                  f"of the default ({row['time_x_default_min']:.2f}–{row['time_x_default_max']:.2f} within a round)",
+                  flush=True)
 
 
 def _rms_px(a: np.ndarray, b: np.ndarray) -> float:
@@ -550,6 +602,8 @@ CSV_COLUMNS: tuple[str, ...] = (
     "setting", "knob", "output", "dome", "fidelity", "cellcount", "timestep_s", "settle_px", "camera", "msaa", "effects",
     "status", "stage", "error",
     "physics_ms", "render_ms", "track_ms", "perception_ms", "total_ms",
+    "time_x_default", "time_x_default_min", "time_x_default_max",
+    "physics_x_default", "physics_x_default_min", "physics_x_default_max",
     "physics_wall_ms", "render_wall_ms", "track_wall_ms", "perception_wall_ms", "total_wall_ms",
     "pin_rms_px", "pin_physics_rms_px", "pin_tracking_rms_px", "pin_settling_rms_px", "theta_rms_deg",
     "lateral_rms_mm",
@@ -642,7 +696,7 @@ def run_sweep(out: Path, quick: bool = False, workers: int | None = None, cluste
     quick: the QUICK_PROBE over quick_settings() (smoke check, < 2 min on 2 cores).
     workers / cluster: as twin.runs.parallel.map_ordered (default: all local cores); one
       accuracy job per setting. The timing pass then runs here, one setting at a time
-      (`time_setting`; on a cluster too, so that every time is from the same machine).
+      (`time_settings`; on a cluster too, so that every time is from the same machine).
     Returns the rows (dicts with the CSV_COLUMNS keys present).
     """
 
@@ -668,16 +722,7 @@ def run_sweep(out: Path, quick: bool = False, workers: int | None = None, cluste
                   f"{r['wall_s']:6.1f} s  {state}", flush=True)
     rows = [r["row"] for r in results]
     repeats = TIMING_REPEATS[1] if quick else TIMING_REPEATS[0]
-    for i, (setting, row) in enumerate(zip(settings, rows)):
-        if row["status"] != "ok":
-            continue
-        try:
-            row.update(time_setting(setting, probe, seed, repeats))
-        except Exception as err:  # recorded like a failed probe (module doc)
-            row.update(status="failed", stage="timing", error=f"{type(err).__name__}: {err}"[:400])
-        row["total_ms"] = float(sum(row[f"{k}_ms"] for k in STAGES))
-        if verbose:
-            print(f"[timing {i + 1}/{len(settings)}] {row['setting']:18s} {row['total_ms']:7.1f} ms/frame", flush=True)
+    time_settings(settings, rows, probe, seed, repeats, verbose)
     wall = time.perf_counter() - wall0
     for setting, result in zip(settings, results):
         row = result["row"]
@@ -806,14 +851,24 @@ def _timing_note(meta: dict) -> str:
                 "beside the other parallel jobs.")
     angles = ", ".join(f"{a:g}" for a in timing["orientations_deg"])
     return ("Times: CPU ms per frame; physics (move into the frame + settle), render and tracking from the timing "
-            f"pass (each setting alone on the machine after the accuracy jobs, best of {timing['repeats']} passes "
-            f"over the slides at θ = {angles}°), perception from the accuracy job; wall-clock figures of the accuracy "
-            "jobs in sweep.csv.")
+            f"pass (each setting alone on the machine after the accuracy jobs, in rounds that run every setting once, "
+            f"best of {timing['repeats']} rounds after an untimed one, over the slides at θ = {angles}°), perception "
+            "from the accuracy job; × default: physics + render + tracking against the default's, best against best, "
+            "and in brackets the lowest and highest ratio within one round; wall-clock figures of the accuracy jobs "
+            "in sweep.csv.")
+
+
+def _ratio_cell(r: dict) -> str:
+    """'1.21 (1.18–1.25)': the timed stages against the default's, best against best (the
+    lowest–highest ratio within one round); '—' where not timed against a default."""
+    if not _finite(r.get("time_x_default")):
+        return "—"
+    return f"{r['time_x_default']:.2f} ({r['time_x_default_min']:.2f}–{r['time_x_default_max']:.2f})"
 
 
 def markdown_table(rows: list[dict], meta: dict) -> str:
     """The README's table: one line per setting, then the verdict and how it was measured."""
-    head = ("| setting | knob | physics | render | tracking | perception | **total ms/frame** | "
+    head = ("| setting | knob | physics | render | tracking | perception | **total ms/frame** | × default | "
             "pin err px (phys / track) | settling err px | θ err ° | l err mm | contour err mm (steps, end) | front | "
             "contour front |")
     lines = [head, "|" + "|".join(["---"] * (head.count("|") - 1)) + "|"]
@@ -827,7 +882,7 @@ def markdown_table(rows: list[dict], meta: dict) -> str:
         contour_front = {True: "●", False: "", None: "—"}[r.get("on_front_contour")]
         lines.append(f"| {name} | {r['knob']} | {_fmt(r.get('physics_ms'))} | {_fmt(r.get('render_ms'))} | "
                      f"{_fmt(r.get('track_ms'))} | {_fmt(r.get('perception_ms'))} | **{_fmt(r.get('total_ms'))}** | "
-                     f"{pin} | {_fmt(r.get('pin_settling_rms_px'), 2)} | {_fmt(r.get('theta_rms_deg'))} | "
+                     f"{_ratio_cell(r)} | {pin} | {_fmt(r.get('pin_settling_rms_px'), 2)} | {_fmt(r.get('theta_rms_deg'))} | "
                      f"{_fmt(r.get('lateral_rms_mm'), 2)} | "
                      f"{_contour_cell(r)} | {front} | {contour_front} |")
     on = default_on_front(rows)
