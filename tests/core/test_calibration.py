@@ -15,6 +15,7 @@ from twin.core.scenario import scenario_from_dict
 from twin.core.sensor import CameraModel
 from twin.runs.sim_env import SimEnvironment
 from twin.runs.training import cache_key, tap_scenario_like
+from twin.world.scene import dome_params
 from twin.world.dome.flex import DomeParams
 from twin.world.dome.material import _TO_DOME, apply_dome_material, dome_material_of
 
@@ -118,6 +119,17 @@ def test_a_contour_s_tap_model_is_trained_on_its_own_dome_model() -> None:
     taps = tap_scenario_like(contour)
     assert taps.dome == "compliant" and taps.protocol.kind == "taps"
     assert cache_key(taps) != cache_key(tap_scenario_like(contour.with_changes(dome="flex")))
+
+
+def test_a_contour_s_tap_model_is_trained_on_its_own_physics() -> None:
+    """A contour scenario's `physics` (a skin over the gel here) reaches its taps: they
+    simulate the same dome, and the model is cached apart from the dome without it."""
+    skin = {"membrane_young_mpa": 0.6, "gel_young_kpa": 34.1, "skin_bending": True}
+    contour = scenario_from_dict({"name": "c", "object": {"name": "rectangle"}, "dome": "compliant",
+                                  "physics": skin, "protocol": {"kind": "contour"}})
+    taps = tap_scenario_like(contour)
+    assert dome_params(taps) == dome_params(contour) and dome_params(taps).skin_bending
+    assert cache_key(taps) != cache_key(tap_scenario_like(contour.with_changes(physics={})))
 
 
 def test_a_cached_tap_model_is_keyed_on_the_code_that_made_it(monkeypatch) -> None:

@@ -40,14 +40,14 @@ def train_from_run(run: Run, method: str = "pca", seed: int = 0) -> PerceptionMo
 
 
 def tap_scenario_like(scenario: Scenario) -> Scenario:
-    """The tap training scenario with the given scenario's dome model, fidelity, effects and
-    sensor (its calibration inline: a file named relative to `scenario` would otherwise be
-    looked for beside the shipped tap scenario)."""
+    """The tap training scenario with the given scenario's dome model, fidelity, physics,
+    effects and sensor (its calibration inline: a file named relative to `scenario` would
+    otherwise be looked for beside the shipped tap scenario)."""
     taps = load_scenario(scenario_path("taps_rectangle"))
     sensor = scenario.sensor.model_dump()
     sensor["calibration"] = scenario.calibration()
-    return taps.with_changes(dome=scenario.dome, fidelity=scenario.fidelity, effects=list(scenario.effects),
-                             sensor=sensor, seed=scenario.seed)
+    return taps.with_changes(dome=scenario.dome, fidelity=scenario.fidelity, physics=scenario.physics.model_dump(),
+                             effects=list(scenario.effects), sensor=sensor, seed=scenario.seed)
 
 
 #: the layers whose code a tap model depends on (the controller and the tools above them do not count)
