@@ -194,7 +194,7 @@ def test_skin_bending_takes_the_membrane_from_the_calibration():
 def test_each_skin_is_calibrated_to_the_same_edge_press_force(level):
     """The compliant dome's moduli were calibrated (assets/tactip/README.md) so that a
     4 mm press centred on a straight edge takes 4.3 N, as the flex model: the solid
-    alone (E = 67 kPa), the membrane over a 26.9 kPa gel, the shell over a 17.1 kPa gel."""
+    alone (E = 67 kPa), the membrane over a 41.9 kPa gel, the shell over a 34.1 kPa gel."""
     env = _env(level)
     env.move_to(Pose(60, 0, 4.0, 0, 0, 0), 20.0)
     assert np.linalg.norm(env.observe_frame().contact_force_tool) == pytest.approx(4.3, rel=0.02)

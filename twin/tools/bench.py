@@ -176,9 +176,10 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
     speeds up or slows down during the run moves every row alike. Returns one dict per
     (dome, level): ms_per_frame (best), steps_per_frame (mean; flex: MuJoCo steps,
     compliant: contact increments), ms_per_step, precompute_s (compliant: computing and
-    storing the sealed gel's influence matrices, once per surface and ν; flex: 0),
-    cached_s (compliant: what a run pays at its first contact once they are in the cache,
-    DomeCompliance.precompute, with a skin's matrices built over them; flex: 0),
+    storing the influence matrices, DomeCompliance.one_off: the sealed gel's once per
+    surface and ν, a skinned dome's once per surface and materials; flex: 0), cached_s
+    (compliant: what a run pays at its first contact once they are in the cache,
+    DomeCompliance.precompute; flex: 0),
     ratio_to_flex_default (best against best) and ratio_min, ratio_max (the lowest and
     highest ratio within one round: how far a single run's ratio may be trusted; NaN
     where the flex default is not among the levels). Besides the levels, the compliant
@@ -206,7 +207,7 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
                 compliance = DomeCompliance(surface, params.young, params.poisson, params.enclosed,
                                             params.membrane_young, params.skin_bending)
                 t0 = time.perf_counter()
-                compliance.sealed_gel(refresh=True)
+                compliance.one_off(refresh=True)
                 precompute = time.perf_counter() - t0
                 t0 = time.perf_counter()
                 compliance.precompute()

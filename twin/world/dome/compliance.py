@@ -35,19 +35,23 @@ where the base clamps it: on the cap, which can take contact, and on a band of n
 beyond it (`CapSurface.band`), which only moves the cap and the pins through h and the
 volume balance, so it costs nothing per contact. (Sealing the cap alone made the pins
 depend on where the cap ends: 0.8–1.7 px RMS between a 65° and a 75° cap on a press and
-slide across an edge, against 0.002 px with the band.) Under a skin membrane the skin
-beyond the cap is held instead (its rim springs), and so is the gel there.
+slide across an edge, against 0.002 px with the band.)
 
 The skin as a membrane (`membrane_young` > 0, off by default): the real skin is a
 rubber shell far stiffer than the gel, which stretches rather than shears. It is added as
-constant-strain membrane triangles through the cap's nodes (`membrane_stiffness`; on a
-sphere it obeys Laplace's law, p = 2 E t w / ((1 − ν) R²), tested), in series with the
-gel: the contact force f is shared between the skin's stiffness K and the gel's
-compliance C, u = (I + C K)⁻¹ C f, and the pins follow the gel under the force the skin
-passes on to it. The skin couples normal and tangential motion (stretching a curved
-membrane moves it normally), which twin.world.dome.contact solves jointly. With
-`skin_bending` the skin is a thin shell: its bending stiffness (`bending_stiffness`,
-D = E t³ / 12(1 − ν²), the same E and t) is added to the membrane's.
+constant-strain membrane triangles through the nodes of the whole free skin, the cap's and
+the band's, to the equator where the base holds it (`CapSurface.free_skin`,
+`membrane_stiffness`; on a sphere it obeys Laplace's law, p = 2 E t w / ((1 − ν) R²),
+tested), in series with the gel under all of it: the contact force f is shared between
+the skin's stiffness K and the gel's compliance C, u = (I + C K)⁻¹ C f, and the pins
+follow the gel under the force the skin passes on to it (`skinned`; computed once per
+material and cached). Contact acts on the cap alone. (Ending the skin at the cap's rim,
+held there by springs, made the pins depend on where the cap ends: 1.5–2.8 px RMS between
+a 65° and a 75° cap on a press and slide across an edge, against 0.001 px now.) The skin
+couples normal and tangential motion (stretching a curved membrane moves it normally),
+which twin.world.dome.contact solves jointly. With `skin_bending` the skin is a thin
+shell: its bending stiffness (`bending_stiffness`, D = E t³ / 12(1 − ν²), the same E and
+t) is added to the membrane's.
 
 Everything in the tool frame (m): apex at the origin, +z out of the tip.
 """
@@ -61,6 +65,7 @@ from functools import cached_property
 from pathlib import Path
 
 import numpy as np
+from scipy import sparse
 from scipy.spatial import Delaunay
 
 from twin.core.resources import cached_arrays, code_digest
@@ -135,6 +140,18 @@ class CapSurface:
         frames = _sphere_frames(np.arccos(below * (1.0 - k / count)), (self.count + np.arange(count)) * GOLDEN_ANGLE)
         return self._on_dome(frames[:, 0]), frames
 
+    @cached_property
+    def free_skin(self) -> "SkinSheet":
+        """The skin from the apex to the equator: the cap's nodes, then the band's."""
+        band_points, band_frames = self.band
+        points = np.concatenate([self.points, band_points])
+        frames = np.concatenate([self.frames, band_frames])
+        polar = np.arccos(np.clip(frames[:, 0, 2], -1.0, 1.0))
+        azimuth = np.arctan2(frames[:, 0, 1], frames[:, 0, 0])
+        triangles = Delaunay(np.column_stack([polar * np.cos(azimuth), polar * np.sin(azimuth)])).simplices
+        held = polar > 0.5 * math.pi - self.spacing / self.geometry.dome_outer_radius
+        return SkinSheet(points, frames, triangles, held, self.geometry.dome_outer_radius, self.spacing)
+
     def _on_dome(self, normals: np.ndarray) -> np.ndarray:
         g = self.geometry
         return np.array([0.0, 0.0, g.sphere_centre_z]) + g.dome_outer_radius * normals
@@ -150,6 +167,32 @@ class CapSurface:
     def rim(self) -> np.ndarray:
         """(N,) bool: nodes in the outermost spacing of the cap (contact there leaves the model)."""
         return self.polar > math.radians(self.extent_deg) - self.spacing / self.geometry.dome_outer_radius
+
+
+@dataclass(frozen=True, eq=False)
+class SkinSheet:
+    """The skin as a sheet of nodes over the gel, from the apex to the equator where the
+    base clamps it (`CapSurface.free_skin`): points (K, 3) m, frames (K, 3, 3) (outward
+    normal, meridian, azimuthal), triangles (T, 3) node indices (the Delaunay
+    triangulation of the nodes' azimuthal-equidistant map), held (K,) bool: the last
+    ring, within a spacing of the equator, which the base holds; radius R and node
+    spacing (m)."""
+
+    points: np.ndarray
+    frames: np.ndarray
+    triangles: np.ndarray
+    held: np.ndarray
+    radius: float
+    spacing: float
+
+    @property
+    def normals(self) -> np.ndarray:
+        return self.frames[:, 0]
+
+    @property
+    def polar(self) -> np.ndarray:
+        """(K,) rad from the apex."""
+        return np.arccos(np.clip(self.normals[:, 2], -1.0, 1.0))
 
 
 def half_space_kernel(targets: np.ndarray, sources: np.ndarray, outward: np.ndarray, poisson: float,
@@ -273,16 +316,17 @@ def _sphere_frames(polar: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
     return np.stack([normal, np.cross(east, normal), east], axis=1)
 
 
-def membrane_stiffness(surface: CapSurface, young: float, poisson: float, thickness: float) -> np.ndarray:
-    """(3N, 3N) N/m: stiffness of the skin as a membrane through the cap's nodes.
+def membrane_stiffness(sheet: SkinSheet, young: float, poisson: float, thickness: float) -> np.ndarray:
+    """(3K, 3K) N/m: stiffness of the skin as a membrane through the sheet's nodes.
 
-    Constant-strain triangles (plane stress, each in its own plane) on the surface's
+    Constant-strain triangles (plane stress, each in its own plane) on the sheet's
     `triangles`; curvature enters through the facets' orientations, so stretching the
-    skin resists normal as well as tangential motion. The skin beyond the modelled cap (to
-    the base, where it is clamped) holds each rim node by a spring of its band's
-    stretching stiffness, E·t·(node's share of the rim) / (band length)."""
-    triangles = surface.triangles
-    x = surface.points[triangles]                                     # (T, 3 corners, 3)
+    skin resists normal as well as tangential motion. The base clamps the skin at the
+    equator: each `held` node is tied to it by a spring of the skin between them,
+    E·t·(node's share of the circumference) / (its distance to the equator, at least a
+    quarter spacing)."""
+    triangles = sheet.triangles
+    x = sheet.points[triangles]                                       # (T, 3 corners, 3)
     e1 = _unit(x[:, 1] - x[:, 0])
     normal = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
     area = 0.5 * np.linalg.norm(normal, axis=1)
@@ -300,31 +344,30 @@ def membrane_stiffness(surface: CapSurface, young: float, poisson: float, thickn
                                                         [0.0, 0.0, 0.5 * (1.0 - poisson)]])
     element = thickness * area[:, None, None] * np.einsum("tsi,sr,trj->tij", strain, elastic, strain)
     dofs = _dofs(triangles.ravel()).reshape(len(triangles), 9)
-    n = surface.count
+    n = len(sheet.points)
     stiffness = np.zeros((3 * n, 3 * n))
     np.add.at(stiffness, (dofs[:, :, None], dofs[:, None, :]), element)
-    r = surface.geometry.dome_outer_radius
-    rim = np.flatnonzero(surface.rim)
-    band = r * (0.5 * math.pi - math.radians(surface.extent_deg))
-    share = 2.0 * math.pi * r * math.sin(math.radians(surface.extent_deg)) / len(rim)
-    for i in rim:
-        stiffness[3 * i: 3 * i + 3, 3 * i: 3 * i + 3] += young * thickness * share / band * np.eye(3)
+    held = np.flatnonzero(sheet.held)
+    share = 2.0 * math.pi * sheet.radius / len(held)
+    to_base = np.maximum(sheet.radius * (0.5 * math.pi - sheet.polar[held]), 0.25 * sheet.spacing)
+    for i, length in zip(held, to_base):
+        stiffness[3 * i: 3 * i + 3, 3 * i: 3 * i + 3] += young * thickness * share / length * np.eye(3)
     return stiffness
 
 
-def bending_stiffness(surface: CapSurface, young: float, poisson: float, thickness: float) -> np.ndarray:
-    """(3N, 3N) N/m: the skin's resistance to bending, for the nodes' normal displacement w.
+def bending_stiffness(sheet: SkinSheet, young: float, poisson: float, thickness: float) -> np.ndarray:
+    """(3K, 3K) N/m: the skin's resistance to bending, for the nodes' normal displacement w.
 
     The shallow-shell energy ½ D ∫ ((Δ + 2/R²) w)² dA on the sphere of radius R, with
     D = E t³ / 12(1 − ν²): Kirchhoff's plate energy without its Gaussian-curvature term
     (which for a plate integrates to the boundary); + 2/R² makes rigid translations
     (w = n·t, the degree-1 harmonics) cost nothing, and rotations have w = 0. Discretised
-    with the cotangent Laplacian and lumped (barycentric) areas on the surface's
-    `triangles`; rim nodes, whose Laplacian is one-sided, carry no energy of their own
-    (a free edge; the skin beyond the cap is held by the membrane's rim springs)."""
-    triangles = surface.triangles
-    x = surface.points
-    n = surface.count
+    with the cotangent Laplacian and lumped (barycentric) areas on the sheet's
+    `triangles`; the held nodes, whose Laplacian is one-sided, carry no energy of their
+    own (the membrane's springs hold them)."""
+    triangles = sheet.triangles
+    x = sheet.points
+    n = len(x)
     laplacian = np.zeros((n, n))   # positive semi-definite: wᵀ S w = ∫ |∇w|²
     area = np.zeros(n)
     for k in range(3):
@@ -336,11 +379,11 @@ def bending_stiffness(surface: CapSurface, young: float, poisson: float, thickne
         np.add.at(laplacian, (i, i), half_cot)
         np.add.at(laplacian, (j, j), half_cot)
         np.add.at(area, i, np.linalg.norm(np.cross(x[j] - x[i], x[o] - x[i]), axis=1) / 6.0)
-    r = surface.geometry.dome_outer_radius
-    operator = (2.0 / r ** 2 * np.diag(area) - laplacian)[~surface.rim]  # rows ≈ A_i (Δ + 2/R²) w at node i
+    free = ~sheet.held
+    operator = (2.0 / sheet.radius ** 2 * np.diag(area) - laplacian)[free]  # rows ≈ A_i (Δ + 2/R²) w at node i
     rigidity = young * thickness ** 3 / (12.0 * (1.0 - poisson ** 2))
-    normal_stiffness = rigidity * operator.T @ (operator / area[~surface.rim, None])
-    normals = surface.normals
+    normal_stiffness = rigidity * operator.T @ (operator / area[free, None])
+    normals = sheet.normals
     return np.einsum("ia,ij,jb->iajb", normals, normal_stiffness, normals).reshape(3 * n, 3 * n)
 
 
@@ -362,41 +405,49 @@ def half_space_columns(surface: CapSurface, nodes: np.ndarray, poisson: float,
             np.ascontiguousarray(np.transpose(pins, (2, 3, 0, 1))))
 
 
-def sealed_gel(surface: CapSurface, poisson: float, free_band: bool = True,
-               refresh: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def sealed_gel(surface: CapSurface, poisson: float, refresh: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """The sealed gel's influence matrices at unit shear modulus (G = 1 Pa; at a fixed ν
     linear elasticity scales as 1/G, so one pair serves every modulus): the nodes'
     (N, 3, N, 3) and the pin tips' (N, 3, 127, 3), [source, force axis, point,
-    displacement axis], C − h hᵀ / (fᵀh + V/K) (module doc). `free_band`: the gel's
-    pressure also acts on the skin beyond the cap, to the equator (`CapSurface.band`);
-    otherwise the skin there is held (a skin membrane's rim springs hold it). Computed
+    displacement axis], C − h hᵀ / (fᵀh + V/K) (module doc), the gel's pressure acting on
+    the cap and on the free skin beyond it to the equator (`CapSurface.band`). Computed
     once per surface, pin layout and ν and kept in the cache directory
     (twin.core.resources.cached_arrays); `refresh` computes and stores them even if they
     are there (what `twin bench physics` times)."""
     n, pins = surface.count, len(surface.geometry.pin_tip_points())
-    pin_bases = hashlib.sha256(surface.geometry.pin_base_points().tobytes()).hexdigest()[:16]
-    key = {"surface": dataclasses.asdict(surface), "pin_bases": pin_bases, "poisson": poisson, "free_band": free_band,
+    key = {"surface": dataclasses.asdict(surface), "pin_bases": _pin_bases_digest(surface), "poisson": poisson,
            "code": _SOURCE_DIGEST}
-    arrays = cached_arrays("compliance", key, lambda: _sealed_gel(surface, poisson, free_band),
+    arrays = cached_arrays("compliance", key, lambda: _sealed_gel(surface, poisson),
                            shapes={"nodes": (n, 3, n, 3), "pins": (n, 3, pins, 3)}, refresh=refresh)
     return arrays["nodes"], arrays["pins"]
 
 
-def _sealed_gel(surface: CapSurface, poisson: float, free_band: bool) -> dict[str, np.ndarray]:
+def _pin_bases_digest(surface: CapSurface) -> str:
+    return hashlib.sha256(surface.geometry.pin_base_points().tobytes()).hexdigest()[:16]
+
+
+def _bulk_ratio(poisson: float) -> float:
+    """K / G of the gel (inf at ν = 0.5: incompressible)."""
+    return 2.0 * (1.0 + poisson) / (3.0 * (1.0 - 2.0 * poisson)) if poisson < 0.5 else math.inf
+
+
+def _gel_volume(surface: CapSurface) -> float:
+    """m³: the gel, a hemisphere on the rigid base."""
+    return 2.0 / 3.0 * math.pi * surface.geometry.skin_inner_radius ** 3
+
+
+def _sealed_gel(surface: CapSurface, poisson: float) -> dict[str, np.ndarray]:
     nodes, pins = half_space_columns(surface, np.arange(surface.count), poisson, 1.0)
     pressure_forces = surface.area * surface.normals                        # N per Pa of gel pressure
     # the nodes' displacement per Pa, symmetrised (C is symmetric to 0.06 %)
     h = 0.5 * (np.einsum("jbia,jb->ia", nodes, pressure_forces) + np.einsum("jbia,ia->jb", nodes, pressure_forces))
     pins_h = np.einsum("jbia,jb->ia", pins, pressure_forces)
     volume_compliance = float(np.sum(pressure_forces * h))
-    if free_band:
-        band_h, band_pins_h, band_volume = _band_pressure(surface, poisson)
-        h += band_h
-        pins_h += band_pins_h
-        volume_compliance += band_volume
-    bulk = 2.0 * (1.0 + poisson) / (3.0 * (1.0 - 2.0 * poisson)) if poisson < 0.5 else math.inf  # K / G
-    volume = 2.0 / 3.0 * math.pi * surface.geometry.skin_inner_radius ** 3  # the gel: a hemisphere on a rigid base
-    volume_compliance += volume / bulk
+    band_h, band_pins_h, band_volume = _band_pressure(surface, poisson)
+    h += band_h
+    pins_h += band_pins_h
+    volume_compliance += band_volume
+    volume_compliance += _gel_volume(surface) / _bulk_ratio(poisson)
     n = 3 * surface.count
     nodes.reshape(n, n)[...] -= np.outer(h.ravel(), h.ravel() / volume_compliance)
     pins.reshape(n, -1)[...] -= np.outer(h.ravel(), pins_h.ravel() / volume_compliance)
@@ -424,26 +475,56 @@ def _band_pressure(surface: CapSurface, poisson: float) -> tuple[np.ndarray, np.
     return h, pins_h, 2.0 * float(np.sum(cap_forces * h)) + band_on_band
 
 
-def skinned(surface: CapSurface, gel_nodes: np.ndarray, gel_pins: np.ndarray,
-            membrane_young: float, bending: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def skinned(surface: CapSurface, poisson: float, shear_modulus: float, membrane_young: float, bending: bool = False,
+            enclosed: bool = True, refresh: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """The dome with its skin as a membrane (Young's modulus `membrane_young`, Pa; with
-    `bending`, a thin shell: `bending_stiffness` too) over the gel whose columns are
-    given, in the same layout ([source, force axis, point, displacement axis], m/N). The
-    skin's stiffness K and the gel's compliance C act in series with the contact force
-    f: the gel takes g = f − K u and u = C g, so u = (I + C K)⁻¹ C f; the pins follow the
-    gel under g. One dense solve."""
-    n = 3 * surface.count
-    gel = gel_nodes.reshape(n, n).T                       # displacement per force
-    pins = gel_pins.reshape(n, -1).T
+    `bending`, a thin shell: `bending_stiffness` too) over the gel (shear modulus G, Pa;
+    sealed where `enclosed`), in `sealed_gel`'s layout ([source, force axis, point,
+    displacement axis], m/N): the cap's columns, the nodes' and the pin tips'. The skin
+    and the gel under it are modelled to the equator, where the base holds the skin
+    (`CapSurface.free_skin`); contact acts on the cap alone. The skin's stiffness K and
+    the gel's compliance C act in series with the contact force f: the gel takes
+    g = f − K u and u = C g, so u = (I + C K)⁻¹ C f; the pins follow the gel under g.
+    Computed once per surface, materials and ν and kept in the cache directory, as
+    `sealed_gel`."""
+    n, pins = surface.count, len(surface.geometry.pin_tip_points())
+    key = {"surface": dataclasses.asdict(surface), "pin_bases": _pin_bases_digest(surface), "poisson": poisson,
+           "shear_modulus": shear_modulus, "membrane_young": membrane_young, "bending": bending,
+           "enclosed": enclosed, "code": _SOURCE_DIGEST}
+    arrays = cached_arrays(
+        "compliance", key, lambda: _skinned(surface, poisson, shear_modulus, membrane_young, bending, enclosed),
+        shapes={"nodes": (n, 3, n, 3), "pins": (n, 3, pins, 3)}, refresh=refresh)
+    return arrays["nodes"], arrays["pins"]
+
+
+def _skinned(surface: CapSurface, poisson: float, shear_modulus: float, membrane_young: float, bending: bool,
+             enclosed: bool) -> dict[str, np.ndarray]:
+    sheet = surface.free_skin
+    count, radius = len(sheet.points), math.sqrt(surface.area / math.pi)
+    gel = disc_averaged_kernel(sheet.points, sheet.points, sheet.frames, radius, poisson, shear_modulus)
+    gel[np.arange(count), :, np.arange(count), :] = self_compliance(sheet.normals, surface.area, poisson,
+                                                                    shear_modulus)
+    gel = gel.reshape(3 * count, 3 * count)                         # displacement per force
+    pins = post_tip_kernel(surface.geometry, sheet.points, sheet.frames, radius, poisson,
+                           shear_modulus).reshape(-1, 3 * count)
+    if enclosed:  # the gel's pressure on the whole free skin, as `_sealed_gel`, here without condensing
+        pressure = (surface.area * sheet.normals).ravel()
+        h = 0.5 * (gel @ pressure + gel.T @ pressure)
+        volume_compliance = float(pressure @ h) + _gel_volume(surface) / (_bulk_ratio(poisson) * shear_modulus)
+        pins -= np.outer(pins @ pressure, h / volume_compliance)
+        gel -= np.outer(h, h / volume_compliance)
     thickness = surface.geometry.skin_thickness
-    skin = membrane_stiffness(surface, membrane_young, 0.5, thickness)
+    skin = membrane_stiffness(sheet, membrane_young, 0.5, thickness)
     if bending:
-        skin += bending_stiffness(surface, membrane_young, 0.5, thickness)
-    nodes = np.linalg.solve(np.eye(n) + gel @ skin, gel)
+        skin += bending_stiffness(sheet, membrane_young, 0.5, thickness)
+    skin = sparse.csr_matrix(skin)
+    cap = 3 * surface.count
+    displacement = np.linalg.solve(np.eye(3 * count) + (skin.T @ gel.T).T, gel[:, :cap])  # u per cap force
+    nodes = displacement[:cap]
     nodes = 0.5 * (nodes + nodes.T)
-    pins = pins - (pins @ skin) @ nodes
-    return (np.ascontiguousarray(nodes.T).reshape(gel_nodes.shape),
-            np.ascontiguousarray(pins.T).reshape(gel_pins.shape))
+    pin_tips = pins[:, :cap] - (skin.T @ pins.T).T @ displacement
+    return {"nodes": np.ascontiguousarray(nodes.T).reshape(surface.count, 3, surface.count, 3),
+            "pins": np.ascontiguousarray(pin_tips.T).reshape(surface.count, 3, -1, 3)}
 
 
 class DomeCompliance:
@@ -478,20 +559,10 @@ class DomeCompliance:
 
     def fill(self, nodes: np.ndarray) -> None:
         """Compute the columns of `nodes` (indices) not computed yet. The sealed gel and the
-        skin membrane take every column at once: the gel's (`sealed_gel`, from the cache
-        after the first time), then the skin over it (`skinned`)."""
+        skin take every column at once (`one_off`, from the cache after the first time)."""
         if self.enclosed or self.membrane_young:
             if not self._filled.all():
-                if self.enclosed:
-                    nodes, pins = self.sealed_gel()
-                    nodes /= self.shear_modulus
-                    pins /= self.shear_modulus
-                else:
-                    nodes, pins = half_space_columns(self.surface, np.arange(self.surface.count), self.poisson,
-                                                     self.shear_modulus)
-                if self.membrane_young:
-                    nodes, pins = skinned(self.surface, nodes, pins, self.membrane_young, self.skin_bending)
-                self._surface, self._pins = nodes, pins
+                self._surface, self._pins = self.one_off()
                 self._filled[:] = True
             return
         todo = nodes[~self._filled[nodes]]
@@ -500,16 +571,22 @@ class DomeCompliance:
                                                                        self.shear_modulus)
             self._filled[todo] = True
 
-    def sealed_gel(self, refresh: bool = False) -> tuple[np.ndarray, np.ndarray]:
-        """This dome's sealed-gel matrices at unit shear modulus (`sealed_gel`): the gel's
-        pressure on the free skin beyond the cap too, unless a skin membrane holds that skin
-        (its rim springs). `refresh`: compute and store them even if they are cached."""
-        return sealed_gel(self.surface, self.poisson, free_band=not self.membrane_young, refresh=refresh)
+    def one_off(self, refresh: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """Every column, where this dome needs them all: the skinned dome's (`skinned`), or
+        the sealed gel's (`sealed_gel`, scaled to this modulus); loaded from the cache, or
+        computed and stored (always where `refresh`: what `twin bench physics` times).
+        The open gel without a skin computes columns as contacts reach them: none here."""
+        if self.membrane_young:
+            return skinned(self.surface, self.poisson, self.shear_modulus, self.membrane_young, self.skin_bending,
+                           self.enclosed, refresh=refresh)
+        if self.enclosed:
+            nodes, pins = sealed_gel(self.surface, self.poisson, refresh=refresh)
+            return nodes / self.shear_modulus, pins / self.shear_modulus
+        return self._surface, self._pins
 
     def precompute(self) -> None:
-        """Everything a run computes (or loads) at its first contacts: every column, the
-        sealed gel's when `enclosed`, with the skin over it when it has one (what `twin
-        bench physics` times as one-off)."""
+        """Everything a run computes (or loads) at its first contacts: every column where
+        the dome needs them all (`one_off`; what `twin bench physics` times as cached)."""
         self.fill(np.arange(self.surface.count))
 
     def block(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:

@@ -79,8 +79,8 @@ class CompliantParams:
       False is an open half-space, the body of the closed-form contact checks.
     membrane_young (Pa): the skin as a membrane over the gel (twin.world.dome.compliance.
       membrane_stiffness), 0 = none; `young` is then the gel's own modulus. Off by default
-      (assets/tactip/README.md: a 0.6 MPa skin over a 26.9 kPa gel, the same 4.3 N, was
-      tried and what it changes is measured there).
+      (SKIN_PHYSICS: a 0.6 MPa skin over a 41.9 kPa gel, the same 4.3 N; what it changes
+      is measured in the README).
     skin_bending: the skin membrane also resists bending, as a thin shell of the same
       modulus and thickness (twin.world.dome.compliance.bending_stiffness); needs
       membrane_young. Off by default (assets/tactip/README.md).
@@ -119,8 +119,8 @@ COMPLIANT_LEVELS: dict[str, CompliantParams] = {
 #: 4 mm press centred on a straight edge takes the default solid's 4.3 N
 #: (assets/tactip/README.md, "The compliant dome's material").
 SKIN_PHYSICS: dict[str, dict[str, float | bool]] = {
-    "membrane": {"membrane_young_mpa": 0.6, "gel_young_kpa": 26.9},
-    "shell": {"membrane_young_mpa": 0.6, "gel_young_kpa": 17.1, "skin_bending": True},
+    "membrane": {"membrane_young_mpa": 0.6, "gel_young_kpa": 41.9},
+    "shell": {"membrane_young_mpa": 0.6, "gel_young_kpa": 34.1, "skin_bending": True},
 }
 
 
