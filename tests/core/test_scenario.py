@@ -37,6 +37,10 @@ BAD = {
                             "physics.gel_young_kpa", "flex"),
     "bending_without_membrane": ("name: x\nobject: {name: rectangle}\ndome: compliant\nphysics: {skin_bending: true}\n",
                                  "skin_bending", "membrane_young_mpa"),
+    "skin_held_inside_the_cap": ("name: x\nobject: {name: rectangle}\ndome: compliant\nphysics: {skin_held_deg: 50}\n",
+                                 "physics.skin_held_deg", "50"),
+    "skin_held_on_flex": ("name: x\nobject: {name: rectangle}\nphysics: {skin_held_deg: 80}\n",
+                          "physics.skin_held_deg", "flex"),
 }
 
 

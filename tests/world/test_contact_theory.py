@@ -231,9 +231,9 @@ def test_sealed_gel_widens_the_contact(depth_mm):
 def test_skin_membrane_obeys_laplace_law():
     """A spherical membrane moved outwards by w is stretched by w/R both ways, which takes
     a pressure p = 2 E t w / ((1 − ν) R²) (Laplace's law): the nodal forces of the skin's
-    stiffness, per node area, within 1 % on average away from the rim (measured 0.1 %,
-    spread 0.7 %). A rigid rotation about the sphere's centre stretches nothing but the
-    springs that hold the skin at the equator."""
+    stiffness, per node area, within 1 % on average away from the base (the skin to the
+    equator; measured −0.3 %, spread 1.2 %). A rigid rotation about the sphere's centre
+    stretches nothing but the springs that hold the skin at the equator."""
     from twin.core.sensor import TacTipGeometry
     from twin.world.dome.compliance import CapSurface, membrane_stiffness
 
@@ -259,7 +259,8 @@ def test_skin_bending_energy_of_a_dimple_matches_plate_theory():
     skin with energy ½ D ∫ ((Δ + 2/R²) w)² dA = π D c² (1/s² − 2/R² + 2 s²/R⁴) for s ≪ R
     (the plate's ∫ (Δw)² = 2π c²/s², with the sphere's 2/R² terms; D = E t³ / 12(1 − ν²)).
     The cotangent discretisation is within 5 % of it at the default spacing (measured
-    3.6 % low, s = 4 mm) and converges: within 2 % at 1 mm (1 %). A rigid translation
+    4.2 % low, s = 4 mm, on the skin to the equator) and converges: within 2 % at 1 mm
+    (1.5 %). A rigid translation
     of the same size costs less than 0.1 % of it, a rotation nothing."""
     from twin.core.sensor import TacTipGeometry
     from twin.world.dome.compliance import CapSurface, bending_stiffness

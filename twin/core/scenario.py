@@ -89,6 +89,8 @@ class PhysicsOverrides(StrictModel):
     gel_enclosed: bool | None = Field(
         default=None, description="compliant dome: the gel is sealed in the dome and keeps its volume (default true); "
                                   "false = an open elastic half-space, the body of the closed-form contact checks")
+    skin_held_deg: float | None = bounded(65, 90, "deg", "compliant dome: where the base holds the skin, from the "
+                                          "apex (default 90, the equator; at least the contact cap's 65)", None)
 
     @field_validator("skin_spacing_mm")
     @classmethod
@@ -101,7 +103,8 @@ class PhysicsOverrides(StrictModel):
     FLEX_ONLY: ClassVar[tuple[str, ...]] = ("cellcount", "timestep_s", "settle_px", "skin_spacing_mm")
 
     #: overrides that only the compliant dome has
-    COMPLIANT_ONLY: ClassVar[tuple[str, ...]] = ("gel_enclosed", "gel_young_kpa", "skin_bending", "increment_mm")
+    COMPLIANT_ONLY: ClassVar[tuple[str, ...]] = ("gel_enclosed", "gel_young_kpa", "skin_bending", "increment_mm",
+                                                 "skin_held_deg")
 
     def as_compliant_changes(self) -> dict:
         """The overrides for the compliant dome (twin.world.dome.compliant.CompliantParams)."""
@@ -109,7 +112,8 @@ class PhysicsOverrides(StrictModel):
                    "enclosed": self.gel_enclosed, "skin_bending": self.skin_bending,
                    "young": None if self.gel_young_kpa is None else self.gel_young_kpa * 1e3,
                    "membrane_young": None if self.membrane_young_mpa is None else self.membrane_young_mpa * 1e6,
-                   "step_length": None if self.increment_mm is None else self.increment_mm * 1e-3}
+                   "step_length": None if self.increment_mm is None else self.increment_mm * 1e-3,
+                   "skin_held_deg": self.skin_held_deg}
         return {k: v for k, v in changes.items() if v is not None}
 
     def as_dome_changes(self) -> dict:

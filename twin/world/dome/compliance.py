@@ -131,26 +131,39 @@ class CapSurface:
 
     @cached_property
     def band(self) -> tuple[np.ndarray, np.ndarray]:
-        """The free skin beyond the cap, down to the dome's equator where the base clamps
-        it: points (M, 3) and frames (M, 3, 3) of an equal-area lattice whose nodes carry
-        the cap's node `area`. It takes the sealed gel's pressure but never contact."""
-        below = math.cos(math.radians(self.extent_deg))  # the band's area is 2πR² times this
-        count = max(1, int(round(2 * math.pi * self.geometry.dome_outer_radius ** 2 * below / self.area)))
+        """`band_to` the dome's equator."""
+        return self.band_to(90.0)
+
+    def band_to(self, held_deg: float) -> tuple[np.ndarray, np.ndarray]:
+        """The free skin beyond the cap, down to `held_deg` from the apex where the base
+        holds it (the equator: 90): points (M, 3) and frames (M, 3, 3) of an equal-area
+        lattice whose nodes carry the cap's node `area` (none where the base holds the skin
+        at the cap's rim). It takes the sealed gel's pressure but never contact."""
+        top = math.cos(math.radians(self.extent_deg))
+        bottom = math.sin(math.radians(90.0 - held_deg))  # cos(held), exactly 0 at the equator
+        count = int(round(2 * math.pi * self.geometry.dome_outer_radius ** 2 * (top - bottom) / self.area))
         k = np.arange(count) + 0.5
-        frames = _sphere_frames(np.arccos(below * (1.0 - k / count)), (self.count + np.arange(count)) * GOLDEN_ANGLE)
+        frames = _sphere_frames(np.arccos(bottom + (top - bottom) * (1.0 - k / count)),
+                                (self.count + np.arange(count)) * GOLDEN_ANGLE)
         return self._on_dome(frames[:, 0]), frames
 
     @cached_property
     def free_skin(self) -> "SkinSheet":
-        """The skin from the apex to the equator: the cap's nodes, then the band's."""
-        band_points, band_frames = self.band
+        """`skin_to` the dome's equator."""
+        return self.skin_to(90.0)
+
+    def skin_to(self, held_deg: float) -> "SkinSheet":
+        """The skin from the apex to `held_deg`, where the base holds it: the cap's nodes,
+        then the band's (`band_to`)."""
+        band_points, band_frames = self.band_to(held_deg)
         points = np.concatenate([self.points, band_points])
         frames = np.concatenate([self.frames, band_frames])
         polar = np.arccos(np.clip(frames[:, 0, 2], -1.0, 1.0))
         azimuth = np.arctan2(frames[:, 0, 1], frames[:, 0, 0])
         triangles = Delaunay(np.column_stack([polar * np.cos(azimuth), polar * np.sin(azimuth)])).simplices
-        held = polar > 0.5 * math.pi - self.spacing / self.geometry.dome_outer_radius
-        return SkinSheet(points, frames, triangles, held, self.geometry.dome_outer_radius, self.spacing)
+        held = polar > math.radians(held_deg) - self.spacing / self.geometry.dome_outer_radius
+        return SkinSheet(points, frames, triangles, held, self.geometry.dome_outer_radius, self.spacing,
+                         math.radians(held_deg))
 
     def _on_dome(self, normals: np.ndarray) -> np.ndarray:
         g = self.geometry
@@ -171,12 +184,12 @@ class CapSurface:
 
 @dataclass(frozen=True, eq=False)
 class SkinSheet:
-    """The skin as a sheet of nodes over the gel, from the apex to the equator where the
-    base clamps it (`CapSurface.free_skin`): points (K, 3) m, frames (K, 3, 3) (outward
-    normal, meridian, azimuthal), triangles (T, 3) node indices (the Delaunay
-    triangulation of the nodes' azimuthal-equidistant map), held (K,) bool: the last
-    ring, within a spacing of the equator, which the base holds; radius R and node
-    spacing (m)."""
+    """The skin as a sheet of nodes over the gel, from the apex to where the base holds
+    it (`CapSurface.skin_to`): points (K, 3) m, frames (K, 3, 3) (outward normal,
+    meridian, azimuthal), triangles (T, 3) node indices (the Delaunay triangulation of
+    the nodes' azimuthal-equidistant map), held (K,) bool: the last ring, within a spacing
+    of where the base holds the skin, `held_at` (rad from the apex; the equator: π/2);
+    radius R and node spacing (m)."""
 
     points: np.ndarray
     frames: np.ndarray
@@ -184,6 +197,7 @@ class SkinSheet:
     held: np.ndarray
     radius: float
     spacing: float
+    held_at: float = 0.5 * math.pi
 
     @property
     def normals(self) -> np.ndarray:
@@ -321,9 +335,9 @@ def membrane_stiffness(sheet: SkinSheet, young: float, poisson: float, thickness
 
     Constant-strain triangles (plane stress, each in its own plane) on the sheet's
     `triangles`; curvature enters through the facets' orientations, so stretching the
-    skin resists normal as well as tangential motion. The base clamps the skin at the
-    equator: each `held` node is tied to it by a spring of the skin between them,
-    E·t·(node's share of the circumference) / (its distance to the equator, at least a
+    skin resists normal as well as tangential motion. The base holds the skin at the
+    sheet's `held_at`: each `held` node is tied to it by a spring of the skin between
+    them, E·t·(node's share of the circumference) / (its distance to the base, at least a
     quarter spacing)."""
     triangles = sheet.triangles
     x = sheet.points[triangles]                                       # (T, 3 corners, 3)
@@ -348,8 +362,8 @@ def membrane_stiffness(sheet: SkinSheet, young: float, poisson: float, thickness
     stiffness = np.zeros((3 * n, 3 * n))
     np.add.at(stiffness, (dofs[:, :, None], dofs[:, None, :]), element)
     held = np.flatnonzero(sheet.held)
-    share = 2.0 * math.pi * sheet.radius / len(held)
-    to_base = np.maximum(sheet.radius * (0.5 * math.pi - sheet.polar[held]), 0.25 * sheet.spacing)
+    share = 2.0 * math.pi * sheet.radius * math.sin(sheet.held_at) / len(held)
+    to_base = np.maximum(sheet.radius * (sheet.held_at - sheet.polar[held]), 0.25 * sheet.spacing)
     for i, length in zip(held, to_base):
         stiffness[3 * i: 3 * i + 3, 3 * i: 3 * i + 3] += young * thickness * share / length * np.eye(3)
     return stiffness
@@ -405,19 +419,21 @@ def half_space_columns(surface: CapSurface, nodes: np.ndarray, poisson: float,
             np.ascontiguousarray(np.transpose(pins, (2, 3, 0, 1))))
 
 
-def sealed_gel(surface: CapSurface, poisson: float, refresh: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def sealed_gel(surface: CapSurface, poisson: float, held_deg: float = 90.0,
+               refresh: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """The sealed gel's influence matrices at unit shear modulus (G = 1 Pa; at a fixed ν
     linear elasticity scales as 1/G, so one pair serves every modulus): the nodes'
     (N, 3, N, 3) and the pin tips' (N, 3, 127, 3), [source, force axis, point,
     displacement axis], C − h hᵀ / (fᵀh + V/K) (module doc), the gel's pressure acting on
-    the cap and on the free skin beyond it to the equator (`CapSurface.band`). Computed
+    the cap and on the free skin beyond it down to `held_deg` from the apex, where the
+    base holds the skin (`CapSurface.band_to`; the equator: 90). Computed
     once per surface, pin layout and ν and kept in the cache directory
     (twin.core.resources.cached_arrays); `refresh` computes and stores them even if they
     are there (what `twin bench physics` times)."""
     n, pins = surface.count, len(surface.geometry.pin_tip_points())
     key = {"surface": dataclasses.asdict(surface), "pin_bases": _pin_bases_digest(surface), "poisson": poisson,
-           "code": _SOURCE_DIGEST}
-    arrays = cached_arrays("compliance", key, lambda: _sealed_gel(surface, poisson),
+           "held_deg": held_deg, "code": _SOURCE_DIGEST}
+    arrays = cached_arrays("compliance", key, lambda: _sealed_gel(surface, poisson, held_deg),
                            shapes={"nodes": (n, 3, n, 3), "pins": (n, 3, pins, 3)}, refresh=refresh)
     return arrays["nodes"], arrays["pins"]
 
@@ -436,14 +452,14 @@ def _gel_volume(surface: CapSurface) -> float:
     return 2.0 / 3.0 * math.pi * surface.geometry.skin_inner_radius ** 3
 
 
-def _sealed_gel(surface: CapSurface, poisson: float) -> dict[str, np.ndarray]:
+def _sealed_gel(surface: CapSurface, poisson: float, held_deg: float) -> dict[str, np.ndarray]:
     nodes, pins = half_space_columns(surface, np.arange(surface.count), poisson, 1.0)
     pressure_forces = surface.area * surface.normals                        # N per Pa of gel pressure
     # the nodes' displacement per Pa, symmetrised (C is symmetric to 0.06 %)
     h = 0.5 * (np.einsum("jbia,jb->ia", nodes, pressure_forces) + np.einsum("jbia,ia->jb", nodes, pressure_forces))
     pins_h = np.einsum("jbia,jb->ia", pins, pressure_forces)
     volume_compliance = float(np.sum(pressure_forces * h))
-    band_h, band_pins_h, band_volume = _band_pressure(surface, poisson)
+    band_h, band_pins_h, band_volume = _band_pressure(surface, poisson, held_deg)
     h += band_h
     pins_h += band_pins_h
     volume_compliance += band_volume
@@ -454,13 +470,13 @@ def _sealed_gel(surface: CapSurface, poisson: float) -> dict[str, np.ndarray]:
     return {"nodes": nodes, "pins": pins}
 
 
-def _band_pressure(surface: CapSurface, poisson: float) -> tuple[np.ndarray, np.ndarray, float]:
+def _band_pressure(surface: CapSurface, poisson: float, held_deg: float) -> tuple[np.ndarray, np.ndarray, float]:
     """What a unit gel pressure (1 Pa, G = 1 Pa) on the free skin beyond the cap
-    (`CapSurface.band`) adds: the cap nodes' displacement (N, 3) m and the pin tips'
+    (`CapSurface.band_to` `held_deg`) adds: the cap nodes' displacement (N, 3) m and the pin tips'
     (127, 3) m, and the volume it pushes out, the band's own share and the cross terms
     with the cap's pressure (m³; Maxwell–Betti: the cap's pressure moves the band by
     as much volume as the band's moves the cap)."""
-    points, frames = surface.band
+    points, frames = surface.band_to(held_deg)
     radius = math.sqrt(surface.area / math.pi)
     band_forces = surface.area * frames[:, 0]
     cap_forces = surface.area * surface.normals
@@ -476,13 +492,13 @@ def _band_pressure(surface: CapSurface, poisson: float) -> tuple[np.ndarray, np.
 
 
 def skinned(surface: CapSurface, poisson: float, shear_modulus: float, membrane_young: float, bending: bool = False,
-            enclosed: bool = True, refresh: bool = False) -> tuple[np.ndarray, np.ndarray]:
+            enclosed: bool = True, held_deg: float = 90.0, refresh: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """The dome with its skin as a membrane (Young's modulus `membrane_young`, Pa; with
     `bending`, a thin shell: `bending_stiffness` too) over the gel (shear modulus G, Pa;
     sealed where `enclosed`), in `sealed_gel`'s layout ([source, force axis, point,
     displacement axis], m/N): the cap's columns, the nodes' and the pin tips'. The skin
-    and the gel under it are modelled to the equator, where the base holds the skin
-    (`CapSurface.free_skin`); contact acts on the cap alone. The skin's stiffness K and
+    and the gel under it are modelled down to `held_deg` from the apex, where the base
+    holds the skin (`CapSurface.skin_to`; the equator: 90); contact acts on the cap alone. The skin's stiffness K and
     the gel's compliance C act in series with the contact force f: the gel takes
     g = f − K u and u = C g, so u = (I + C K)⁻¹ C f; the pins follow the gel under g.
     Computed once per surface, materials and ν and kept in the cache directory, as
@@ -490,16 +506,17 @@ def skinned(surface: CapSurface, poisson: float, shear_modulus: float, membrane_
     n, pins = surface.count, len(surface.geometry.pin_tip_points())
     key = {"surface": dataclasses.asdict(surface), "pin_bases": _pin_bases_digest(surface), "poisson": poisson,
            "shear_modulus": shear_modulus, "membrane_young": membrane_young, "bending": bending,
-           "enclosed": enclosed, "code": _SOURCE_DIGEST}
+           "enclosed": enclosed, "held_deg": held_deg, "code": _SOURCE_DIGEST}
     arrays = cached_arrays(
-        "compliance", key, lambda: _skinned(surface, poisson, shear_modulus, membrane_young, bending, enclosed),
+        "compliance", key,
+        lambda: _skinned(surface, poisson, shear_modulus, membrane_young, bending, enclosed, held_deg),
         shapes={"nodes": (n, 3, n, 3), "pins": (n, 3, pins, 3)}, refresh=refresh)
     return arrays["nodes"], arrays["pins"]
 
 
 def _skinned(surface: CapSurface, poisson: float, shear_modulus: float, membrane_young: float, bending: bool,
-             enclosed: bool) -> dict[str, np.ndarray]:
-    sheet = surface.free_skin
+             enclosed: bool, held_deg: float) -> dict[str, np.ndarray]:
+    sheet = surface.skin_to(held_deg)
     count, radius = len(sheet.points), math.sqrt(surface.area / math.pi)
     gel = disc_averaged_kernel(sheet.points, sheet.points, sheet.frames, radius, poisson, shear_modulus)
     gel[np.arange(count), :, np.arange(count), :] = self_compliance(sheet.normals, surface.area, poisson,
@@ -540,16 +557,19 @@ class DomeCompliance:
     """
 
     def __init__(self, surface: CapSurface, young: float, poisson: float, enclosed: bool = True,
-                 membrane_young: float = 0.0, skin_bending: bool = False) -> None:
+                 membrane_young: float = 0.0, skin_bending: bool = False, skin_held_deg: float = 90.0) -> None:
         if not (young > 0 and 0.0 <= poisson <= 0.5 and membrane_young >= 0):
             raise ValueError(f"dome material: need young > 0 Pa, 0 <= poisson <= 0.5 and membrane_young >= 0 Pa, "
                              f"got {young}, {poisson}, {membrane_young}")
         if skin_bending and not membrane_young:
             raise ValueError("dome material: skin_bending needs the skin membrane (membrane_young > 0 Pa)")
+        if not surface.extent_deg <= skin_held_deg <= 90.0:
+            raise ValueError(f"the base holds the skin between the cap's rim ({surface.extent_deg:g}°) and the "
+                             f"equator (90°), got {skin_held_deg}°")
         self.surface = surface
         self.pin_tips = surface.geometry.pin_tip_points()
         self.young, self.poisson, self.enclosed, self.membrane_young = young, poisson, enclosed, membrane_young
-        self.skin_bending = skin_bending
+        self.skin_bending, self.skin_held_deg = skin_bending, skin_held_deg
         self.shear_modulus = young / (2.0 * (1.0 + poisson))
         n = surface.count
         # stored by source node (column), so an untouched column's pages are never mapped
@@ -578,9 +598,9 @@ class DomeCompliance:
         The open gel without a skin computes columns as contacts reach them: none here."""
         if self.membrane_young:
             return skinned(self.surface, self.poisson, self.shear_modulus, self.membrane_young, self.skin_bending,
-                           self.enclosed, refresh=refresh)
+                           self.enclosed, self.skin_held_deg, refresh=refresh)
         if self.enclosed:
-            nodes, pins = sealed_gel(self.surface, self.poisson, refresh=refresh)
+            nodes, pins = sealed_gel(self.surface, self.poisson, self.skin_held_deg, refresh=refresh)
             return nodes / self.shear_modulus, pins / self.shear_modulus
         return self._surface, self._pins
 

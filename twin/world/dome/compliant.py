@@ -84,6 +84,10 @@ class CompliantParams:
     skin_bending: the skin membrane also resists bending, as a thin shell of the same
       modulus and thickness (twin.world.dome.compliance.bending_stiffness); needs
       membrane_young. Off by default (assets/tactip/README.md).
+    skin_held_deg: where the base holds the skin, degrees from the apex: the skin and the
+      gel's pressure go on from the cap's rim (extent_deg) down to it. The geometry's dome
+      meets its base at the equator (90, the default); a sensor whose skin is bonded
+      higher up holds it there.
     """
 
     young: float = 6.7e4
@@ -101,6 +105,7 @@ class CompliantParams:
     enclosed: bool = True
     membrane_young: float = 0.0
     skin_bending: bool = False
+    skin_held_deg: float = 90.0
 
     def with_(self, **changes) -> "CompliantParams":
         return replace(self, **changes)
@@ -115,12 +120,14 @@ COMPLIANT_LEVELS: dict[str, CompliantParams] = {
 
 
 #: The skin over the gel, as scenario `physics` entries (`dome: compliant`): a membrane, or a
-#: thin shell (membrane and bending), each over a gel whose modulus is calibrated so that the
-#: 4 mm press centred on a straight edge takes the default solid's 4.3 N
-#: (assets/tactip/README.md, "The compliant dome's material").
+#: thin shell (membrane and bending), held by the base at the equator; and the shell held at
+#: the cap's rim, just beyond the pins (README, "Where the skin is held"). Each over a gel
+#: whose modulus is calibrated so that the 4 mm press centred on a straight edge takes the
+#: default solid's 4.3 N (assets/tactip/README.md, "The compliant dome's material").
 SKIN_PHYSICS: dict[str, dict[str, float | bool]] = {
     "membrane": {"membrane_young_mpa": 0.6, "gel_young_kpa": 41.9},
     "shell": {"membrane_young_mpa": 0.6, "gel_young_kpa": 34.1, "skin_bending": True},
+    "shell_held_65": {"membrane_young_mpa": 0.6, "gel_young_kpa": 13.3, "skin_bending": True, "skin_held_deg": 65.0},
 }
 
 
@@ -145,7 +152,7 @@ class CompliantPhysics:
         self.geometry = TacTipGeometry() if geometry is None else geometry
         self.surface = CapSurface(self.geometry, params.spacing, params.extent_deg)
         self.compliance = dome_compliance(self.surface, params.young, params.poisson, params.enclosed,
-                                          params.membrane_young, params.skin_bending)
+                                          params.membrane_young, params.skin_bending, params.skin_held_deg)
         self.world2work = np.eye(4) if work2world is None else invert_transform(np.asarray(work2world, float))
         self.stimulus2world = np.eye(4) if stimulus2world is None else np.asarray(stimulus2world, float)
         self.angular_speed = math.radians(angular_speed_deg_s)
@@ -418,8 +425,9 @@ class CompliantPhysics:
 
 @lru_cache(maxsize=8)
 def dome_compliance(surface: CapSurface, young: float, poisson: float, enclosed: bool,
-                    membrane_young: float = 0.0, skin_bending: bool = False) -> DomeCompliance:
+                    membrane_young: float = 0.0, skin_bending: bool = False,
+                    skin_held_deg: float = 90.0) -> DomeCompliance:
     """The influence matrices for this surface and material, shared within the process
     (the sealed gel's loaded from the cache, or computed, at the first contact). Eight
     are kept (8–218 MB each): `twin bench physics` alternates between five."""
-    return DomeCompliance(surface, young, poisson, enclosed, membrane_young, skin_bending)
+    return DomeCompliance(surface, young, poisson, enclosed, membrane_young, skin_bending, skin_held_deg)
