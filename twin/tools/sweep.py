@@ -55,7 +55,7 @@ exact pins, so its pin error is 0 by construction). The compliant dome's setting
 `compliant_reference`: the two models' pins are not one another's truth, so pin errors
 are compared within a dome model only, while the θ and contour fronts (errors against
 the true orientation and the true contour) place both models together. The compliant
-skins (`compliant_membrane`, `compliant_shell`) change the material itself, so they have
+skins (`compliant_membrane`, `compliant_shell`, `compliant_shell_held_65`) change the material itself, so they have
 no pin error; their time, θ and contour figures are placed as any other's.
 **Pareto front** (primary): a setting is on it when no *peer* setting dominates it, i.e.
 is no slower and no worse in every physics-accuracy figure (pin error *and* settling
@@ -254,6 +254,9 @@ def full_settings() -> list[Setting]:
         Setting("compliant_shell", "compliant skin", "default", physics=SKIN_PHYSICS["shell"], dome="compliant",
                 pins_comparable=False, note="compliant, the skin as a thin shell over a softer gel (no pin error: "
                 "another material than compliant_reference)"),
+        Setting("compliant_shell_held_65", "compliant skin", "default", physics=SKIN_PHYSICS["shell_held_65"],
+                dome="compliant", pins_comparable=False, note="compliant, the thin shell held by the base at the "
+                "cap's rim, 65° (no pin error: another material than compliant_reference)"),
     ]
 
 
