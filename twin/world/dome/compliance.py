@@ -170,13 +170,6 @@ class CapSurface:
         return np.array([0.0, 0.0, g.sphere_centre_z]) + g.dome_outer_radius * normals
 
     @cached_property
-    def triangles(self) -> np.ndarray:
-        """(T, 3) node indices: the skin's triangles, the Delaunay triangulation of the nodes'
-        azimuthal-equidistant map (the skin membrane's and its bending's elements)."""
-        polar, azimuth = self.polar, self.azimuth
-        return Delaunay(np.column_stack([polar * np.cos(azimuth), polar * np.sin(azimuth)])).simplices
-
-    @cached_property
     def rim(self) -> np.ndarray:
         """(N,) bool: nodes in the outermost spacing of the cap (contact there leaves the model)."""
         return self.polar > math.radians(self.extent_deg) - self.spacing / self.geometry.dome_outer_radius
