@@ -464,10 +464,10 @@ def _sealed_gel(surface: CapSurface, poisson: float, held_deg: float) -> dict[st
 
 
 def _band_pressure(surface: CapSurface, poisson: float, held_deg: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """What a unit gel pressure (1 Pa, G = 1 Pa) on the free skin beyond the cap
-    (`CapSurface.band_to` `held_deg`) adds: the cap nodes' displacement (N, 3) m and the pin tips'
-    (127, 3) m, and the volume it pushes out, the band's own share and the cross terms
-    with the cap's pressure (m³; Maxwell–Betti: the cap's pressure moves the band by
+    """What a unit gel pressure (1 Pa, G = 1 Pa) on the free skin beyond the cap, down to
+    `held_deg` (`CapSurface.band_to`), adds: the cap nodes' displacement (N, 3) m and the
+    pin tips' (127, 3) m, and the volume it pushes out, the band's own share and the cross
+    terms with the cap's pressure (m³; Maxwell–Betti: the cap's pressure moves the band by
     as much volume as the band's moves the cap)."""
     points, frames = surface.band_to(held_deg)
     radius = math.sqrt(surface.area / math.pi)
@@ -491,9 +491,10 @@ def skinned(surface: CapSurface, poisson: float, shear_modulus: float, membrane_
     sealed where `enclosed`), in `sealed_gel`'s layout ([source, force axis, point,
     displacement axis], m/N): the cap's columns, the nodes' and the pin tips'. The skin
     and the gel under it are modelled down to `held_deg` from the apex, where the base
-    holds the skin (`CapSurface.skin_to`; the equator: 90); contact acts on the cap alone. The skin's stiffness K and
-    the gel's compliance C act in series with the contact force f: the gel takes
-    g = f − K u and u = C g, so u = (I + C K)⁻¹ C f; the pins follow the gel under g.
+    holds the skin (`CapSurface.skin_to`; the equator: 90); contact acts on the cap
+    alone. The skin's stiffness K and the gel's compliance C act in series with the
+    contact force f: the gel takes g = f − K u and u = C g, so u = (I + C K)⁻¹ C f; the
+    pins follow the gel under g.
     Computed once per surface, materials and ν and kept in the cache directory, as
     `sealed_gel`."""
     n, pins = surface.count, len(surface.geometry.pin_tip_points())
