@@ -67,7 +67,7 @@ def test_the_free_skin_to_the_equator_is_sealed_with_the_cap():
     are those of sealing cap and band as one surface, built here directly from the
     half-space kernel over all their nodes; that whole surface keeps its volume under
     every force, while the cap alone now gives some of it to the band."""
-    band_points, band_frames = SURFACE.band
+    band_points, band_frames = SURFACE.band_to(90.0)
     points = np.concatenate([SURFACE.points, band_points])
     frames = np.concatenate([SURFACE.frames, band_frames])
     count, radius = len(points), np.sqrt(SURFACE.area / np.pi)

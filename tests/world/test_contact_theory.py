@@ -238,7 +238,7 @@ def test_skin_membrane_obeys_laplace_law():
     from twin.world.dome.compliance import CapSurface, membrane_stiffness
 
     surface = CapSurface(TacTipGeometry(), PARAMS.spacing, PARAMS.extent_deg)
-    skin = surface.free_skin
+    skin = surface.skin_to(90.0)
     young, poisson, thickness = 6e5, 0.5, surface.geometry.skin_thickness
     stiffness = membrane_stiffness(skin, young, poisson, thickness)
     w = 1e-5
@@ -269,7 +269,7 @@ def test_skin_bending_energy_of_a_dimple_matches_plate_theory():
     rigidity = young * thickness ** 3 / (12 * (1 - poisson ** 2))
     theory = math.pi * rigidity * c * c * (1 / s ** 2 - 2 / R ** 2 + 2 * s ** 2 / R ** 4)
     for spacing, tolerance in ((PARAMS.spacing, 0.05), (0.001, 0.02)):
-        skin = CapSurface(TacTipGeometry(), spacing, PARAMS.extent_deg).free_skin
+        skin = CapSurface(TacTipGeometry(), spacing, PARAMS.extent_deg).skin_to(90.0)
         stiffness = bending_stiffness(skin, young, poisson, thickness)
 
         def energy(u: np.ndarray) -> float:

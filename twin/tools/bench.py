@@ -204,8 +204,7 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
             precompute = cached = 0.0
             if dome == "compliant":
                 surface = CapSurface(TacTipGeometry(), params.spacing, params.extent_deg)
-                compliance = DomeCompliance(surface, params.young, params.poisson, params.enclosed,
-                                            params.membrane_young, params.skin_bending)
+                compliance = DomeCompliance(surface, *params.material)
                 t0 = time.perf_counter()
                 compliance.one_off(refresh=True)
                 precompute = time.perf_counter() - t0

@@ -32,7 +32,7 @@ positive semi-definite, a rank-one update of the half-space's. (C is symmetric t
 0.06 % here — Maxwell–Betti, broken only by the per-node tangent half-spaces — so
 h is averaged with Cᵀ A.) The pressure acts on the free skin down to the dome's equator,
 where the base clamps it: on the cap, which can take contact, and on a band of nodes
-beyond it (`CapSurface.band`), which only moves the cap and the pins through h and the
+beyond it (`CapSurface.band_to`), which only moves the cap and the pins through h and the
 volume balance, so it costs nothing per contact. (Sealing the cap alone made the pins
 depend on where the cap ends: 0.8–1.7 px RMS between a 65° and a 75° cap on a press and
 slide across an edge, against 0.002 px with the band.)
@@ -40,7 +40,7 @@ slide across an edge, against 0.002 px with the band.)
 The skin as a membrane (`membrane_young` > 0, off by default): the real skin is a
 rubber shell far stiffer than the gel, which stretches rather than shears. It is added as
 constant-strain membrane triangles through the nodes of the whole free skin, the cap's and
-the band's, to the equator where the base holds it (`CapSurface.free_skin`,
+the band's, to the equator where the base holds it (`CapSurface.skin_to`,
 `membrane_stiffness`; on a sphere it obeys Laplace's law, p = 2 E t w / ((1 − ν) R²),
 tested), in series with the gel under all of it: the contact force f is shared between
 the skin's stiffness K and the gel's compliance C, u = (I + C K)⁻¹ C f, and the pins
@@ -129,11 +129,6 @@ class CapSurface:
         """(N, 3, 3): rows (outward normal, meridian tangent, azimuthal tangent) per node."""
         return _sphere_frames(self.polar, self.azimuth)
 
-    @cached_property
-    def band(self) -> tuple[np.ndarray, np.ndarray]:
-        """`band_to` the dome's equator."""
-        return self.band_to(90.0)
-
     def band_to(self, held_deg: float) -> tuple[np.ndarray, np.ndarray]:
         """The free skin beyond the cap, down to `held_deg` from the apex where the base
         holds it (the equator: 90): points (M, 3) and frames (M, 3, 3) of an equal-area
@@ -146,11 +141,6 @@ class CapSurface:
         frames = _sphere_frames(np.arccos(bottom + (top - bottom) * (1.0 - k / count)),
                                 (self.count + np.arange(count)) * GOLDEN_ANGLE)
         return self._on_dome(frames[:, 0]), frames
-
-    @cached_property
-    def free_skin(self) -> "SkinSheet":
-        """`skin_to` the dome's equator."""
-        return self.skin_to(90.0)
 
     def skin_to(self, held_deg: float) -> "SkinSheet":
         """The skin from the apex to `held_deg`, where the base holds it: the cap's nodes,
@@ -586,17 +576,17 @@ class DomeCompliance:
             self._filled[todo] = True
 
     def one_off(self, refresh: bool = False) -> tuple[np.ndarray, np.ndarray]:
-        """Every column, where this dome needs them all: the skinned dome's (`skinned`), or
-        the sealed gel's (`sealed_gel`, scaled to this modulus); loaded from the cache, or
-        computed and stored (always where `refresh`: what `twin bench physics` times).
-        The open gel without a skin computes columns as contacts reach them: none here."""
+        """Every column at once: the skinned dome's (`skinned`) or the sealed gel's
+        (`sealed_gel`, scaled to this modulus), loaded from the cache or computed and
+        stored (always where `refresh`: what `twin bench physics` times); the open gel's
+        without a skin, computed (`fill` computes those only as contacts reach them)."""
         if self.membrane_young:
             return skinned(self.surface, self.poisson, self.shear_modulus, self.membrane_young, self.skin_bending,
                            self.enclosed, self.skin_held_deg, refresh=refresh)
         if self.enclosed:
             nodes, pins = sealed_gel(self.surface, self.poisson, self.skin_held_deg, refresh=refresh)
             return nodes / self.shear_modulus, pins / self.shear_modulus
-        return self._surface, self._pins
+        return half_space_columns(self.surface, np.arange(self.surface.count), self.poisson, self.shear_modulus)
 
     def precompute(self) -> None:
         """Everything a run computes (or loads) at its first contacts: every column where

@@ -110,6 +110,12 @@ class CompliantParams:
     def with_(self, **changes) -> "CompliantParams":
         return replace(self, **changes)
 
+    @property
+    def material(self) -> tuple[float, float, bool, float, bool, float]:
+        """`DomeCompliance`'s arguments after the surface: young, poisson, enclosed,
+        membrane_young, skin_bending, skin_held_deg."""
+        return (self.young, self.poisson, self.enclosed, self.membrane_young, self.skin_bending, self.skin_held_deg)
+
 
 #: Fidelity levels of the compliant dome (scenario `fidelity` with `dome: compliant`).
 COMPLIANT_LEVELS: dict[str, CompliantParams] = {
@@ -151,8 +157,7 @@ class CompliantPhysics:
         self.scenario_name = scenario_name
         self.geometry = TacTipGeometry() if geometry is None else geometry
         self.surface = CapSurface(self.geometry, params.spacing, params.extent_deg)
-        self.compliance = dome_compliance(self.surface, params.young, params.poisson, params.enclosed,
-                                          params.membrane_young, params.skin_bending, params.skin_held_deg)
+        self.compliance = dome_compliance(self.surface, *params.material)
         self.world2work = np.eye(4) if work2world is None else invert_transform(np.asarray(work2world, float))
         self.stimulus2world = np.eye(4) if stimulus2world is None else np.asarray(stimulus2world, float)
         self.angular_speed = math.radians(angular_speed_deg_s)
