@@ -63,10 +63,10 @@ def test_a_skin_without_stiffness_leaves_the_sealed_gel(held_deg):
 
 
 def test_the_free_skin_to_the_equator_is_sealed_with_the_cap():
-    """With the skin free to the equator (`free_band`, the default), the cap's matrices
-    are those of sealing cap and band as one surface, built here directly from the
-    half-space kernel over all their nodes; that whole surface keeps its volume under
-    every force, while the cap alone now gives some of it to the band."""
+    """With the skin free to the equator (the base holding it there, the default), the
+    cap's matrices are those of sealing cap and band as one surface, built here directly
+    from the half-space kernel over all their nodes; that whole surface keeps its volume
+    under every force, while the cap alone now gives some of it to the band."""
     band_points, band_frames = SURFACE.band_to(90.0)
     points = np.concatenate([SURFACE.points, band_points])
     frames = np.concatenate([SURFACE.frames, band_frames])
