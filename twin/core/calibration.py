@@ -37,6 +37,8 @@ DOME_MATERIAL: dict[str, tuple[str, float, float, str]] = {
     "young_kpa": ("kPa", 1.0, 2000.0, "effective Young's modulus of the skin + gel solid"),
     "poisson": ("–", 0.0, 0.5, "Poisson's ratio of the skin + gel solid (the flex dome needs ≤ 0.49)"),
     "membrane_young_mpa": ("MPa", 0.0, 10.0, "Young's modulus of the skin membrane (0 = off)"),
+    "skin_held_deg": ("deg", 65.0, 90.0, "compliant dome: where the base holds the skin, from the apex (90 = the "
+                      "equator; at least the contact cap's 65)"),
 }
 
 class Distortion(StrictModel):

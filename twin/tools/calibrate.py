@@ -68,8 +68,8 @@ from twin.world.scene import dome_params, load_scenario_stimulus
 
 CAMERA = ("camera.focal_px", "camera.cx_px", "camera.cy_px", "camera.k1", "camera.k2", "camera.p1", "camera.p2",
           "camera.x_mm", "camera.y_mm", "camera.z_mm", "camera.rx_deg", "camera.ry_deg", "camera.rz_deg")
-PHYSICS = ("material.young_kpa", "material.poisson", "material.membrane_young_mpa", "friction",
-           "tcp.x_mm", "tcp.y_mm", "tcp.z_mm")
+PHYSICS = ("material.young_kpa", "material.poisson", "material.membrane_young_mpa", "material.skin_held_deg",
+           "friction", "tcp.x_mm", "tcp.y_mm", "tcp.z_mm")
 PARAMETERS = CAMERA + PHYSICS
 GROUPS = ("rest", "contact", "sliding")
 #: scenario fields a recorded run must share with the calibration scenario
@@ -450,7 +450,11 @@ def _optimise(ev: Evaluator, out: Path, key: str, progress: bool) -> dict:
         history_file.write_text(json.dumps({"generation": 0, "values": best, "chi2": state["best_chi2"]}) + "\n")
         if names:
             x0 = space.to_unit(names, space.defaults)
-            popsize = opt.popsize or 4 + int(3 * np.log(len(names)))
+            if len(names) == 1:
+                # pycma does not run in 1-D (CMA-ES/pycma#86, #302); its authors' workaround:
+                # search 2-D and ignore the second coordinate (`from_unit` zips it away)
+                x0 = np.append(x0, 0.5)
+            popsize = opt.popsize or 4 + int(3 * np.log(len(x0)))
             state["es"] = cma.CMAEvolutionStrategy(x0, opt.sigma0, {
                 "bounds": [0.0, 1.0], "popsize": popsize, "seed": opt.seed, "verbose": -9, "tolfun": 0.0,
                 "tolflatfitness": 3})

@@ -15,6 +15,7 @@ _TO_DOME: dict[str, tuple[str, float]] = {
     "young_kpa": ("young", 1e3),
     "poisson": ("poisson", 1.0),
     "membrane_young_mpa": ("membrane_young", 1e6),
+    "skin_held_deg": ("skin_held_deg", 1.0),
 }
 assert set(_TO_DOME) == set(DOME_MATERIAL)
 #: the flex grid's Lamé λ ∝ 1/(1 − 2ν): it needs ν below this
