@@ -60,6 +60,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -258,7 +259,17 @@ def self_compliance(outward: np.ndarray, area: float, poisson: float, shear_modu
 
 def post_tip_kernel(geometry: TacTipGeometry, sources: np.ndarray, frames: np.ndarray, radius: float, poisson: float,
                     shear_modulus: float, step: float | None = None) -> np.ndarray:
-    """(127, 3, Ns, 3) m/N: displacement of each pin tip per unit force at each source.
+    """(127, 3, Ns, 3) m/N: displacement of each pin tip per unit force at each source, on
+    the half-space gel (`disc_averaged_kernel`; `post_tips`)."""
+    return post_tips(geometry, lambda points: disc_averaged_kernel(points, sources, frames, radius, poisson,
+                                                                   shear_modulus), step)
+
+
+def post_tips(geometry: TacTipGeometry, gel_at: Callable[[np.ndarray], np.ndarray],
+              step: float | None = None) -> np.ndarray:
+    """(127, 3, Ns, 3) m/N: displacement of each pin tip per unit force at each of Ns
+    sources, given the gel's displacement at any points (`gel_at(points)`: (P, 3, Ns, 3)
+    m/N).
 
     A pin is a rigid post of length L standing on the skin's inner surface along the
     inward normal. Its base moves with the gel there (u_b), and it turns with the skin:
@@ -279,16 +290,12 @@ def post_tip_kernel(geometry: TacTipGeometry, sources: np.ndarray, frames: np.nd
     helper = np.where(np.abs(normals[:, 2:3]) < 0.9, np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0]))
     t1 = _unit(np.cross(helper, normals))
     t2 = np.cross(normals, t1)
-
-    def at(points: np.ndarray) -> np.ndarray:
-        return disc_averaged_kernel(points, sources, frames, radius, poisson, shear_modulus)
-
-    base = at(bases)
+    base = gel_at(bases)
     tip = base.copy()
     for tangent in (t1, t2):
         plus = centre + geometry.skin_inner_radius * _unit(bases + step * tangent - centre)
         minus = centre + geometry.skin_inner_radius * _unit(bases - step * tangent - centre)
-        slope = np.einsum("pi,piqj->pqj", normals, at(plus) - at(minus)) / (2 * step)  # ∂u_n/∂t per unit force
+        slope = np.einsum("pi,piqj->pqj", normals, gel_at(plus) - gel_at(minus)) / (2 * step)  # ∂u_n/∂t per force
         tip += geometry.pin_length * tangent[:, :, None, None] * slope[:, None, :, :]
     normal_part = np.einsum("pi,piqj->pqj", normals, base)
     tangential = base - normals[:, :, None, None] * normal_part[:, None, :, :]
@@ -482,9 +489,7 @@ def skinned(surface: CapSurface, poisson: float, shear_modulus: float, membrane_
     displacement axis], m/N): the cap's columns, the nodes' and the pin tips'. The skin
     and the gel under it are modelled down to `held_deg` from the apex, where the base
     holds the skin (`CapSurface.skin_to`; the equator: 90); contact acts on the cap
-    alone. The skin's stiffness K and the gel's compliance C act in series with the
-    contact force f: the gel takes g = f − K u and u = C g, so u = (I + C K)⁻¹ C f; the
-    pins follow the gel under g.
+    alone; the skin and the gel act in series (`skin_on_gel`).
     Computed once per surface, materials and ν and kept in the cache directory, as
     `sealed_gel`."""
     n, pins = surface.count, len(surface.geometry.pin_tip_points())
@@ -514,6 +519,19 @@ def _skinned(surface: CapSurface, poisson: float, shear_modulus: float, membrane
         volume_compliance = float(pressure @ h) + _gel_volume(surface) / (_bulk_ratio(poisson) * shear_modulus)
         pins -= np.outer(pins @ pressure, h / volume_compliance)
         gel -= np.outer(h, h / volume_compliance)
+    return skin_on_gel(surface, sheet, gel, pins, membrane_young, bending)
+
+
+def skin_on_gel(surface: CapSurface, sheet: SkinSheet, gel: np.ndarray, pins: np.ndarray, membrane_young: float,
+                bending: bool) -> dict[str, np.ndarray]:
+    """The cap's columns, in `sealed_gel`'s layout, of the skin (a membrane of Young's
+    modulus `membrane_young`, Pa; with `bending`, a thin shell) over a gel whose
+    compliance on the sheet's nodes is `gel` ((3K, 3K) m/N, tool frame, [node, axis]) and
+    whose pin tips move by `pins` ((381, 3K) m/N) (`skinned`; with no skin, the gel's own
+    columns). The skin's stiffness K and the gel's compliance C act in series with the
+    contact force f: the gel takes g = f − K u and u = C g, so u = (I + C K)⁻¹ C f; the
+    pins follow the gel under g."""
+    count = len(sheet.points)
     thickness = surface.geometry.skin_thickness
     skin = membrane_stiffness(sheet, membrane_young, 0.5, thickness)
     if bending:
