@@ -327,7 +327,8 @@ class Evaluator:
         """Pin tips (N, 127, 3) m for each physics candidate, in recorded-sample order (a
         candidate simulated before is not simulated again)."""
         full = [{n: c.get(n, self.space.defaults[n]) for n in PHYSICS} for c in candidates]
-        keys = [tuple((n, round(v, 12)) for n, v in c.items()) for c in full]
+        # a parameter the dome model lacks is NaN, which equals nothing: kept out of the key
+        keys = [tuple((n, round(v, 12)) for n, v in c.items() if not math.isnan(v)) for c in full]
         todo = list(dict.fromkeys(k for k in keys if k not in self._cache))
         if todo:
             for k, tips in zip(todo, self._simulate([dict(k) for k in todo])):
