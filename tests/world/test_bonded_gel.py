@@ -66,13 +66,15 @@ def test_the_sealed_gel_is_the_bonded_gel(models, depth, edge):
     +0.3–3.7 %. The open half-space, which loses the gel's volume, is 23–43 % (solid) and
     7–18 % (shell) too soft and 1.1–6.5 px away (up to 36 % and 19 %): the sealing, not
     the half-space, carries the agreement. (Finite elements of 1.5 mm took the solid's
-    difference on 4 mm taps from about 1.5 to 1.25 px RMS: part of it is theirs.)"""
+    difference on 4 mm taps from about 1.5 to 1.25 px RMS: part of it is theirs.) The
+    bounds (pins 20 % and 7 %, force 8 %) sit above the measured values by a margin for
+    the mesher; the open half-space fails them."""
     for name, pins_bound in (("solid", 0.2), ("shell", 0.07)):
         reference, force = _press(*models[name, "fe"], depth, edge)
         sealed, sealed_force = _press(*models[name, "sealed" if name == "solid" else "sealed_90"], depth, edge)
         opened, open_force = _press(*models[name, "open"], depth, edge)
         assert _rms(sealed - reference) < pins_bound * _rms(reference), (name, _rms(sealed - reference))
-        assert abs(sealed_force / force - 1.0) < 0.06, (name, sealed_force, force)
+        assert abs(sealed_force / force - 1.0) < 0.08, (name, sealed_force, force)
         assert open_force / force < 0.95 and _rms(opened - reference) > 1.5 * _rms(sealed - reference)
 
 
