@@ -10,7 +10,7 @@ from pydantic import Field, field_validator, model_validator
 from twin.core.errors import UserError
 from twin.core.poses import Pose
 from twin.core.resources import scenario_path
-from twin.core.calibration import Calibration, load_calibration
+from twin.core.calibration import DOME_MATERIAL, Calibration, load_calibration
 from twin.core.sensor import CameraModel
 from twin.core.validation import PoseList, StrictModel, bounded, bounded_list, read_yaml, validate_mapping
 
@@ -89,8 +89,8 @@ class PhysicsOverrides(StrictModel):
     gel_enclosed: bool | None = Field(
         default=None, description="compliant dome: the gel is sealed in the dome and keeps its volume (default true); "
                                   "false = an open elastic half-space, the body of the closed-form contact checks")
-    skin_held_deg: float | None = bounded(65, 90, "deg", "compliant dome: where the base holds the skin, from the "
-                                          "apex (default 90, the equator; at least the contact cap's 65)", None)
+    skin_held_deg: float | None = bounded(*DOME_MATERIAL["skin_held_deg"][1:3], "deg",
+                                          DOME_MATERIAL["skin_held_deg"][3] + "; default 90", None)
 
     @field_validator("skin_spacing_mm")
     @classmethod

@@ -199,6 +199,8 @@ class Space:
                 raise UserError(f"calibration settings: field 'parameters.{name}': default {value:.6g} lies outside "
                                 f"the bounds [{s.lower:g}, {s.upper:g}]")
             self.defaults[name] = float(value)
+        #: the physics parameters this scenario's dome model has (the others' defaults are NaN)
+        self.modelled = [n for n in PHYSICS if not math.isnan(self.defaults[n])]
         self.fitted = self.settings.fitted
         self.camera = [n for n in self.fitted if n in CAMERA]
         self.physics = [n for n in self.fitted if n in PHYSICS]
@@ -227,7 +229,7 @@ class Space:
             distortion={k: v[f"camera.{k}"] for k in ("k1", "k2", "p1", "p2")},
             offset_mm=[v["camera.x_mm"], v["camera.y_mm"], v["camera.z_mm"]],
             rotation_deg=[v["camera.rx_deg"], v["camera.ry_deg"], v["camera.rz_deg"]])
-        material = {n.split(".", 1)[1]: v[n] for n in PHYSICS if n.startswith("material.") and not math.isnan(v[n])}
+        material = {n.split(".", 1)[1]: v[n] for n in self.modelled if n.startswith("material.")}
         offsets = base.rest_pin_offsets_px if rest_offsets is None else np.round(rest_offsets, 4).tolist()
         return Calibration(camera=camera, rest_pin_offsets_px=offsets, dome_material=material, friction=v["friction"],
                            tcp_offset_mm=[v["tcp.x_mm"], v["tcp.y_mm"], v["tcp.z_mm"]], notes=base.notes)
@@ -325,10 +327,11 @@ class Evaluator:
 
     def simulate(self, candidates: list[dict[str, float]]) -> list[np.ndarray]:
         """Pin tips (N, 127, 3) m for each physics candidate, in recorded-sample order (a
-        candidate simulated before is not simulated again)."""
-        full = [{n: c.get(n, self.space.defaults[n]) for n in PHYSICS} for c in candidates]
-        # a parameter the dome model lacks is NaN, which equals nothing: kept out of the key
-        keys = [tuple((n, round(v, 12)) for n, v in c.items() if not math.isnan(v)) for c in full]
+        candidate simulated before is not simulated again). A candidate is read for the
+        physics parameters the dome model has (`Space.modelled`), at their defaults where
+        it does not name them; anything else in it is ignored."""
+        full = [{n: c.get(n, self.space.defaults[n]) for n in self.space.modelled} for c in candidates]
+        keys = [tuple((n, round(v, 12)) for n, v in c.items()) for c in full]
         todo = list(dict.fromkeys(k for k in keys if k not in self._cache))
         if todo:
             for k, tips in zip(todo, self._simulate([dict(k) for k in todo])):
@@ -634,8 +637,7 @@ def _calibrate(run_dirs: list[Path], scenario: Scenario, out: Path, settings: Ca
     space = Space(scenario, settings)
     out.mkdir(parents=True, exist_ok=True)
     ev = Evaluator(space, data, pool)
-    default_physics = {n: space.defaults[n] for n in PHYSICS}
-    before_tips = ev.simulate([default_physics])[0]
+    before_tips = ev.simulate([space.defaults])[0]
     before_values = dict(space.defaults)
     # "before" is the twin as the scenario has it: its rest layout, not one fitted to these runs
     ev.fit_rest, fit_rest = False, ev.fit_rest
@@ -643,7 +645,7 @@ def _calibrate(run_dirs: list[Path], scenario: Scenario, out: Path, settings: Ca
     ev.fit_rest = fit_rest
     state = _optimise(ev, out, _key(run_dirs, scenario, settings), progress)
     best = state["best"]
-    best_tips = ev.simulate([{n: best.get(n, space.defaults[n]) for n in PHYSICS}])[0]
+    best_tips = ev.simulate([best])[0]
     uncertainty = _uncertainty(ev, best, best_tips)
     # what the data cannot identify goes back to its default, and the camera is solved again without it
     final = dict(best)
@@ -652,7 +654,7 @@ def _calibrate(run_dirs: list[Path], scenario: Scenario, out: Path, settings: Ca
         final[n] = space.defaults[n]
     final_tips = best_tips
     if any(n in space.physics for n in dropped):
-        final_tips = ev.simulate([{n: final.get(n, space.defaults[n]) for n in PHYSICS}])[0]
+        final_tips = ev.simulate([final])[0]
     if dropped and space.camera:
         keep = [n for n in space.camera if n not in dropped]
         space.camera = keep

@@ -181,7 +181,7 @@ class SkinSheet:
     held: np.ndarray
     radius: float
     spacing: float
-    held_at: float = 0.5 * math.pi
+    held_at: float
 
     @property
     def normals(self) -> np.ndarray:
