@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.core.resources import cached_arrays, code_digest
+from twin.core.resources import SEARCH_FOLDER, cached_arrays, code_digest, searching
 
 SHAPES = {"a": (3, 4), "b": (5,)}
 
@@ -116,6 +116,30 @@ def test_the_least_recently_used_entries_make_room(cache):
     assert compute.calls == 3  # x = 1 kept, x = 3 stored
     cached_arrays("test", {"x": 2}, compute, SHAPES)
     assert compute.calls == 4  # x = 2 was the one to go
+
+
+def test_a_search_never_evicts_the_kinds_own_entries(cache):
+    """What is computed inside `searching` (a calibration's candidate materials) goes to
+    the kind's search folder, with its own limit: however many candidates, the kind's own
+    entries stay, and an entry is found in either folder, inside and outside the search."""
+    compute = Computation()
+    cached_arrays("test", {"x": 0}, compute, SHAPES)
+    (own,) = cache.glob("*.npz")
+    size = own.stat().st_size
+    with searching(limit_bytes=int(2.5 * size)):
+        for x in range(1, 6):
+            cached_arrays("test", {"x": x}, compute, SHAPES, kind_limit_bytes=int(1.5 * size))
+        assert compute.calls == 6
+        cached_arrays("test", {"x": 0}, compute, SHAPES)  # the kind's own entry serves the search
+        assert compute.calls == 6
+    assert set(cache.glob("*.npz")) == {own}
+    kept = sorted((cache / SEARCH_FOLDER).glob("*.npz"))
+    assert len(kept) == 2  # the search's least recently used made room for its newest
+    cached_arrays("test", {"x": 5}, compute, SHAPES)  # a candidate the search kept, found outside it
+    cached_arrays("test", {"x": 0}, compute, SHAPES)
+    assert compute.calls == 6
+    cached_arrays("test", {"x": 1}, compute, SHAPES)  # one it let go: computed, and stored as the kind's own
+    assert compute.calls == 7 and len(list(cache.glob("*.npz"))) == 2
 
 
 def test_the_code_digest_follows_the_code_not_its_comments(tmp_path):

@@ -13,6 +13,7 @@ import pytest
 import yaml
 
 from twin.core.calibration import Calibration, load_calibration
+from twin.core.resources import SEARCH_FOLDER
 from twin.core.scenario import scenario_from_dict
 from twin.core.sensor import CameraModel
 from twin.runs.record import load_run
@@ -192,12 +193,16 @@ def test_bad_input_exits_2_naming_run_or_field(real, tmp_path, capsys) -> None:
     assert "camera.fokal_px" in capsys.readouterr().err
 
 
-def test_recovers_where_the_base_holds_the_skin(tmp_path) -> None:
+def test_recovers_where_the_base_holds_the_skin(tmp_path, monkeypatch) -> None:
     """Where the base holds the compliant dome's skin decides whether the shell follows
     contours (README, "Where the skin is held") and nothing in the geometry fixes it, so it
     is what a rig's taps must measure: a "real" shell held at 72° (rendered with camera
     noise and tracked, another seed) is calibrated back from a twin held at 80°, fitting
-    only `material.skin_held_deg` (one physics dimension: pycma needs the padded search)."""
+    only `material.skin_held_deg` (one physics dimension: pycma needs the padded search).
+    Every candidate hold has matrices of its own: they are cached as the search's, and the
+    models a user runs keep their place (twin.core.resources.searching)."""
+    monkeypatch.setenv("TWIN_CACHE", str(tmp_path / "cache"))
+    compliance = tmp_path / "cache" / "compliance"
     shell = {"membrane_young_mpa": 0.6, "gel_young_kpa": 19.6, "skin_bending": True}
     twin = {"name": "held_twin", "object": {"name": "rectangle"}, "seed": 0, "effects": ["contact", "friction"],
             "dome": "compliant", "fidelity": "fast", "physics": {**shell, "skin_held_deg": 80.0},
@@ -208,12 +213,16 @@ def test_recovers_where_the_base_holds_the_skin(tmp_path) -> None:
     rest = {**real, "name": "held_rest", "protocol": {"kind": "render", "poses": [[60, 0, -5, 0, 0, 0]] * 2}}
     (tmp_path / "twin.yaml").write_text(yaml.safe_dump(twin))
     runs = [run_scenario(scenario_from_dict(s), tmp_path / s["name"], workers=1, progress=False) for s in (real, rest)]
+    users = set(compliance.glob("*.npz"))
+    assert users  # the "real" shell's
     fit = {"parameters": {"camera.focal_px": {"fit": False}, "camera.k1": {"fit": False}, "tcp.z_mm": {"fit": False},
                           "material.young_kpa": {"fit": False}, "material.skin_held_deg": {"fit": True}},
            "optimiser": {"popsize": 6, "max_generations": 15, "patience": 4, "tol_relative": 0.005, "seed": 3}}
     r = calibrate(runs, scenario_from_dict(twin, str(tmp_path / "twin.yaml")), tmp_path / "cal",
                   load_settings(_settings(tmp_path, fit)), workers=1, progress=False)
     assert r["status"] == "converged"
+    assert set(compliance.glob("*.npz")) == users
+    assert len(list((compliance / SEARCH_FOLDER).glob("*.npz"))) > 1
     u = r["uncertainty"]["parameters"]["material.skin_held_deg"]
     assert u["identifiable"], u
     # 8° of hold move the pins by 1.8 px RMS; the fit is held to a degree (the 65° and 70°

@@ -10,19 +10,21 @@ cache directory (``platformdirs``), or to ``$TWIN_CACHE`` when that is set; neve
 the source tree. Each cache entry is keyed on what it depends on, the package version and
 the code that computes it (`code_digest`: an edit to the code misses the cache, one to a
 comment or docstring does not); a kind of cached arrays keeps at most KIND_LIMIT_BYTES, the
-least recently used going first.
+least recently used going first, and a search's candidates (`searching`: a calibration's
+materials) are kept apart, so that they never push out what users run.
 """
 from __future__ import annotations
 
 import ast
 import contextlib
+import contextvars
 import functools
 import hashlib
 import json
 import os
 import warnings
 import zipfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from importlib import metadata, resources
 from pathlib import Path
 
@@ -100,6 +102,27 @@ def code_digest(*paths: Path) -> str:
 #: What one kind of cached arrays may keep on disk (B); beyond it the least recently used
 #: entries go (entries of older package versions and code are never used again).
 KIND_LIMIT_BYTES = 2 * 2**30
+#: What a search's candidates may keep of one kind (B; `searching`).
+SEARCH_LIMIT_BYTES = 512 * 2**20
+#: The folder inside a kind's that holds a search's candidates (`searching`).
+SEARCH_FOLDER = "search"
+
+_search_limit: contextvars.ContextVar[int | None] = contextvars.ContextVar("twin_cache_search", default=None)
+
+
+@contextlib.contextmanager
+def searching(limit_bytes: int = SEARCH_LIMIT_BYTES) -> Iterator[None]:
+    """Inside, what `cached_arrays` computes is stored as a search's candidate (a
+    calibration trying one dome material after another, each used about once): in the
+    kind's SEARCH_FOLDER, which keeps at most `limit_bytes` (B) by its own
+    least-recently-used rule, so that a search never evicts the kind's own entries (the
+    models a user runs; a hold-angle calibration's 100 candidates of 50–75 MB would).
+    Entries are found in either folder, inside and outside."""
+    token = _search_limit.set(limit_bytes)
+    try:
+        yield
+    finally:
+        _search_limit.reset(token)
 
 
 def cached_arrays(kind: str, key: dict, compute: Callable[[], dict[str, np.ndarray]],
@@ -113,20 +136,19 @@ def cached_arrays(kind: str, key: dict, compute: Callable[[], dict[str, np.ndarr
     file and renamed, so parallel workers computing the same entry never read half of one.
     A stored entry makes room: the kind's least recently used entries (by modification
     time, which a load renews) are deleted until the kind holds at most `kind_limit_bytes`
-    (B)."""
+    (B). Inside `searching`, what is computed goes to the kind's SEARCH_FOLDER instead,
+    with that folder's own limit; an entry is found in either folder."""
     payload = json.dumps({"key": key, "version": package_version()}, sort_keys=True, default=str)
-    path = cache_dir() / kind / f"{hashlib.sha256(payload.encode()).hexdigest()[:16]}.npz"
-    if path.exists() and not refresh:
-        try:
-            with np.load(path, allow_pickle=False) as stored:
-                arrays = {name: stored[name] for name in shapes}
-            if all(arrays[name].shape == tuple(shape) for name, shape in shapes.items()):
-                with contextlib.suppress(OSError):
-                    os.utime(path)  # used now: the last to go
+    home = cache_dir() / kind / f"{hashlib.sha256(payload.encode()).hexdigest()[:16]}.npz"
+    search = home.parent / SEARCH_FOLDER / home.name
+    search_limit = _search_limit.get()
+    path = home if search_limit is None else search
+    for place in () if refresh else (home, search):
+        if place.exists():
+            arrays = _load(place, shapes)
+            if arrays is not None:
                 return arrays
-            warnings.warn(f"{path}: cache entry of the wrong shape; computing it again")
-        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
-            warnings.warn(f"{path}: unreadable cache entry ({err}); computing it again")
+            path = place  # damaged: rewritten where it was
     arrays = compute()
     if sum(a.nbytes for a in arrays.values()) <= max_bytes:
         partial = path.with_name(f"{path.stem}.{os.getpid()}.partial.npz")
@@ -139,7 +161,25 @@ def cached_arrays(kind: str, key: dict, compute: Callable[[], dict[str, np.ndarr
                 partial.unlink(missing_ok=True)
             warnings.warn(f"{path}: could not store the cache entry ({err})")
         else:
-            _evict_least_recently_used(path.parent, path, kind_limit_bytes)
+            limit = kind_limit_bytes if path == home else (SEARCH_LIMIT_BYTES if search_limit is None else search_limit)
+            _evict_least_recently_used(path.parent, path, limit)
+    return arrays
+
+
+def _load(path: Path, shapes: dict[str, tuple[int, ...]]) -> dict[str, np.ndarray] | None:
+    """The arrays stored at `path`, its use recorded (a load renews its modification time);
+    None, with a warning, where it is unreadable or not of `shapes`."""
+    try:
+        with np.load(path, allow_pickle=False) as stored:
+            arrays = {name: stored[name] for name in shapes}
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
+        warnings.warn(f"{path}: unreadable cache entry ({err}); computing it again")
+        return None
+    if not all(arrays[name].shape == tuple(shape) for name, shape in shapes.items()):
+        warnings.warn(f"{path}: cache entry of the wrong shape; computing it again")
+        return None
+    with contextlib.suppress(OSError):
+        os.utime(path)  # used now: the last to go
     return arrays
 
 

@@ -54,7 +54,7 @@ from tqdm import tqdm
 
 from twin.core.calibration import Calibration, CameraCalibration, write_calibration
 from twin.core.errors import TwinError, UserError
-from twin.core.resources import asset_path
+from twin.core.resources import asset_path, searching
 from twin.core.scenario import Scenario, scenario_from_dict
 from twin.core.sensor import N_PINS
 from twin.core.validation import read_yaml, validate_mapping
@@ -307,6 +307,13 @@ def load_data(run_dirs: list[Path], scenario: Scenario, weights: Weights) -> Dat
 
 
 # ---------------------------------------------------------------------------- evaluation
+def replay_candidate(scenario: Scenario, seed: int, batch: list) -> list:
+    """`replay_batch` for one candidate of the search: the dome matrices it computes are
+    cached as a search's (twin.core.resources.searching), apart from the models users run."""
+    with searching():
+        return replay_batch(scenario, seed, batch)
+
+
 class Evaluator:
     """Simulates physics candidates (in parallel, on one pool kept for the whole
     calibration) and solves the camera for each."""
@@ -349,7 +356,7 @@ class Evaluator:
         n_batches = max(1, min(len(moves), -(-self.parallelism // len(candidates))))
         batches = [moves[b::n_batches] for b in range(n_batches)]
         jobs = [(s, seed, batch) for s in scenarios for batch in batches]
-        results = list(self.pool.map_ordered(replay_batch, jobs))
+        results = list(self.pool.map_ordered(replay_candidate, jobs))
         out = []
         for c in range(len(candidates)):
             done = results[c * n_batches:(c + 1) * n_batches]
