@@ -116,7 +116,7 @@ def searching(limit_bytes: int = SEARCH_LIMIT_BYTES) -> Iterator[None]:
     calibration trying one dome material after another, each used about once): in the
     kind's SEARCH_FOLDER, which keeps at most `limit_bytes` (B) by its own
     least-recently-used rule, so that a search never evicts the kind's own entries (the
-    models a user runs; a hold-angle calibration's 100 candidates of 50–75 MB would).
+    models a user runs; a hold-angle calibration's 100 candidates of 47 MB each would).
     Entries are found in either folder, inside and outside."""
     token = _search_limit.set(limit_bytes)
     try:
