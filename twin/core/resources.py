@@ -142,13 +142,14 @@ def cached_arrays(kind: str, key: dict, compute: Callable[[], dict[str, np.ndarr
     home = cache_dir() / kind / f"{hashlib.sha256(payload.encode()).hexdigest()[:16]}.npz"
     search = home.parent / SEARCH_FOLDER / home.name
     search_limit = _search_limit.get()
-    path = home if search_limit is None else search
+    path, limit = (home, kind_limit_bytes) if search_limit is None else (search, search_limit)
     for place in () if refresh else (home, search):
         if place.exists():
             arrays = _load(place, shapes)
             if arrays is not None:
                 return arrays
-            path = place  # damaged: rewritten where it was
+            with contextlib.suppress(OSError):
+                place.unlink()  # damaged: replaced by the entry computed now
     arrays = compute()
     if sum(a.nbytes for a in arrays.values()) <= max_bytes:
         partial = path.with_name(f"{path.stem}.{os.getpid()}.partial.npz")
@@ -161,7 +162,6 @@ def cached_arrays(kind: str, key: dict, compute: Callable[[], dict[str, np.ndarr
                 partial.unlink(missing_ok=True)
             warnings.warn(f"{path}: could not store the cache entry ({err})")
         else:
-            limit = kind_limit_bytes if path == home else (SEARCH_LIMIT_BYTES if search_limit is None else search_limit)
             _evict_least_recently_used(path.parent, path, limit)
     return arrays
 

@@ -307,7 +307,7 @@ def load_data(run_dirs: list[Path], scenario: Scenario, weights: Weights) -> Dat
 
 
 # ---------------------------------------------------------------------------- evaluation
-def replay_candidate(scenario: Scenario, seed: int, batch: list) -> list:
+def _replay_candidate(scenario: Scenario, seed: int, batch: list) -> list:
     """`replay_batch` for one candidate of the search: the dome matrices it computes are
     cached as a search's (twin.core.resources.searching), apart from the models users run."""
     with searching():
@@ -356,7 +356,7 @@ class Evaluator:
         n_batches = max(1, min(len(moves), -(-self.parallelism // len(candidates))))
         batches = [moves[b::n_batches] for b in range(n_batches)]
         jobs = [(s, seed, batch) for s in scenarios for batch in batches]
-        results = list(self.pool.map_ordered(replay_candidate, jobs))
+        results = list(self.pool.map_ordered(_replay_candidate, jobs))
         out = []
         for c in range(len(candidates)):
             done = results[c * n_batches:(c + 1) * n_batches]
