@@ -18,9 +18,10 @@ The model of a recorded pin (px) in sample i, pin k:
 
 Objective: χ² = Σ w_i |pin_ik − recorded_ik|² / σ² + Σ ((θ − θ_default)/prior_std)², with σ
 = settings.noise_px and per-frame weights w by group (rest, contact, sliding). The
-expensive, noisy physics parameters are searched by CMA-ES (`cma`); for each candidate the
-cheap, smooth camera parameters are solved by least squares (scipy, trust region) — a
-separable ("variable projection") problem, so CMA searches only the few physics dimensions.
+expensive, noisy physics parameters are searched by CMA-ES (`cma`; one alone, which pycma
+cannot search, by a shrinking grid: BracketSearch); for each candidate the cheap, smooth
+camera parameters are solved by least squares (scipy, trust region) — a separable
+("variable projection") problem, so the search covers only the few physics dimensions.
 Stop rule: the best χ² improved by less than `tol_relative` over `patience` generations
 (converged) or `max_generations` reached (not converged: exit 1, best point kept).
 Each generation is checkpointed (DIR/checkpoint.pkl, DIR/history.jsonl); a calibration
@@ -439,9 +440,40 @@ def _save_checkpoint(out: Path, state: dict) -> None:
     tmp.replace(out / "checkpoint.pkl")
 
 
+class BracketSearch:
+    """The search of one physics parameter (unit interval), with CMA-ES's ask / tell / stop.
+
+    Each generation evaluates `points` values evenly spaced inside the bracket, as one
+    batch (in parallel); the next bracket spans the best value so far and its two grid
+    neighbours, so it shrinks by (points + 1) / 2 per generation. It looks at its whole
+    bracket each time, so the small steps in χ² where the skin's lattice gains a node do
+    not trap it, and it stops when the bracket is narrower than `tol_unit` of the range."""
+
+    def __init__(self, points: int, start_unit: float, start_value: float, tol_unit: float = 1e-3) -> None:
+        self.points, self.tol_unit = points, tol_unit
+        self.low, self.high = 0.0, 1.0
+        self.best_unit, self.best_value = start_unit, start_value
+
+    def ask(self) -> list[np.ndarray]:
+        step = (self.high - self.low) / (self.points + 1)
+        return [np.array([self.low + k * step]) for k in range(1, self.points + 1)]
+
+    def tell(self, units: list[np.ndarray], values: list[float]) -> None:
+        k = int(np.argmin(values))
+        if values[k] < self.best_value:
+            self.best_unit, self.best_value = float(units[k][0]), float(values[k])
+        step = (self.high - self.low) / (self.points + 1)
+        self.low, self.high = max(0.0, self.best_unit - step), min(1.0, self.best_unit + step)
+
+    def stop(self) -> dict[str, float]:
+        width = self.high - self.low
+        return {f"bracket {width:.2g} of the range, below {self.tol_unit:g}": width} if width < self.tol_unit else {}
+
+
 def _optimise(ev: Evaluator, out: Path, key: str, progress: bool) -> dict:
-    """CMA-ES over the physics parameters (camera solved per candidate); returns the state:
-    best values, χ², generations, stop reason, converged."""
+    """CMA-ES over the physics parameters, or a BracketSearch where there is one (camera
+    solved per candidate); returns the state: best values, χ², generations, stop reason,
+    converged."""
     space, opt = ev.space, ev.space.settings.optimiser
     names = space.physics
     history_file = out / "history.jsonl"
@@ -460,15 +492,13 @@ def _optimise(ev: Evaluator, out: Path, key: str, progress: bool) -> dict:
                  if not names else None}
         history_file.write_text(json.dumps({"generation": 0, "values": best, "chi2": state["best_chi2"]}) + "\n")
         if names:
-            x0 = space.to_unit(names, space.defaults)
-            if len(names) == 1:
-                # pycma does not run in 1-D (CMA-ES/pycma#86, #302); its authors' workaround:
-                # search 2-D and ignore the second coordinate (`from_unit` zips it away)
-                x0 = np.append(x0, 0.5)
-            popsize = opt.popsize or 4 + int(3 * np.log(len(x0)))
-            state["es"] = cma.CMAEvolutionStrategy(x0, opt.sigma0, {
-                "bounds": [0.0, 1.0], "popsize": popsize, "seed": opt.seed, "verbose": -9, "tolfun": 0.0,
-                "tolflatfitness": 3})
+            popsize = opt.popsize or 4 + int(3 * np.log(max(len(names), 2)))
+            if len(names) == 1:  # pycma does not run in 1-D (CMA-ES/pycma#86, #302)
+                state["es"] = BracketSearch(popsize, float(space.to_unit(names, space.defaults)[0]), state["best_chi2"])
+            else:
+                state["es"] = cma.CMAEvolutionStrategy(space.to_unit(names, space.defaults), opt.sigma0, {
+                    "bounds": [0.0, 1.0], "popsize": popsize, "seed": opt.seed, "verbose": -9, "tolfun": 0.0,
+                    "tolflatfitness": 3})
         _save_checkpoint(out, state)
     es = state["es"]
     bar = tqdm(total=opt.max_generations, initial=state["generation"], desc="calibrate", unit="gen", disable=not progress or es is None)
@@ -494,7 +524,7 @@ def _optimise(ev: Evaluator, out: Path, key: str, progress: bool) -> dict:
                              f"{opt.patience} generations")
         elif es.stop():
             state["converged"] = True
-            state["stop"] = f"CMA-ES stop: {', '.join(es.stop())}"
+            state["stop"] = f"{type(es).__name__} stop: {', '.join(es.stop())}"
         _save_checkpoint(out, state)
         bar.update(1)
         bar.set_postfix(chi2=f"{state['best_chi2']:.4g}")
