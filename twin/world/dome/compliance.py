@@ -16,7 +16,9 @@ influence on another point is the disc-averaged point solution (Radon's 7-point 
 the disc, exact for cubics; a point load alone underestimates the nearest neighbours'
 compliance — the 1/r kernel is convex — and made a Hertz press 3 % too stiff). The
 singular self term is the displacement at the disc's centre under the uniform traction
-(normal: (1 − ν) F / (π a G); tangential: (2 − ν) F / (2 π a G)).
+(normal: (1 − ν) F / (π a G); tangential: (2 − ν) F / (2 π a G)). The kernel is evaluated
+point by point in compiled code (`_disc_kernel`): the one-off matrices of a cap and its
+skin are 10⁷ rule points, which numpy's (Nt, Ns, 3) temporaries made ten times slower.
 
 The sealed dome (`enclosed`): the real gel fills a closed volume — the skin over a rigid
 base — so what a contact pushes in must come out elsewhere. A half-space has no such
@@ -193,58 +195,71 @@ class SkinSheet:
         return np.arccos(np.clip(self.normals[:, 2], -1.0, 1.0))
 
 
-def half_space_kernel(targets: np.ndarray, sources: np.ndarray, outward: np.ndarray, poisson: float,
-                      shear_modulus: float) -> np.ndarray:
-    """(Nt, 3, Ns, 3) m/N: displacement of each target point per unit force at each source.
-
-    Each source j is a point force on the surface of the half-space tangent to the dome at
-    `sources[j]` with outward normal `outward[j]`; targets on or below that surface
-    (depth z = −outward·(target − source) ≥ 0). Boussinesq + Cerruti (Johnson eqs. 3.20,
-    3.21) written for an arbitrary force direction. Targets that coincide with their
-    source must be handled by the caller (the self term is singular).
-    """
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return _half_space_kernel(targets, sources, outward, poisson, shear_modulus)
-
-
 def disc_averaged_kernel(targets: np.ndarray, sources: np.ndarray, frames: np.ndarray, radius: float, poisson: float,
                          shear_modulus: float) -> np.ndarray:
-    """`half_space_kernel` for a force spread uniformly over a disc of `radius` (m) about
-    each source, in its tangent plane (frames (Ns, 3, 3): normal, t1, t2), by DISC_RULE."""
-    out = 0.0
-    for x, y, weight in DISC_RULE:
-        shifted = sources + radius * (x * frames[:, 1, :] + y * frames[:, 2, :])
-        out = out + weight * half_space_kernel(targets, shifted, frames[:, 0, :], poisson, shear_modulus)
-    return out
+    """(Nt, 3, Ns, 3) m/N: displacement of each target point per unit force at each source
+    ([target, displacement axis, source, force axis]), the force spread uniformly over a
+    disc of `radius` (m) about the source in its tangent plane (frames (Ns, 3, 3): outward
+    normal, t1, t2), by DISC_RULE; radius 0: a point force.
+
+    Each source is a force on the surface of the half-space tangent to the dome there;
+    targets on or below that surface (depth z = −normal·(target − source) ≥ 0).
+    Boussinesq + Cerruti (Johnson eqs. 3.20, 3.21) written for an arbitrary force
+    direction. A target on a rule point is NaN (the self term is singular: the caller's to
+    set).
+    """
+    return _disc_kernel(np.ascontiguousarray(targets, dtype=float), np.ascontiguousarray(sources, dtype=float),
+                        np.ascontiguousarray(frames, dtype=float), float(radius), DISC_RULE, float(poisson),
+                        float(shear_modulus))
 
 
-def _half_space_kernel(targets: np.ndarray, sources: np.ndarray, outward: np.ndarray, poisson: float,
-                       shear_modulus: float) -> np.ndarray:
-    r = targets[:, None, :] - sources[None, :, :]                 # (Nt, Ns, 3)
-    e = -outward[None, :, :]                                      # into the solid
-    z = np.maximum(np.einsum("tsk,tsk->ts", r, np.broadcast_to(e, r.shape)), 0.0)
-    rho = np.linalg.norm(r, axis=2)
-    s = r - z[..., None] * e                                      # tangential part of r
+@compiled
+def _disc_kernel(targets: np.ndarray, sources: np.ndarray, frames: np.ndarray, radius: float, rule: np.ndarray,
+                 poisson: float, shear_modulus: float) -> np.ndarray:
+    """`disc_averaged_kernel` by `rule` (rows x, y, weight on the unit disc), point by point:
+    no (Nt, Ns, 3) temporaries (the one-off matrices of a 1.5 mm cap are 10⁷ such points)."""
+    nt, ns = len(targets), len(sources)
+    out = np.zeros((nt, 3, ns, 3))
     c = 1.0 - 2.0 * poisson
-    inv_rho = 1.0 / rho
-    inv_rho3 = inv_rho ** 3
-    rz = rho + z
-    out = np.empty(r.shape[:2] + (3, 3))
-    for k in range(3):
-        basis = np.zeros(3)
-        basis[k] = 1.0
-        fe = np.einsum("sk,k->s", -outward, basis)[None, :]        # normal part of the unit force (Nt-broadcast)
-        ft = basis[None, None, :] - fe[..., None] * e             # tangential part (1, Ns, 3)
-        ts = np.einsum("tsk,tsk->ts", np.broadcast_to(ft, r.shape), s)
-        # Cerruti, tangential force ft
-        u = (ft * inv_rho[..., None] + (ts * inv_rho3)[..., None] * s
-             + c * (ft / rz[..., None] - (ts / (rho * rz * rz))[..., None] * s)
-             + ((ts * z * inv_rho3) + c * ts / (rho * rz))[..., None] * e)
-        # Boussinesq, normal force fe along e
-        u += fe[..., None] * (s * (z * inv_rho3 - c / (rho * rz))[..., None]
-                              + (z * z * inv_rho3 + 2.0 * (1.0 - poisson) * inv_rho)[..., None] * e)
-        out[:, :, :, k] = u
-    return np.transpose(out, (0, 2, 1, 3)) / (4.0 * math.pi * shear_modulus)
+    scale = 1.0 / (4.0 * math.pi * shear_modulus)
+    r = np.empty(3)
+    e = np.empty(3)
+    tangential = np.empty(3)
+    u = np.empty(3)
+    for j in range(ns):
+        for a in range(3):
+            e[a] = -frames[j, 0, a]                                   # into the solid
+        for q in range(len(rule)):
+            weight = rule[q, 2] * scale
+            for t in range(nt):
+                for a in range(3):
+                    r[a] = targets[t, a] - (sources[j, a] + radius * (rule[q, 0] * frames[j, 1, a]
+                                                                       + rule[q, 1] * frames[j, 2, a]))
+                z = max(r[0] * e[0] + r[1] * e[1] + r[2] * e[2], 0.0)
+                rho = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
+                if rho == 0.0:
+                    for a in range(3):
+                        for b in range(3):
+                            out[t, a, j, b] = math.nan
+                    continue
+                for a in range(3):
+                    tangential[a] = r[a] - z * e[a]
+                rz = rho + z
+                inv_rho = 1.0 / rho
+                inv_rho3 = inv_rho * inv_rho * inv_rho
+                for b in range(3):                                    # the unit force along axis b
+                    fe = e[b]                                         # its normal part (along e)
+                    ts = 0.0
+                    for a in range(3):
+                        ts += ((1.0 if a == b else 0.0) - fe * e[a]) * tangential[a]
+                    along_s = ts * inv_rho3 - c * ts / (rho * rz * rz) + fe * (z * inv_rho3 - c / (rho * rz))
+                    along_e = ts * z * inv_rho3 + c * ts / (rho * rz) + fe * (z * z * inv_rho3
+                                                                             + 2.0 * (1.0 - poisson) * inv_rho)
+                    for a in range(3):
+                        ft = (1.0 if a == b else 0.0) - fe * e[a]     # its tangential part
+                        u[a] = ft * (inv_rho + c / rz) + along_s * tangential[a] + along_e * e[a]
+                        out[t, a, j, b] += weight * u[a]
+    return out
 
 
 def self_compliance(outward: np.ndarray, area: float, poisson: float, shear_modulus: float) -> np.ndarray:
