@@ -225,7 +225,6 @@ def _disc_kernel(targets: np.ndarray, sources: np.ndarray, frames: np.ndarray, r
     r = np.empty(3)
     e = np.empty(3)
     tangential = np.empty(3)
-    u = np.empty(3)
     for j in range(ns):
         for a in range(3):
             e[a] = -frames[j, 0, a]                                   # into the solid
@@ -257,8 +256,8 @@ def _disc_kernel(targets: np.ndarray, sources: np.ndarray, frames: np.ndarray, r
                                                                              + 2.0 * (1.0 - poisson) * inv_rho)
                     for a in range(3):
                         ft = (1.0 if a == b else 0.0) - fe * e[a]     # its tangential part
-                        u[a] = ft * (inv_rho + c / rz) + along_s * tangential[a] + along_e * e[a]
-                        out[t, a, j, b] += weight * u[a]
+                        out[t, a, j, b] += weight * (ft * (inv_rho + c / rz) + along_s * tangential[a]
+                                                     + along_e * e[a])
     return out
 
 
