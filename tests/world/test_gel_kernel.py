@@ -69,7 +69,7 @@ def test_the_kernel_turns_with_the_surface() -> None:
     turn = Rotation.from_rotvec([0.7, -0.4, 1.1]).as_matrix()
     shift = np.array([0.003, -0.002, 0.01])
     tilted = _point_kernel(np.vstack([targets, sources]) @ turn.T + shift, sources @ turn.T + shift,
-                               outward @ turn.T, 0.5)[:, :, 0, :]
+                           outward @ turn.T, 0.5)[:, :, 0, :]
     np.testing.assert_allclose(tilted[:-1], turn @ flat[:-1] @ turn.T, rtol=1e-10, atol=1e-12 * np.abs(flat[:-1]).max())
     assert np.isnan(tilted[-1]).all() and np.isnan(flat[-1]).all()
 

@@ -454,15 +454,19 @@ class BracketSearch:
         self.low, self.high = 0.0, 1.0
         self.best_unit, self.best_value = start_unit, start_value
 
+    @property
+    def step(self) -> float:
+        """The grid's spacing inside the bracket (unit)."""
+        return (self.high - self.low) / (self.points + 1)
+
     def ask(self) -> list[np.ndarray]:
-        step = (self.high - self.low) / (self.points + 1)
-        return [np.array([self.low + k * step]) for k in range(1, self.points + 1)]
+        return [np.array([self.low + k * self.step]) for k in range(1, self.points + 1)]
 
     def tell(self, units: list[np.ndarray], values: list[float]) -> None:
         k = int(np.argmin(values))
         if values[k] < self.best_value:
             self.best_unit, self.best_value = float(units[k][0]), float(values[k])
-        step = (self.high - self.low) / (self.points + 1)
+        step = self.step
         self.low, self.high = max(0.0, self.best_unit - step), min(1.0, self.best_unit + step)
 
     def stop(self) -> dict[str, float]:

@@ -222,6 +222,7 @@ def _disc_kernel(targets: np.ndarray, sources: np.ndarray, frames: np.ndarray, r
     out = np.zeros((nt, 3, ns, 3))
     c = 1.0 - 2.0 * poisson
     scale = 1.0 / (4.0 * math.pi * shear_modulus)
+    point = np.empty(3)
     r = np.empty(3)
     e = np.empty(3)
     tangential = np.empty(3)
@@ -230,10 +231,11 @@ def _disc_kernel(targets: np.ndarray, sources: np.ndarray, frames: np.ndarray, r
             e[a] = -frames[j, 0, a]                                   # into the solid
         for q in range(len(rule)):
             weight = rule[q, 2] * scale
+            for a in range(3):
+                point[a] = sources[j, a] + radius * (rule[q, 0] * frames[j, 1, a] + rule[q, 1] * frames[j, 2, a])
             for t in range(nt):
                 for a in range(3):
-                    r[a] = targets[t, a] - (sources[j, a] + radius * (rule[q, 0] * frames[j, 1, a]
-                                                                       + rule[q, 1] * frames[j, 2, a]))
+                    r[a] = targets[t, a] - point[a]
                 z = max(r[0] * e[0] + r[1] * e[1] + r[2] * e[2], 0.0)
                 rho = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
                 if rho == 0.0:
@@ -243,14 +245,13 @@ def _disc_kernel(targets: np.ndarray, sources: np.ndarray, frames: np.ndarray, r
                     continue
                 for a in range(3):
                     tangential[a] = r[a] - z * e[a]
+                normal_of_tangential = tangential[0] * e[0] + tangential[1] * e[1] + tangential[2] * e[2]
                 rz = rho + z
                 inv_rho = 1.0 / rho
                 inv_rho3 = inv_rho * inv_rho * inv_rho
                 for b in range(3):                                    # the unit force along axis b
                     fe = e[b]                                         # its normal part (along e)
-                    ts = 0.0
-                    for a in range(3):
-                        ts += ((1.0 if a == b else 0.0) - fe * e[a]) * tangential[a]
+                    ts = tangential[b] - fe * normal_of_tangential    # its tangential part · tangential
                     along_s = ts * inv_rho3 - c * ts / (rho * rz * rz) + fe * (z * inv_rho3 - c / (rho * rz))
                     along_e = ts * z * inv_rho3 + c * ts / (rho * rz) + fe * (z * z * inv_rho3
                                                                              + 2.0 * (1.0 - poisson) * inv_rho)
