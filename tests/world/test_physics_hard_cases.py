@@ -259,19 +259,24 @@ def test_broken_setup_raises_naming_scenario_step_pose_and_failure(dome, level, 
 #: the endurance run at every flex level; the compliant dome's increments cost more
 #: (twin bench physics), so it runs at its fast level (its code is the same at every level)
 ENDURANCE = [p for p in FIDELITY if p.values[0] == "flex"] + [pytest.param("compliant", "fast", id="compliant-fast")]
+#: frames per endurance run: the flex reference costs 6× the default per frame (its run of
+#: 2,000 took 445 s of a 15 min suite on a slow host, the suite's longest test by far), so
+#: it runs 1,000, still hundreds of taps and slides over every direction
+ENDURANCE_FRAMES = {"reference": 1000}
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("dome,level", ENDURANCE)
-def test_two_thousand_frames_return_to_rest(dome, level):
-    """2,000 frames of taps and multi-directional slides; afterwards the no-contact pose
-    gives the no-contact pins back (≈ 20 s fast, 50 s default, 2.5 min reference on 2 cores)."""
+def test_endurance_returns_to_rest(dome, level):
+    """2,000 frames (the flex reference 1,000) of taps and multi-directional slides;
+    afterwards the no-contact pose gives the no-contact pins back (≈ 20 s fast, 50 s
+    default, 1–4 min reference on 2 cores, by host)."""
     env = _env("rectangle", dome, level, Pose(60, 0, -5, 0, 0, 0), name="endurance")
     rest = env.reset().pins_px
     assert np.max(np.linalg.norm(rest - env.camera.project_tool_points(env.physics.rest_pins), axis=1)) < 1e-9
     rng = np.random.default_rng(0)
     frames = 0
-    while frames < 2000:
+    while frames < ENDURANCE_FRAMES.get(level, 2000):
         gamma = float(rng.choice(np.arange(-160.0, 181.0, 20.0)))
         lateral = float(rng.uniform(-6.0, 9.9))
         if rng.random() < 0.5:  # a tap at 2 or 4 mm
