@@ -269,8 +269,8 @@ ENDURANCE_FRAMES = {"reference": 1000}
 @pytest.mark.parametrize("dome,level", ENDURANCE)
 def test_endurance_returns_to_rest(dome, level):
     """2,000 frames (the flex reference 1,000) of taps and multi-directional slides;
-    afterwards the no-contact pose gives the no-contact pins back (≈ 20 s fast, 50 s
-    default, 1–4 min reference on 2 cores, by host)."""
+    afterwards the no-contact pose gives the no-contact pins back (on 2 cores, by host:
+    20–60 s fast, 50–100 s default, 1–4 min reference)."""
     env = _env("rectangle", dome, level, Pose(60, 0, -5, 0, 0, 0), name="endurance")
     rest = env.reset().pins_px
     assert np.max(np.linalg.norm(rest - env.camera.project_tool_points(env.physics.rest_pins), axis=1)) < 1e-9
