@@ -2,7 +2,8 @@
 skin couples normal and tangential motion, checked against Signorini's and Coulomb's
 conditions themselves: no penetration and no pull, no gap where pressed, the traction
 inside the friction disc, no slip where it is inside, slip against the traction where it
-is on the rim. The two algorithms (semismooth Newton, the alternation) must agree."""
+is on the rim. The two algorithms (semismooth Newton, the alternation) must agree, and
+Newton's step must be the one its residual's Jacobian gives (by finite differences)."""
 from __future__ import annotations
 
 import numpy as np
@@ -10,7 +11,8 @@ import pytest
 
 from twin.core.sensor import TacTipGeometry
 from twin.world.dome.compliance import CapSurface, DomeCompliance
-from twin.world.dome.contact import alternation_pass, solve_coulomb
+from twin.world.dome.contact import (_alart_curnier, _alart_curnier_residual, _newton_step, alternation_pass,
+                                    solve_coulomb, unknowns_matrix)
 
 TOLERANCE = 1e-8  # m
 MU = 0.7
@@ -25,8 +27,7 @@ def _problem(membrane_young: float, shift_mm: float, seed: int) -> tuple[np.ndar
     frames = surface.frames[nodes]
     block = dome.block(nodes, nodes).reshape(len(nodes), 3, len(nodes), 3)
     local = np.einsum("iak,ikjl,jbl->iajb", frames, block, frames).reshape(3 * len(nodes), -1)
-    sign = np.tile([-1.0, 1.0, 1.0], len(nodes))
-    matrix = local * sign[:, None] * sign[None, :]
+    matrix = unknowns_matrix(local)
     gap = (-surface.points[nodes, 2] - 0.0015) * frames[:, 0, 2]  # the flat at z = −1.5 mm, along each normal
     direction = np.random.default_rng(seed).normal(size=3) * np.array([1.0, 1.0, 0.0])
     drag = shift_mm * 1e-3 * direction / np.linalg.norm(direction)
@@ -57,6 +58,7 @@ def test_coulomb_conditions_hold_and_both_algorithms_agree(membrane_young, shift
     matrix, offset = _problem(membrane_young, shift_mm, seed=1)
     newton, iterations, residual = solve_coulomb(matrix, offset, MU, np.zeros_like(offset), TOLERANCE, 20000)
     assert residual < TOLERANCE
+    assert iterations < 20  # Newton's (3-5): a wrong step would stall it and hand over to the alternation
     assert _coulomb_violation(matrix, offset, newton) < 10 * TOLERANCE
     pressed = newton[0::3] > 0
     assert pressed.sum() > 10
@@ -69,3 +71,34 @@ def test_coulomb_conditions_hold_and_both_algorithms_agree(membrane_young, shift
             break
     assert _coulomb_violation(matrix, offset, alternated) < 10 * TOLERANCE
     assert np.max(np.abs(newton - alternated)) < 1e-3 * np.max(newton[0::3])
+
+
+@pytest.mark.parametrize("membrane_young", [0.0, 6e5])
+def test_newtons_step_is_the_jacobians(membrane_young):
+    """The condensed step (`_newton_step`: free rows explicit, a sliding node's step along
+    its slip eliminated) solves the same system as the full Jacobian of Φ/r, taken here by
+    central differences, at the next increment's start: the last solution under a 20 %
+    longer drag. On the solid that state mixes stuck, sliding and free nodes; under the
+    membrane every pressed node slides."""
+    matrix, offset = _problem(membrane_young, 0.02, seed=2)
+    forces, _, _ = solve_coulomb(matrix, offset, MU, np.zeros_like(offset), 1e-10, 20000)
+    matrix, offset = _problem(membrane_young, 0.024, seed=2)
+    diagonal = np.diag(matrix)
+    r_n, r_t = 1.0 / diagonal[0::3], 1.0 / (0.5 * (diagonal[1::3] + diagonal[2::3]))
+    n, m = len(forces), len(forces) // 3
+    phi, contact, slip = np.empty(n), np.zeros(m, bool), np.zeros(m, bool)
+    z, size, radius = np.empty((m, 2)), np.empty(m), np.empty(m)
+    _alart_curnier(matrix, offset, MU, forces, r_n, r_t, phi, contact, slip, z, size, radius)
+    stuck, sliding = (contact & ~slip).sum(), (contact & slip).sum()
+    assert sliding > 0 and (~contact).sum() > 0 and (stuck > 0) == (membrane_young == 0.0)
+    step = np.empty(n)
+    assert _newton_step(matrix, MU, forces, phi, contact, slip, z, size, radius, r_n, r_t, step)
+    h = 1e-6 * np.abs(forces).max()  # N; no node changes state within it
+    jacobian = np.empty((n, n))
+    for j in range(n):
+        e = np.zeros(n)
+        e[j] = h
+        jacobian[:, j] = (_alart_curnier_residual(matrix, offset, MU, forces + e, r_n, r_t)
+                          - _alart_curnier_residual(matrix, offset, MU, forces - e, r_n, r_t)) / (2 * h)
+    full = -np.linalg.solve(jacobian, phi)
+    assert np.abs(step - full).max() < 1e-6 * np.abs(full).max()

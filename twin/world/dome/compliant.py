@@ -47,7 +47,7 @@ from twin.core.errors import PhysicsError
 from twin.core.poses import invert_transform, make_transform
 from twin.core.sensor import TacTipGeometry
 from twin.world.dome.compliance import CapSurface, DomeCompliance
-from twin.world.dome.contact import ContactNotConverged, solve_increment
+from twin.world.dome.contact import ContactNotConverged, solve_increment, unknowns_matrix
 from twin.world.dome.physics import Frame, physics_error
 
 
@@ -182,7 +182,7 @@ class CompliantPhysics:
         #: from which a steady motion's next forces are extrapolated (`_warm_start`)
         self._before: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self.displacement = np.zeros((n, 3))  # m, tool frame
-        self._local: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # `_local_compliance`'s last
+        self._local: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # `_local_matrix`'s last
         self.rest_pins = self.geometry.pin_tip_points()
         self._pins = self.rest_pins.copy()
         self._steps = 0
@@ -355,7 +355,7 @@ class CompliantPhysics:
         for _ in range(10):
             t1 = time.perf_counter()
             f = frames[candidates]
-            local = self._local_compliance(candidates, f)
+            local = self._local_matrix(candidates, f)
             previous = np.einsum("nij,nj->ni", f[:, 1:], self.displacement[candidates])
             shift_t = np.einsum("nij,nj->ni", f[:, 1:], moved[candidates])
             start = np.einsum("nij,nj->ni", f, self._warm_start(candidates, shift))
@@ -397,14 +397,15 @@ class CompliantPhysics:
                 return 2.0 * self.forces[candidates] - forces[candidates]
         return self.forces[candidates]
 
-    def _local_compliance(self, nodes: np.ndarray, frames: np.ndarray) -> np.ndarray:
-        """(3m, 3m) m/N: the compliance among `nodes` in their contact frames (m, 3, 3).
-        Kept while the nodes and their frames stay the same (a slide over one face), as
-        they do for most increments: it is recomputed bit for bit otherwise."""
+    def _local_matrix(self, nodes: np.ndarray, frames: np.ndarray) -> np.ndarray:
+        """(3m, 3m) m/N: the compliance among `nodes` in their contact frames (m, 3, 3), as
+        the contact solve's unknowns see it (`unknowns_matrix`). Kept while the nodes and
+        their frames stay the same (a slide over one face), as they do for most
+        increments: it is recomputed bit for bit otherwise."""
         kept = self._local
         if kept is not None and np.array_equal(kept[0], nodes) and np.array_equal(kept[1], frames):
             return kept[2]
-        local = self.compliance.local_block(nodes, frames)
+        local = unknowns_matrix(self.compliance.local_block(nodes, frames))
         self._local = (nodes.copy(), frames.copy(), local)
         return local
 
