@@ -416,6 +416,14 @@ def alternation_pass(matrix: np.ndarray, offset: np.ndarray, friction: float, f:
     return out
 
 
+def own_stiffness(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(m,), (m,) N/m: each node's own normal and tangential stiffness, the inverse of its
+    diagonal entries of `solve_coulomb`'s matrix (tangential: of their mean), which
+    `solve_coulomb` takes as the augmentation parameters r_n, r_t."""
+    diagonal = np.diag(matrix)
+    return 1.0 / diagonal[0::3], 1.0 / (0.5 * (diagonal[1::3] + diagonal[2::3]))
+
+
 def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start: np.ndarray, tolerance: float,
                   max_iterations: int) -> tuple[np.ndarray, int, float]:
     """Signorini contact with Coulomb friction, normal and tangential solved together.
@@ -439,7 +447,6 @@ def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start
     m = len(offset) // 3
     n_idx = np.arange(m) * 3
     t_idx = np.column_stack([n_idx + 1, n_idx + 2])
-    diagonal = np.diag(matrix)
     friction = float(friction)
 
     def newton(f: np.ndarray, r_n: np.ndarray, r_t: np.ndarray, budget: int) -> tuple[np.ndarray, int, float]:
@@ -454,7 +461,7 @@ def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start
     # r = a node's own stiffness; where Newton stalls with it (at high friction the
     # tangential predictor z = q − r v overshoots the disc), again from the start with
     # smaller r: the same roots, a gentler predictor
-    stiffness_n, stiffness_t = 1.0 / diagonal[n_idx], 1.0 / diagonal[t_idx].mean(axis=1)
+    stiffness_n, stiffness_t = own_stiffness(matrix)
     budget = min(max_iterations, NEWTON_ITERATIONS)
     done, residual = 0, np.inf
     for scale in AUGMENTATION_SCALES:
