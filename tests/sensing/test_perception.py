@@ -100,7 +100,7 @@ def test_save_load_reproduces_predictions(model: PerceptionModel, heldout, tmp_p
     path = model.save(tmp_path / "model.npz")
     with np.load(path, allow_pickle=False) as data:
         header = json.loads(bytes(data["header"]).decode())
-    assert header["format_version"] == 1 and header["n_pins"] == N_PINS
+    assert header["format_version"] == 2 and header["n_pins"] == N_PINS
     assert header["camera_resolution"] == [640, 480] and header["source"] == "sim"
     loaded = PerceptionModel.load(path)
     a, b = model.predict(heldout[0]), loaded.predict(heldout[0])

@@ -86,3 +86,31 @@ def test_evaluate_on_a_recorded_heldout_tap_run(tmp_path, capsys) -> None:
     # read, not guessed: a constant guess is ≈ 100° and ≈ 5 mm RMS off (the fast level reads 5° and 2 mm)
     assert result["orientation_rms_deg"]["PCA + GP"] < 20.0 and result["lateral_rms_mm"]["PCA + GP"] < 4.0
     assert (tmp_path / "eval" / "heldout.csv").read_text().count("\n") == 1 + 2 * 2
+
+
+def test_compliant_dome_reads_taps_between_its_training_depths(tmp_path) -> None:
+    """Issue 16's held-out taps, on the compliant default (pins projected): trained on the
+    shipped 288 taps (depths 2 and 4 mm), taps 10° off the training orientations, between
+    its lateral positions and at 2.5 and 3.5 mm deep read θ within 10° and l within 1 mm
+    RMS at every lateral position on and beside the object. The lateral GP reads φ, not ρ
+    (twin.sensing.perception, step 4): with ρ among its inputs it read these taps 2.5–5.8
+    mm wrong 1–5 mm onto the object (measured 2026-11-27), because ρ grows with depth."""
+    from twin.core.resources import scenario_path
+    from twin.core.scenario import load_scenario
+    from twin.runs.run import run_scenario
+    from twin.tools.evaluate import evaluate
+
+    def record(name: str, **protocol) -> Path:
+        scenario = load_scenario(scenario_path(name))
+        scenario = scenario.with_changes(dome="compliant", effects=["contact", "friction"],
+                                         protocol=scenario.protocol.model_dump() | protocol)
+        return run_scenario(scenario, tmp_path / name, workers=1, progress=False)
+
+    train = record("taps_rectangle")
+    heldout = record("taps_heldout", orientations_deg=[-170, -110, -50, 10, 70, 130], lateral_mm=[5, 3, 1, -1, -3, -5])
+    result = evaluate(train, heldout, tmp_path / "eval")
+    rows = result["heldout_by_lateral_mm"]["PCA + GP"]
+    assert len(rows) == 6 and all(r["n"] == 12 for r in rows.values())
+    for lateral, row in rows.items():
+        assert row["theta_rms_deg"] <= 10.0, (lateral, row)
+        assert row["lateral_rms_mm"] <= 1.0, (lateral, row)

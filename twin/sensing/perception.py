@@ -37,6 +37,15 @@ Pipeline (method "pca"):
    the lateral set GP_lat.
 4. GP inputs x = (ρ / ρ_scale, cos θ_PC23, sin θ_PC23, φ): θ_PC23 enters through its cosine
    and sine so the ±π wrap is continuous; ρ is divided by the RMS training ρ (px); φ in rad.
+   GP_cos and GP_sin take all four; GP_lat takes (cos θ_PC23, sin θ_PC23, φ), not ρ
+   (`PCA_GP_INPUTS`). φ is the coordinate that step 2 makes the same at every depth for
+   a lateral position; ρ grows with depth (about as depth^1.5 on the twin's domes). With
+   ρ among its inputs the lateral GP can prefer it, since at the training depths alone
+   ρ separates the lateral positions finely, and then it reads a tap between the training
+   depths as a tap at another lateral position: the compliant dome's held-out taps (2.5
+   and 3.5 mm deep against 2 and 4) read 2.5–5.8 mm wrong with the sensor's centre 1–5 mm
+   on the object, 0.15–0.27 mm without ρ (measured, README "Held-out taps"). The paper
+   gives all three GPs v; it does not say how its GPs weighed ρ.
    Kernel ConstantKernel · Matern(ν = 5/2, one length scale per input (ARD)) + WhiteKernel.
    Constant mean: `normalize_y=True` (targets centred on their training mean and scaled to
    unit variance, undone on prediction). Hyperparameters maximise the log marginal
@@ -94,9 +103,12 @@ from pydantic import Field
 from twin.sensing.tracker import PinTracker, detect_pins, reference_pins_from_frame, render_pins_frame
 
 FORMAT = "tactip-twin/perception-model"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 N_DIMS = 2 * N_PINS
 GP_NAMES = ("cos", "sin", "lat")
+#: the columns of x = (ρ / ρ_scale, cos θ_PC23, sin θ_PC23, φ) each GP of method "pca" takes
+#: (module doc, step 4); the baseline's GPs take every pin
+PCA_GP_INPUTS: dict[str, tuple[int, ...]] = {"cos": (0, 1, 2, 3), "sin": (0, 1, 2, 3), "lat": (1, 2, 3)}
 NO_CONTACT = "no contact"
 SHIFT_MODES = ("pooled", "per_orientation", "none")
 
@@ -119,7 +131,7 @@ class ModelHeader(StrictModel):
     """The JSON header of a perception model file (`PerceptionModel.save`)."""
 
     format: Literal["tactip-twin/perception-model"]
-    format_version: Literal[1]
+    format_version: Literal[2]
     created_utc: str
     software: dict[str, str]
     method: Literal["pca", "baseline"]
@@ -136,6 +148,7 @@ class ModelHeader(StrictModel):
     no_contact_lateral_mm: float = bounded(-50, 50, "mm", "no-contact label threshold")
     no_contact_px: float = bounded(0, 1000, "px", "no-contact pin distance", 0.3)
     depth_shift_mode: Literal["pooled", "per_orientation", "none"] = "per_orientation"
+    gp_inputs: dict[Literal["cos", "sin", "lat"], list[Annotated[int, Field(ge=0, le=3)]]]
     input_scale: float = bounded(0, 1e9, "1/px", "input scaling", open_lo=True)
     contact_threshold: float = bounded(0, 1e9, "px", "contact threshold")
     info: dict[str, Any] = {}
@@ -427,6 +440,8 @@ class PerceptionModel:
         the pins show, not by the label (see `fit`).
     depth_shift_mode: origin shift of ρ/φ — "per_orientation" (the paper), "pooled" or "none"
         (module doc, step 2).
+    gp_inputs (fitted): the feature columns each GP takes (`PCA_GP_INPUTS`; the
+        baseline's GPs: all); a GP not named takes every column.
     """
 
     method: str = "pca"
@@ -450,6 +465,7 @@ class PerceptionModel:
     input_scale: float = 1.0
     contact_threshold: float = 0.0
     info: dict = field(default_factory=dict, repr=False)
+    gp_inputs: dict[str, tuple[int, ...]] = field(default_factory=dict)
     _gps: dict = field(default_factory=dict, repr=False)
     _train: dict = field(default_factory=dict, repr=False)
     _gp_y: dict = field(default_factory=dict, repr=False)
@@ -485,6 +501,11 @@ class PerceptionModel:
     def spherical(self, pins_px: np.ndarray) -> np.ndarray:
         """(M, 127, 2) pins → (M, 3) v = (ρ px, θ_PC23 rad, φ rad)."""
         return spherical_coordinates(self.project(pins_px) - self.origin_p, self.depth_shift)
+
+    def _gp_x(self, name: str, x: np.ndarray) -> np.ndarray:
+        """The columns of the features x that GP `name` takes."""
+        cols = self.gp_inputs.get(name)
+        return x if cols is None else x[:, list(cols)]
 
     def _features(self, pins_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """GP inputs (M, d) and contact magnitude (M,) px for pins at the model resolution."""
@@ -601,13 +622,15 @@ class PerceptionModel:
         theta_rad = np.radians(theta_deg)
         targets = {"cos": (np.cos(theta_rad), keep_orient), "sin": (np.sin(theta_rad), keep_orient), "lat": (lateral_mm, keep_lat)}
         ard = self.method == "pca"
+        self.gp_inputs = dict(PCA_GP_INPUTS) if ard else {}
         self._gps = {}
         self._train = {"p": p, "theta_deg": theta_deg, "lateral_mm": lateral_mm, "depth_mm": depth_mm,
                        "keep_orientation": keep_orient, "keep_lateral": keep_lat, "no_contact": no_contact}
         for name in GP_NAMES:
             y, keep = targets[name]
-            kernel = make_kernel(x.shape[1], ard, self.gp)
-            self._gps[name] = fit_gp(x[keep], y[keep], kernel, self.gp, rng)
+            x_gp = self._gp_x(name, x)
+            kernel = make_kernel(x_gp.shape[1], ard, self.gp)
+            self._gps[name] = fit_gp(x_gp[keep], y[keep], kernel, self.gp, rng)
             self._gp_y[name] = y[keep].copy()
         touching = (lateral_mm >= self.no_contact_lateral_mm - 1e-9) & ~no_contact
         self.info = {
@@ -658,7 +681,7 @@ class PerceptionModel:
         x, contact = self._features(pins)
         out = {}
         for name in GP_NAMES:
-            mean, sd = self._gps[name].predict(x, return_std=True)
+            mean, sd = self._gps[name].predict(self._gp_x(name, x), return_std=True)
             out[name] = (np.asarray(mean, float).reshape(m), np.asarray(sd, float).reshape(m))
         (c, sc), (s, ss), (lat, sl) = out["cos"], out["sin"], out["lat"]
         theta = wrap_deg(np.degrees(np.arctan2(s, c)))
@@ -714,6 +737,7 @@ class PerceptionModel:
             "no_contact_lateral_mm": self.no_contact_lateral_mm,
             "no_contact_px": self.no_contact_px,
             "depth_shift_mode": self.depth_shift_mode,
+            "gp_inputs": {k: list(v) for k, v in self.gp_inputs.items()},
             "input_scale": self.input_scale,
             "contact_threshold": self.contact_threshold,
             "info": self.info,
@@ -754,7 +778,8 @@ class PerceptionModel:
         if header.get("format") != FORMAT:
             raise UserError(f"{path}: format {header.get('format')!r}, expected {FORMAT!r}")
         if header.get("format_version") != FORMAT_VERSION:
-            raise UserError(f"{path}: format_version {header.get('format_version')}, this twin reads {FORMAT_VERSION}")
+            raise UserError(f"{path}: format_version {header.get('format_version')}, this twin reads {FORMAT_VERSION} "
+                            "(fit a new model from the tap run it came from)")
         if header.get("n_pins") != N_PINS:
             raise UserError(f"{path}: model has {header.get('n_pins')} pins, expected {N_PINS}")
         h: ModelHeader = validate_mapping(ModelHeader, header, str(path), "perception model header")
@@ -779,9 +804,13 @@ class PerceptionModel:
         model.variance_explained = data["variance_explained"]
         model.origin_p = data["origin_p"]
         model.depth_shift = DepthShift(data["shift_anchors_rad"], data["shift_values"])
+        model.gp_inputs = {k: tuple(v) for k, v in h.gp_inputs.items()}
         ard = model.method == "pca"
         for k in GP_NAMES:
             x = data[f"gp_{k}_x"]
+            if k in model.gp_inputs and x.shape[1] != len(model.gp_inputs[k]):
+                raise UserError(f"{path}: GP {k!r} was trained on {x.shape[1]} inputs, its header names "
+                                f"{len(model.gp_inputs[k])}")
             kernel = make_kernel(x.shape[1], ard, gp_cfg)
             model._gp_y[k] = data[f"gp_{k}_y"]
             model._gps[k] = rebuild_gp(x, model._gp_y[k], kernel, data[f"gp_{k}_theta"], h.gp_alpha[k])
