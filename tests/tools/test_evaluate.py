@@ -89,10 +89,10 @@ def test_evaluate_on_a_recorded_heldout_tap_run(tmp_path, capsys) -> None:
 
 
 def test_compliant_dome_reads_taps_between_its_training_depths(tmp_path) -> None:
-    """Issue 16's held-out taps, on the compliant default (pins projected): trained on the
-    shipped 288 taps (depths 2 and 4 mm), taps 10° off the training orientations, between
-    its lateral positions and at 2.5 and 3.5 mm deep read θ within 10° and l within 1 mm
-    RMS at every lateral position on and beside the object. The lateral GP reads φ, not ρ
+    """The held-out taps (scenarios/taps_heldout.yaml) on the compliant default, pins
+    projected: trained on the shipped 288 taps (depths 2 and 4 mm), taps 10° off the
+    training orientations, between its lateral positions and 2.5 and 3.5 mm deep read θ
+    within 10° and l within 1 mm RMS at every lateral position on and beside the object. The lateral GP reads φ, not ρ
     (twin.sensing.perception, step 4): with ρ among its inputs it read these taps 2.5–5.8
     mm wrong 1–5 mm onto the object (measured 2026-11-27), because ρ grows with depth."""
     from twin.core.resources import scenario_path
