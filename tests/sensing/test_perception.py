@@ -108,6 +108,28 @@ def test_save_load_reproduces_predictions(model: PerceptionModel, heldout, tmp_p
     np.testing.assert_allclose(b.lateral_mm, a.lateral_mm, rtol=0, atol=1e-9)
     np.testing.assert_allclose(b.std, a.std, rtol=0, atol=1e-9)
     assert b.ok.tolist() == a.ok.tolist()
+    assert header["gp_inputs"] == {"cos": [0, 1, 2, 3], "sin": [0, 1, 2, 3], "lat": [1, 2, 3]}
+    assert loaded.gp_inputs == model.gp_inputs and loaded._gps["lat"].X_train_.shape[1] == 3
+
+
+def _rewrite_header(src, dst, **changes) -> None:
+    with np.load(src, allow_pickle=False) as data:
+        arrays = {k: data[k] for k in data.files}
+    header = json.loads(bytes(arrays["header"]).decode()) | changes
+    arrays["header"] = np.frombuffer(json.dumps(header).encode(), np.uint8)
+    np.savez(dst, **arrays)
+
+
+def test_load_refuses_a_model_whose_header_and_gps_disagree(model: PerceptionModel, tmp_path) -> None:
+    """A version-1 file (every GP on all four inputs) is refused with what to do; a header
+    that names other inputs than a GP was trained on is refused by name."""
+    path = model.save(tmp_path / "model.npz")
+    _rewrite_header(path, tmp_path / "v1.npz", format_version=1)
+    with pytest.raises(UserError, match="format_version 1.*fit a new model"):
+        PerceptionModel.load(tmp_path / "v1.npz")
+    _rewrite_header(path, tmp_path / "inputs.npz", gp_inputs={"cos": [0, 1, 2, 3], "sin": [0, 1, 2, 3], "lat": [0, 1, 2, 3]})
+    with pytest.raises(UserError, match="GP 'lat' was trained on 3 inputs"):
+        PerceptionModel.load(tmp_path / "inputs.npz")
 
 
 def test_load_rejects_other_files(tmp_path) -> None:

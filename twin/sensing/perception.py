@@ -44,7 +44,8 @@ Pipeline (method "pca"):
    ρ separates the lateral positions finely, and then it reads a tap between the training
    depths as a tap at another lateral position: the compliant dome's held-out taps (2.5
    and 3.5 mm deep against 2 and 4) read 2.5–5.8 mm wrong with the sensor's centre 1–5 mm
-   on the object, 0.15–0.27 mm without ρ (measured, README "Held-out taps"). The paper
+   on the object, 0.15–0.27 mm without ρ (measured; README, "Perception: the lateral GP
+   reads φ, not ρ"). The paper
    gives all three GPs v; it does not say how its GPs weighed ρ.
    Kernel ConstantKernel · Matern(ν = 5/2, one length scale per input (ARD)) + WhiteKernel.
    Constant mean: `normalize_y=True` (targets centred on their training mean and scaled to
