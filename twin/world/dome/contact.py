@@ -444,9 +444,6 @@ def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start
     """
     matrix = np.ascontiguousarray(matrix, dtype=float)
     offset = np.ascontiguousarray(offset, dtype=float)
-    m = len(offset) // 3
-    n_idx = np.arange(m) * 3
-    t_idx = np.column_stack([n_idx + 1, n_idx + 2])
     friction = float(friction)
 
     def newton(f: np.ndarray, r_n: np.ndarray, r_t: np.ndarray, budget: int) -> tuple[np.ndarray, int, float]:
@@ -477,7 +474,7 @@ def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start
     # every NEWTON_RETRY_PASSES passes, finishes it. The alternation's own stop is the
     # residual, not the change per pass: at a contraction of 0.93 a change below the
     # tolerance still leaves 14 times as much to go.
-    tangential = t_idx.ravel()
+    tangential = np.flatnonzero(np.arange(len(offset)) % 3)  # every node's t1, t2
     lipschitz = largest_eigenvalue(matrix[np.ix_(tangential, tangential)])  # the same for every pass
     retry_budget = min(budget, NEWTON_RETRY_ITERATIONS)
     for passes in range(1, ALTERNATION_PASSES + 1):
