@@ -459,20 +459,33 @@ def _gel_volume(surface: CapSurface) -> float:
 
 def _sealed_gel(surface: CapSurface, poisson: float, held_deg: float) -> dict[str, np.ndarray]:
     nodes, pins = half_space_columns(surface, np.arange(surface.count), poisson, 1.0)
-    pressure_forces = surface.area * surface.normals                        # N per Pa of gel pressure
-    # the nodes' displacement per Pa, symmetrised (C is symmetric to 0.06 %)
-    h = 0.5 * (np.einsum("jbia,jb->ia", nodes, pressure_forces) + np.einsum("jbia,ia->jb", nodes, pressure_forces))
-    pins_h = np.einsum("jbia,jb->ia", pins, pressure_forces)
-    volume_compliance = float(np.sum(pressure_forces * h))
-    band_h, band_pins_h, band_volume = _band_pressure(surface, poisson, held_deg)
-    h += band_h
-    pins_h += band_pins_h
-    volume_compliance += band_volume
-    volume_compliance += _gel_volume(surface) / _bulk_ratio(poisson)
     n = 3 * surface.count
-    nodes.reshape(n, n)[...] -= np.outer(h.ravel(), h.ravel() / volume_compliance)
-    pins.reshape(n, -1)[...] -= np.outer(h.ravel(), pins_h.ravel() / volume_compliance)
+    compliance, pin_compliance = nodes.reshape(n, n), pins.reshape(n, -1)          # views, [source, point]
+    h, pins_h, volume_compliance = _pressure_response(compliance, pin_compliance,
+                                                      (surface.area * surface.normals).ravel())
+    band_h, band_pins_h, band_volume = _band_pressure(surface, poisson, held_deg)
+    _keep_gel_volume(compliance, pin_compliance, h + band_h.ravel(), pins_h + band_pins_h.ravel(),
+                     volume_compliance + band_volume + _gel_volume(surface) / _bulk_ratio(poisson))
     return {"nodes": nodes, "pins": pins}
+
+
+def _pressure_response(compliance: np.ndarray, pin_compliance: np.ndarray,
+                       forces: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """What a unit gel pressure (1 Pa) moves: the nodes h ((3N,) m, symmetrised: C is
+    symmetric to 0.06 %, module doc), the pin tips ((381,) m) and the volume fᵀh (m³),
+    for the compliances [source, point] ((3N, 3N) and (3N, 381), m/N) and the pressure's
+    nodal forces f ((3N,) N per Pa)."""
+    h = 0.5 * (compliance @ forces + compliance.T @ forces)
+    return h, pin_compliance.T @ forces, float(forces @ h)
+
+
+def _keep_gel_volume(compliance: np.ndarray, pin_compliance: np.ndarray, h: np.ndarray, pins_h: np.ndarray,
+                     volume_compliance: float) -> None:
+    """The sealed gel's constraint, in place: C − h hᵀ / c and P − h p_hᵀ / c for the
+    compliances [source, point] (m/N), the nodes' and pins' displacement per Pa of gel
+    pressure (h, p_h, m) and the volume compliance c = fᵀh + V/K (m³ per Pa; module doc)."""
+    compliance -= np.outer(h, h / volume_compliance)
+    pin_compliance -= np.outer(h, pins_h / volume_compliance)
 
 
 def _band_pressure(surface: CapSurface, poisson: float, held_deg: float) -> tuple[np.ndarray, np.ndarray, float]:
@@ -529,11 +542,9 @@ def _skinned(surface: CapSurface, poisson: float, shear_modulus: float, membrane
     pins = post_tip_kernel(surface.geometry, sheet.points, sheet.frames, radius, poisson,
                            shear_modulus).reshape(-1, 3 * count)
     if enclosed:  # the gel's pressure on the whole free skin, as `_sealed_gel`, here without condensing
-        pressure = (surface.area * sheet.normals).ravel()
-        h = 0.5 * (gel @ pressure + gel.T @ pressure)
-        volume_compliance = float(pressure @ h) + _gel_volume(surface) / (_bulk_ratio(poisson) * shear_modulus)
-        pins -= np.outer(pins @ pressure, h / volume_compliance)
-        gel -= np.outer(h, h / volume_compliance)
+        h, pins_h, volume_compliance = _pressure_response(gel.T, pins.T, (surface.area * sheet.normals).ravel())
+        _keep_gel_volume(gel.T, pins.T, h, pins_h,
+                         volume_compliance + _gel_volume(surface) / (_bulk_ratio(poisson) * shear_modulus))
     return skin_on_gel(surface, sheet, gel, pins, membrane_young, bending)
 
 
