@@ -143,7 +143,7 @@ def test_bracket_search_finds_one_parameter(target: float) -> None:
     def chi2(u: float) -> float:
         return (u - target) ** 2 + 0.02 * abs(u - target) * (math.floor(u / 0.02) % 2)
 
-    search = BracketSearch(6, start_unit=0.8, start_value=chi2(0.8))
+    search = BracketSearch(6, start_unit=0.8, start_value=chi2(0.8), tol_unit=1e-3)
     generations = 0
     while not search.stop():
         if generations == 2:

@@ -103,31 +103,35 @@ class ParameterSetting(_Strict):
         return self
 
 
+# The settings' values live in the shipped file alone (assets/tactip/calibration_settings.yaml,
+# which a --settings file is merged over): these models state their types and ranges, not defaults.
 class Weights(_Strict):
-    rest: float = Field(default=1.0, ge=0)
-    contact: float = Field(default=1.0, ge=0)
-    sliding: float = Field(default=1.0, ge=0)
+    rest: float = Field(ge=0)
+    contact: float = Field(ge=0)
+    sliding: float = Field(ge=0)
 
 
 class OptimiserSettings(_Strict):
-    popsize: int | None = Field(default=None, ge=4, le=1000)
-    sigma0: float = Field(default=0.25, gt=0, le=1, description="fraction of each parameter's range")
-    max_generations: int = Field(default=30, ge=1, le=10000)
-    tol_relative: float = Field(default=0.002, gt=0, lt=1)
-    patience: int = Field(default=4, ge=1, le=1000)
-    seed: int = Field(default=1, ge=1)
+    popsize: int | None = Field(ge=4, le=1000)
+    sigma0: float = Field(gt=0, le=1, description="fraction of each parameter's range")
+    max_generations: int = Field(ge=1, le=10000)
+    tol_relative: float = Field(gt=0, lt=1)
+    patience: int = Field(ge=1, le=1000)
+    tol_bracket: float = Field(gt=0, lt=1, description="one physics parameter: the bracket's stop width, "
+                                                      "fraction of its range")
+    seed: int = Field(ge=1)
 
 
 class CalibrationSettings(_Strict):
     """What `twin calibrate` fits and how (assets/tactip/calibration_settings.yaml)."""
 
     parameters: dict[str, ParameterSetting]
-    rest_pins: bool = True
-    weights: Weights = Weights()
-    noise_px: float = Field(default=0.2, gt=0, le=50)
-    identifiable_fraction: float = Field(default=0.1, gt=0, le=10)
-    max_variance_inflation: float = Field(default=100.0, ge=1)
-    optimiser: OptimiserSettings = OptimiserSettings()
+    rest_pins: bool
+    weights: Weights
+    noise_px: float = Field(gt=0, le=50)
+    identifiable_fraction: float = Field(gt=0, le=10)
+    max_variance_inflation: float = Field(ge=1)
+    optimiser: OptimiserSettings
 
     @model_validator(mode="after")
     def _known(self) -> "CalibrationSettings":
@@ -449,7 +453,7 @@ class BracketSearch:
     bracket each time, so the small steps in χ² where the skin's lattice gains a node do
     not trap it, and it stops when the bracket is narrower than `tol_unit` of the range."""
 
-    def __init__(self, points: int, start_unit: float, start_value: float, tol_unit: float = 1e-3) -> None:
+    def __init__(self, points: int, start_unit: float, start_value: float, tol_unit: float) -> None:
         self.points, self.tol_unit = points, tol_unit
         self.low, self.high = 0.0, 1.0
         self.best_unit, self.best_value = start_unit, start_value
@@ -498,7 +502,8 @@ def _optimise(ev: Evaluator, out: Path, key: str, progress: bool) -> dict:
         if names:
             popsize = opt.popsize or 4 + int(3 * np.log(max(len(names), 2)))
             if len(names) == 1:  # pycma does not run in 1-D (CMA-ES/pycma#86, #302)
-                state["es"] = BracketSearch(popsize, float(space.to_unit(names, space.defaults)[0]), state["best_chi2"])
+                state["es"] = BracketSearch(popsize, float(space.to_unit(names, space.defaults)[0]), state["best_chi2"],
+                                            opt.tol_bracket)
             else:
                 state["es"] = cma.CMAEvolutionStrategy(space.to_unit(names, space.defaults), opt.sigma0, {
                     "bounds": [0.0, 1.0], "popsize": popsize, "seed": opt.seed, "verbose": -9, "tolfun": 0.0,
