@@ -61,7 +61,9 @@ as any other's.
 **Pareto front** (primary): a setting is on it when no *peer* setting dominates it, i.e.
 is no slower and no worse in every physics-accuracy figure (pin error *and* settling
 error, `PRIMARY`) and better beyond the noise margins in time or in one of them
-(`dominates`); the θ and contour fronts weigh one figure each against time. The contour
+(`dominates`; in time, round by round of the timing pass: a setting that is faster in
+one round and slower in another is neither); the θ and contour fronts weigh one figure
+each against time. The contour
 front places only the runs that complete the contour (`contour_completed_mm`): one that
 loses it is no alternative, however fast.
 Peers (`peers`) produce the same output from the same sensor:
@@ -529,7 +531,8 @@ def time_settings(settings: list[Setting], rows: list[dict], probe: Probe, seed:
     process loads what it caches: influence matrices, compiled kernels, GL contexts), then
     `repeats` rounds, each running every setting once (`timing_pass`), so that a host that
     speeds up or slows down during the pass moves every setting alike. Sets each stage's
-    best (min over rounds) as {stage}_ms, n_timed_frames, and against the default in the
+    best (min over rounds) as {stage}_ms, n_timed_frames, each round's physics + render +
+    tracking as round_ms (what `dominates` compares round by round), and against the default in the
     same run (NaN without it): time_x_default (physics + render + tracking, best against
     best), physics_x_default, and each one's lowest and highest ratio within one round
     (`*_x_default_min`, `*_x_default_max`: how far one run's ratio can be trusted). A
@@ -563,6 +566,7 @@ def time_settings(settings: list[Setting], rows: list[dict], probe: Probe, seed:
             row[f"{key}_ms"] = min(p[f"{key}_ms"] for p in passes[i])
         row["n_timed_frames"] = passes[i][0]["n_timed_frames"]
         row["total_ms"] = float(sum(row[f"{k}_ms"] for k in STAGES))
+        row["round_ms"] = [float(t) for t in per_round(i, TIMED_STAGES)]
         for name, stages in (("time", TIMED_STAGES), ("physics", ("physics",))):
             if default is None:
                 row[f"{name}_x_default"] = row[f"{name}_x_default_min"] = row[f"{name}_x_default_max"] = math.nan
@@ -632,13 +636,17 @@ def dominates(a: dict, b: dict, metrics: str | tuple[str, ...] = PRIMARY) -> boo
     better beyond them in at least one.
 
     Margins: TIME_MARGIN (relative) on time; on an error the larger of ERROR_MARGIN_REL
-    (relative) and ERROR_MARGIN_ABS[column] (absolute, the column's unit). A column
-    neither row has (a sweep.json from before it existed) is left out; one that only one
-    row has makes them incomparable (False)."""
+    (relative) and ERROR_MARGIN_ABS[column] (absolute, the column's unit). Time: where
+    both rows have the timing pass's rounds (`round_ms`), `a` is no slower only if it is
+    within the margin in every round, and faster only if it is faster beyond it in every
+    round, each round against the other setting's same round (`_time_ratios`); otherwise
+    best against best. A column neither row has (a sweep.json from before it existed) is
+    left out; one that only one row has makes them incomparable (False)."""
     ta, tb = a.get("total_ms"), b.get("total_ms")
     if not (_finite(ta) and _finite(tb)):
         return False
-    no_worse, better, compared = ta <= tb * (1 + TIME_MARGIN), ta < tb * (1 - TIME_MARGIN), False
+    slowest = max(_time_ratios(a, b))
+    no_worse, better, compared = slowest <= 1 + TIME_MARGIN, slowest < 1 - TIME_MARGIN, False
     for metric in _metric_tuple(metrics):
         ea, eb = a.get(metric), b.get(metric)
         if ea is None and eb is None:
@@ -650,6 +658,19 @@ def dominates(a: dict, b: dict, metrics: str | tuple[str, ...] = PRIMARY) -> boo
         better = better or ea < eb - e_tol
         compared = True
     return compared and no_worse and better
+
+
+def _time_ratios(a: dict, b: dict) -> list[float]:
+    """`a`'s time over `b`'s: per round of the timing pass where both rows have the same
+    rounds (`round_ms`: the host's drift between rounds moves both alike, so only a
+    difference that holds in every round is the settings'), else total_ms against
+    total_ms. On the sweep's host one setting's ratio to the default spread over
+    0.87–1.24 across three rounds, far more than TIME_MARGIN: best against best alone
+    then let a setting doing strictly more work per frame dominate the default."""
+    ra, rb = a.get("round_ms"), b.get("round_ms")
+    if isinstance(ra, list) and isinstance(rb, list) and ra and len(ra) == len(rb):
+        return [x / y for x, y in zip(ra, rb)]
+    return [a["total_ms"] / b["total_ms"]]
 
 
 def pareto_flags(rows: list[dict], metrics: str | tuple[str, ...] = PRIMARY,
