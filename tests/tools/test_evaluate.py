@@ -114,3 +114,43 @@ def test_compliant_dome_reads_taps_between_its_training_depths(tmp_path) -> None
     for lateral, row in rows.items():
         assert row["theta_rms_deg"] <= 10.0, (lateral, row)
         assert row["lateral_rms_mm"] <= 1.0, (lateral, row)
+
+
+def test_the_along_edge_cells_weigh_the_drag_against_the_taps_orientation_signal(tmp_path) -> None:
+    """What Table I's along-edge cells weigh against each other, as `twin evaluate` reports
+    it (twin.tools.evaluate.orientation_signal_px, along_edge_drag_px), recorded on the
+    compliant dome (fast level, pins projected). 9.9 mm beside the edge and 2 mm deep
+    the dome touches nothing (the paper: "not touching anything"): no orientation signal.
+    The edge through the sensor's centre carries more of its orientation than the edge
+    6 mm onto the object. A frictionless slide along a straight edge is a static press (the
+    contact problem is the same at every sample): no drag; with the rectangle's friction
+    the pins are dragged by whole px. Measured: 1.64 / 4.47 px at l = 0 and 0.03 / 0.72 px
+    at l = −6 (2 / 4 mm deep), a drag of 14.4 px, and 0.0 px without friction."""
+    from twin.core.resources import scenario_path
+    from twin.core.scenario import load_scenario
+    from twin.runs.record import load_run
+    from twin.runs.run import run_scenario
+    from twin.tools.evaluate import along_edge_drag_px, evaluate, orientation_signal_px
+
+    def record(name: str, out: str, friction: float | None = None, **protocol) -> Path:
+        scenario = load_scenario(scenario_path(name))
+        scenario = scenario.with_changes(dome="compliant", fidelity="fast", effects=["contact", "friction"],
+                                         object={"name": "rectangle", "friction": friction},
+                                         protocol=scenario.protocol.model_dump() | protocol)
+        return run_scenario(scenario, tmp_path / out, workers=1, progress=False)
+
+    orientations = [-120, 0, 120]
+    taps = record("taps_rectangle", "taps", orientations_deg=orientations, lateral_mm=[9.9, 0, -6])
+    slides = record("slides_rectangle", "slides", orientations_deg=orientations, directions_deg=[90, 270])
+    frictionless = record("slides_rectangle", "frictionless", 0.0, orientations_deg=orientations,
+                          directions_deg=[90, 270])
+
+    signal = orientation_signal_px(load_run(taps))
+    assert set(signal) == {2.0, 4.0} and all(set(row) == {9.9, 0.0, -6.0} for row in signal.values())
+    assert signal[2.0][9.9] < 1e-6
+    for row in signal.values():
+        assert row[0.0] > 2.0 * row[-6.0], row
+    assert all(v < 0.01 for v in along_edge_drag_px(load_run(frictionless)).values())
+    result = evaluate(taps, slides, tmp_path / "eval")
+    assert result["orientation_signal_px"] == signal
+    assert all(v > 1.0 for v in result["along_edge_drag_px"].values()), result["along_edge_drag_px"]

@@ -21,7 +21,7 @@ from twin.core.scenario import START_POSE
 from twin.world.scene import build_scene
 from twin.runs.sim_env import check_reachable, render_scenario_view
 from twin.runs.run import resume_run, run_scenario
-from twin.tools.evaluate import evaluate, format_heldout, format_table
+from twin.tools.evaluate import evaluate, format_heldout, format_signal_and_drag, format_table
 from hardware.virtual_controller import serve_robot
 from twin.tools.compare import compare_runs
 from twin.tools.figures import write_shear_figure
@@ -116,6 +116,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     for name, v in result["lateral_rms_mm"].items():
         print(f"lateral RMS error, {name}: {v:.2f} mm (paper: 2.15 mm)")
     print(f"variance explained by 3 PCs: {100 * result['variance_explained_3pc']:.1f} % (paper: 88.3 %)")
+    print(format_signal_and_drag(result["orientation_signal_px"], result["along_edge_drag_px"]))
     print(f"wrote {args.out}/table_i.csv, table_i.json and the PCA figures")
     return 0
 

@@ -1,6 +1,8 @@
 """`twin evaluate`: the paper's offline experiment (§IV-A) — train PCA+GP and the
 raw-pin baseline on a tap run, test on a multi-directional sliding run, and write
-Table I, the lateral error, the variance explained and the PCA figures. Tested on a tap
+Table I, the lateral error, the variance explained and the PCA figures, with what the
+along-edge cells weigh against each other: the taps' orientation signal per lateral
+position and the slides' drag (both in px, for a twin's runs and a rig's alike). Tested on a tap
 run instead (held-out taps, scenarios/taps_heldout.yaml), it writes the orientation and
 lateral errors per lateral position."""
 from __future__ import annotations
@@ -88,6 +90,55 @@ def format_heldout(table: dict) -> str:
     return "\n".join(lines)
 
 
+def orientation_signal_px(taps: Run) -> dict[float, dict[float, float]]:
+    """{depth_mm: {lateral_mm: px}}: how much of the edge's orientation a tap run's frames
+    carry at each depth and lateral position: each pin's spread over the run's
+    orientations (RMS distance from its mean position there), RMS over the pins, in px at
+    the run's resolution. A drag larger than this where a slide runs outweighs the edge in
+    any reading of the pins, PCA or raw."""
+    pins, depth, lateral = taps.pins_px, taps.label("depth_mm"), taps.label("lateral_mm")
+    table: dict[float, dict[float, float]] = {}
+    for d in sorted(set(depth[np.isfinite(depth)].tolist())):
+        table[float(d)] = {}
+        for l in sorted(set(lateral[depth == d].tolist()), reverse=True):
+            group = pins[(depth == d) & (lateral == l)]
+            if len(group) > 1 and np.isfinite(group).all():
+                spread = np.sum((group - group.mean(axis=0)) ** 2, axis=-1)
+                table[float(d)][float(l)] = float(np.sqrt(spread.mean()))
+    return table
+
+
+def along_edge_drag_px(slides: Run) -> dict[int, float | None]:
+    """{direction: px} for the slides along the edge (90°, 270°), where the lateral
+    position stays as it was pressed and only the drag changes the pins: the pins' shift
+    from each slide's first, unslid sample (`sample_in_slide` 0), RMS over the pins and
+    the slide's later samples, in px at the run's resolution. None where the run has no
+    such slide."""
+    pins, theta = slides.pins_px, slides.label("theta_deg")
+    direction, sample = slides.label("direction_deg"), slides.label("sample_in_slide")
+    drag: dict[int, float | None] = {}
+    for d in (90, 270):
+        shifts = []
+        for t in sorted(set(theta[direction == d].tolist())):
+            slide = (direction == d) & (theta == t)
+            first = slide & (sample == 0)
+            if first.sum() == 1:
+                shifts.append(pins[slide & (sample > 0)] - pins[first])
+        shifts = [x for x in shifts if len(x)]
+        drag[d] = float(np.sqrt(np.mean(np.sum(np.concatenate(shifts) ** 2, axis=-1)))) if shifts else None
+    return drag
+
+
+def format_signal_and_drag(signal: dict[float, dict[float, float]], drag: dict[int, float | None]) -> str:
+    """The taps' orientation signal per depth and lateral position, and the along-edge drag, as text."""
+    lines = ["the taps' orientation signal (each pin's spread over the orientations, RMS over the pins), px:"]
+    for depth, row in signal.items():
+        lines.append(f"  {depth:g} mm deep: " + "  ".join(f"l {l:+g}: {v:.2f}" for l, v in row.items()))
+    lines.append("the along-edge slides' drag (the pins' shift from each slide's unslid first sample, RMS), px: "
+                 + "  ".join(f"{d}°: {_fmt(v)}" for d, v in drag.items()))
+    return "\n".join(lines)
+
+
 def evaluate(train_dir: Path, test_dir: Path, out: Path, seed: int = 0) -> dict:
     """Train on `train_dir` (tap run), test on `test_dir`: a slides run (Table I) or a
     held-out tap run (errors per lateral position); write results to `out`."""
@@ -114,6 +165,8 @@ def evaluate(train_dir: Path, test_dir: Path, out: Path, seed: int = 0) -> dict:
         **summary,
         "table_i_rms_orientation_deg": table,
         "variance_explained_3pc": float(np.sum(pca.variance_explained[:3])),
+        "orientation_signal_px": orientation_signal_px(train),
+        "along_edge_drag_px": along_edge_drag_px(test),
         "paper": {"table_i": PAPER_TABLE_I, "variance_explained_3pc": PAPER_VARIANCE_3PC,
                   "lateral_rms_mm": PAPER_LATERAL_RMS_MM},
         "training": {n: m.training_summary for n, m in models.items()},
