@@ -116,7 +116,7 @@ def test_compliant_dome_reads_taps_between_its_training_depths(tmp_path) -> None
         assert row["lateral_rms_mm"] <= 1.0, (lateral, row)
 
 
-def test_the_along_edge_cells_weigh_the_drag_against_the_taps_orientation_signal(tmp_path) -> None:
+def test_the_along_edge_cells_weigh_the_drag_against_the_taps_orientation_signal(tmp_path, capsys) -> None:
     """What Table I's along-edge cells weigh against each other, as `twin evaluate` reports
     it (twin.tools.evaluate.orientation_signal_px, along_edge_drag_px), recorded on the
     compliant dome (fast level, pins projected). 9.9 mm beside the edge and 2 mm deep
@@ -130,7 +130,10 @@ def test_the_along_edge_cells_weigh_the_drag_against_the_taps_orientation_signal
     from twin.core.scenario import load_scenario
     from twin.runs.record import load_run
     from twin.runs.run import run_scenario
-    from twin.tools.evaluate import along_edge_drag_px, evaluate, orientation_signal_px
+    import json
+
+    from twin.tools.cli import main
+    from twin.tools.evaluate import along_edge_drag_px, orientation_signal_px
 
     def record(name: str, out: str, friction: float | None = None, **protocol) -> Path:
         scenario = load_scenario(scenario_path(name))
@@ -151,6 +154,9 @@ def test_the_along_edge_cells_weigh_the_drag_against_the_taps_orientation_signal
     for row in signal.values():
         assert row[0.0] > 2.0 * row[-6.0], row
     assert all(v < 0.01 for v in along_edge_drag_px(load_run(frictionless)).values())
-    result = evaluate(taps, slides, tmp_path / "eval")
-    assert result["orientation_signal_px"] == signal
+    assert main(["evaluate", "--train", str(taps), "--test", str(slides), "--out", str(tmp_path / "eval")]) == 0
+    printed = capsys.readouterr().out
+    assert "the taps' orientation signal" in printed and "the along-edge slides' drag" in printed
+    result = json.loads((tmp_path / "eval" / "table_i.json").read_text())
+    assert result["orientation_signal_px"]["2.0"]["0.0"] == pytest.approx(signal[2.0][0.0])
     assert all(v > 1.0 for v in result["along_edge_drag_px"].values()), result["along_edge_drag_px"]
