@@ -27,4 +27,10 @@ def test_compare_two_fidelity_levels(tmp_path, capsys) -> None:
     for tag in ("a", "b"):
         perception = result[f"perception_{tag}"]
         assert 0 <= perception["orientation_rms_deg"] <= 180 and perception["lateral_rms_mm"] >= 0
+    # each run's orientation signal: more with the edge 2 mm from the centre than at the rim 9.9 mm off (2.17 / 2.13
+    # px against 0.62 / 0.29 px, fast / default)
+    assert "run A: orientation signal" in capsys.readouterr().out
+    for tag in ("a", "b"):
+        signal = result["orientation_signal_px"][tag]["3.0"]
+        assert signal["2.0"] > 2.0 * signal["9.9"], signal
     assert main(["compare", str(a), str(tmp_path / "nope"), "--out", str(tmp_path / "x")]) == 2

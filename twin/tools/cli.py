@@ -21,7 +21,8 @@ from twin.core.scenario import START_POSE
 from twin.world.scene import build_scene
 from twin.runs.sim_env import check_reachable, render_scenario_view
 from twin.runs.run import resume_run, run_scenario
-from twin.tools.evaluate import evaluate, format_heldout, format_signal_and_drag, format_table
+from twin.tools.evaluate import (evaluate, format_along_edge_drag, format_heldout, format_orientation_signal,
+                                 format_table)
 from hardware.virtual_controller import serve_robot
 from twin.tools.compare import compare_runs
 from twin.tools.figures import write_shear_figure
@@ -116,7 +117,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     for name, v in result["lateral_rms_mm"].items():
         print(f"lateral RMS error, {name}: {v:.2f} mm (paper: 2.15 mm)")
     print(f"variance explained by 3 PCs: {100 * result['variance_explained_3pc']:.1f} % (paper: 88.3 %)")
-    print(format_signal_and_drag(result["orientation_signal_px"], result["along_edge_drag_px"]))
+    print(format_orientation_signal(result["orientation_signal_px"]))
+    print(format_along_edge_drag(result["along_edge_drag_px"]))
     print(f"wrote {args.out}/table_i.csv, table_i.json and the PCA figures")
     return 0
 
@@ -146,6 +148,11 @@ def _cmd_compare(args: argparse.Namespace) -> int:
             print(f"run {tag.upper()} perception: θ RMS {perc['orientation_rms_deg']:.1f}°, l RMS {perc['lateral_rms_mm']:.2f} mm")
     if "path_distance" in r:
         print(f"path distance: mean {r['path_distance']['mean_mm']:.2f} mm, Hausdorff {r['path_distance']['hausdorff_mm']:.2f} mm")
+    for tag in ("a", "b"):
+        if "orientation_signal_px" in r:
+            print(format_orientation_signal(r["orientation_signal_px"][tag], f"run {tag.upper()}:"))
+        if "along_edge_drag_px" in r:
+            print(format_along_edge_drag(r["along_edge_drag_px"][tag], f"run {tag.upper()}: along-edge"))
     print(f"wrote {args.out}/comparison.json and plots")
     if args.video:
         print(f"wrote {write_compare_video(Path(args.run_a), Path(args.run_b), Path(args.out) / 'comparison.mp4')}")

@@ -13,6 +13,7 @@ import cv2
 from skimage.metrics import structural_similarity
 from twin.sensing.perception import angle_error_deg
 from twin.sensing.perception import PerceptionModel
+from twin.tools.evaluate import along_edge_drag_px, orientation_signal_px
 import matplotlib
 import matplotlib.pyplot as plt
 
@@ -83,7 +84,10 @@ def compare_runs(dir_a: Path, dir_b: Path, out: Path, max_ssim_frames: int = 200
     """Pair the runs' samples by target pose and write comparison.json and plots to `out`.
 
     Each run's perception error: contour runs report their metrics.json; labelled runs
-    (taps, slides) are scored with the model file `model_path` when given."""
+    (taps, slides) are scored with the model file `model_path` when given. Tap runs also
+    get each run's orientation signal per lateral position and slide runs each run's
+    along-edge drag (twin.tools.evaluate), the two figures Table I's along-edge cells
+    weigh, side by side for a sim and a real sensor."""
     a, b = load_run(dir_a), load_run(dir_b)
     name_a, name_b = a.meta["scenario"]["name"], b.meta["scenario"]["name"]
     kind = a.meta["scenario"]["protocol"]["kind"]
@@ -103,6 +107,10 @@ def compare_runs(dir_a: Path, dir_b: Path, out: Path, max_ssim_frames: int = 200
     elif model_path is not None:
         model = PerceptionModel.load(model_path)
         result["perception_a"], result["perception_b"] = perception_error(a, model), perception_error(b, model)
+    if kind == "taps":  # what each sensor's taps carry of the edge's orientation, by lateral position
+        result["orientation_signal_px"] = {"a": orientation_signal_px(a), "b": orientation_signal_px(b)}
+    elif kind == "slides":  # how far each sensor's skin is dragged along the edge
+        result["along_edge_drag_px"] = {"a": along_edge_drag_px(a), "b": along_edge_drag_px(b)}
     pairs, result["pairing"] = paired_runs(a, b)
     ia, ib = (np.array(x) for x in zip(*pairs))
     pins_a, pins_b = a.pins_px[ia], b.pins_px[ib]

@@ -129,14 +129,18 @@ def along_edge_drag_px(slides: Run) -> dict[int, float | None]:
     return drag
 
 
-def format_signal_and_drag(signal: dict[float, dict[float, float]], drag: dict[int, float | None]) -> str:
-    """The taps' orientation signal per depth and lateral position, and the along-edge drag, as text."""
-    lines = ["the taps' orientation signal (each pin's spread over the orientations, RMS over the pins), px:"]
+def format_orientation_signal(signal: dict[float, dict[float, float]], who: str = "the taps'") -> str:
+    """`orientation_signal_px` as text, a line per depth."""
+    lines = [f"{who} orientation signal (each pin's spread over the orientations, RMS over the pins), px:"]
     for depth, row in signal.items():
         lines.append(f"  {depth:g} mm deep: " + "  ".join(f"l {l:+g}: {v:.2f}" for l, v in row.items()))
-    lines.append("the along-edge slides' drag (the pins' shift from each slide's unslid first sample, RMS), px: "
-                 + "  ".join(f"{d}°: {_fmt(v)}" for d, v in drag.items()))
     return "\n".join(lines)
+
+
+def format_along_edge_drag(drag: dict[int, float | None], who: str = "the along-edge slides'") -> str:
+    """`along_edge_drag_px` as text, one line."""
+    return (f"{who} drag (the pins' shift from each slide's unslid first sample, RMS), px: "
+            + "  ".join(f"{d}°: {_fmt(v)}" for d, v in drag.items()))
 
 
 def evaluate(train_dir: Path, test_dir: Path, out: Path, seed: int = 0) -> dict:
