@@ -126,12 +126,12 @@ def test_the_along_edge_cells_weigh_the_drag_against_the_taps_orientation_signal
     contact problem is the same at every sample): no drag; with the rectangle's friction
     the pins are dragged by whole px. Measured: 1.64 / 4.47 px at l = 0 and 0.03 / 0.72 px
     at l = −6 (2 / 4 mm deep), a drag of 14.4 px, and 0.0 px without friction."""
+    import json
+
     from twin.core.resources import scenario_path
     from twin.core.scenario import load_scenario
     from twin.runs.record import load_run
     from twin.runs.run import run_scenario
-    import json
-
     from twin.tools.cli import main
     from twin.tools.evaluate import along_edge_drag_px, orientation_signal_px
 
