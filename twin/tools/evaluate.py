@@ -103,8 +103,7 @@ def orientation_signal_px(taps: Run) -> dict[float, dict[float, float]]:
         for l in sorted(set(lateral[depth == d].tolist()), reverse=True):
             group = pins[(depth == d) & (lateral == l)]
             if len(group) > 1 and np.isfinite(group).all():
-                spread = np.sum((group - group.mean(axis=0)) ** 2, axis=-1)
-                table[float(d)][float(l)] = float(np.sqrt(spread.mean()))
+                table[float(d)][float(l)] = _rms(np.linalg.norm(group - group.mean(axis=0), axis=-1).ravel())
     return table
 
 
@@ -118,14 +117,13 @@ def along_edge_drag_px(slides: Run) -> dict[int, float | None]:
     direction, sample = slides.label("direction_deg"), slides.label("sample_in_slide")
     drag: dict[int, float | None] = {}
     for d in (90, 270):
-        shifts = []
-        for t in sorted(set(theta[direction == d].tolist())):
+        distances = []
+        for t in set(theta[direction == d].tolist()):
             slide = (direction == d) & (theta == t)
             first = slide & (sample == 0)
             if first.sum() == 1:
-                shifts.append(pins[slide & (sample > 0)] - pins[first])
-        shifts = [x for x in shifts if len(x)]
-        drag[d] = float(np.sqrt(np.mean(np.sum(np.concatenate(shifts) ** 2, axis=-1)))) if shifts else None
+                distances.append(np.linalg.norm(pins[slide & (sample > 0)] - pins[first], axis=-1).ravel())
+        drag[d] = _rms(np.concatenate(distances)) if distances else None
     return drag
 
 
