@@ -1,7 +1,7 @@
 """The package's shape: layers that show the pipeline, no import cycles, imports at the top.
 
 The layer rule itself is the import-linter contract in pyproject.toml ([tool.importlinter]):
-twin.tools > twin.runs | hardware > twin.control > twin.sensing > twin.world > twin.core.
+twin.tools > twin.analysis > twin.runs | hardware > twin.control > twin.sensing > twin.world > twin.core.
 """
 from __future__ import annotations
 
