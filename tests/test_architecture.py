@@ -10,6 +10,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 #: imported where they are used: optional extras that a default install may lack
 OPTIONAL = {"ray", "cri"}
@@ -44,3 +46,17 @@ def test_imports_sit_at_module_top() -> None:
     files = sorted((ROOT / "twin").rglob("*.py")) + sorted((ROOT / "hardware").rglob("*.py"))
     inside = [hit for f in files for hit in _function_level_imports(f)]
     assert not inside, "imports inside functions:\n" + "\n".join(inside)
+
+
+@pytest.mark.parametrize("module", ["hardware.safety", "twin.core.scenario", "twin.core.calibration"])
+def test_layers_hold_at_run_time(module: str) -> None:
+    """Importing a low module loads no layer above it and none of the simulator's libraries
+    (twin's package import is lazy: twin/__init__.py)."""
+    code = f"import sys, {module}; print(*sys.modules)"
+    result = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr[-3000:]
+    loaded = set(result.stdout.split())
+    assert not loaded & {"mujoco", "sklearn", "gymnasium", "OpenGL", "pyrender", "numba", "cv2"}, sorted(loaded)
+    above = sorted(m for m in loaded if m.startswith(("twin.world", "twin.sensing", "twin.control", "twin.runs",
+                                                      "twin.tools", "twin.analysis")))
+    assert not above, above

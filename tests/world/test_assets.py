@@ -7,7 +7,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.world import gl  # noqa: F401
 import mujoco
 
 from twin.core.poses import Pose

@@ -12,8 +12,9 @@ when the contour is completed (or the sensor strays more than `max_distance_mm` 
 and is truncated after `max_steps`. Depth and orientation come from the scenario's
 contour protocol. Works on the sim and, with care, on the hardware backend.
 
-Registered with Gymnasium as `GYM_ID`: ``gymnasium.make("twin/ContourFollowing-v0",
-scenario="contour_flower")`` (a shipped scenario's name, a path, or a Scenario).
+Registered with Gymnasium as `twin.GYM_ID` (twin.runs.gym_registration):
+``gymnasium.make(twin.GYM_ID, scenario="contour_flower")`` (a shipped scenario's name, a
+path, or a Scenario).
 `reset(seed=…)` seeds the wrapper's `np_random`, which seeds the backend (the simulator's
 camera noise): one seed, one run.
 """
@@ -107,11 +108,3 @@ class ContourFollowingEnv(gym.Env):
     def close(self) -> None:
         self.env.close()
 
-
-GYM_ID = "twin/ContourFollowing-v0"
-
-
-def register() -> None:
-    """Register the environment with Gymnasium under GYM_ID (done on `import twin`)."""
-    if GYM_ID not in gym.registry:
-        gym.register(id=GYM_ID, entry_point=ContourFollowingEnv)

@@ -7,7 +7,6 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from twin.world import gl  # noqa: F401
 import mujoco
 
 from twin.world.arm import ArmDynamics

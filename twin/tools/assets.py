@@ -10,7 +10,6 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from twin.world import gl  # noqa: F401  (headless GL before mujoco loads)
 import mujoco
 
 from twin.core.resources import asset_path, data_root

@@ -13,7 +13,6 @@ import threading
 import time
 from pathlib import Path
 
-from twin.world import gl  # noqa: F401  (headless GL before anything imports mujoco)
 from twin.core.errors import Terminated, TwinError, UserError
 from twin.runs.parallel import one_blas_thread
 from twin.core.scenario import load_scenario

@@ -98,7 +98,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from twin.world import gl  # headless GL before anything imports mujoco
+from twin.world import gl
 from twin.world.dome.compliant import SKIN_PHYSICS
 from twin.world.dome.flex import FIDELITY_LEVELS
 from twin.runs.record import Run

@@ -14,7 +14,6 @@ from collections.abc import Iterator
 import cv2
 import numpy as np
 
-from twin.world import gl  # noqa: F401  (must precede the mujoco import)
 import mujoco.viewer
 
 from twin.control.contour import ContourFollower

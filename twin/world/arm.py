@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from twin.world import gl  # noqa: F401
 import mujoco
 
 from twin.core.errors import PhysicsError

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from twin.world import gl  # noqa: F401  (must precede the mujoco import)
 import mujoco
 
 from twin.core.sensor import N_PINS, CameraModel

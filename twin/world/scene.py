@@ -22,7 +22,6 @@ from functools import lru_cache
 
 import numpy as np
 
-from twin.world import gl  # noqa: F401
 import mujoco
 
 from twin.world.dome.flex import FIDELITY_LEVELS, DomeParams, TacTipHandles, add_stimulus_carrier, add_tactip
