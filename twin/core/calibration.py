@@ -1,6 +1,6 @@
 """The calibration file: what makes the twin a twin of one particular TacTip.
 
-`twin calibrate` (twin.tools.calibrate) writes it; a scenario names it
+`twin calibrate` (twin.analysis.calibration_fit) writes it; a scenario names it
 (`sensor: {calibration: my_sensor.yaml}`, or gives it inline) and both backends use it:
 
 | field                | unit        | sim backend                               | hardware backend            |

@@ -1,15 +1,23 @@
-"""The report of `twin calibrate` (twin.tools.calibrate): report.json, report.md and the
-residual-field plot residuals.png (mean pin residual per pin, before and after)."""
+"""`twin calibrate`'s report: the fit (twin.analysis.calibration_fit), then report.md and the
+residual-field plot residuals.png (mean pin residual per pin, before and after) beside its
+report.json; a fit that did not converge exits 1."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import matplotlib
 import matplotlib.pyplot as plt
 import numpy as np
 
+from twin.analysis.calibration_fit.fit import calibrate
+from twin.analysis.calibration_fit.settings import CalibrationSettings
+from twin.core.errors import TwinError
+from twin.core.scenario import Scenario
 from twin.core.sensor import CameraModel
+
+
+class CalibrationNotConverged(TwinError):
+    """The stop rule was not met within max_generations (exit 1); best point and history kept."""
 
 
 def _fmt(v: float | None, digits: int = 3) -> str:
@@ -40,7 +48,7 @@ def report_markdown(r: dict) -> str:
               "share their errors) standard error. Resolution: the change of the parameter that moves the pins by the "
               "fit's pin RMS, what one frame's pins resolve. VIF: variance inflation, 1/(1 − R²) of the parameter's "
               "Jacobian column on the others'. Identifiable: std below the identifiable fraction of the range, "
-              "resolution below the range and VIF at most the limit (twin.tools.calibrate._uncertainty)."]
+              "resolution below the range and VIF at most the limit (twin.analysis.calibration_fit.uncertainty)."]
     sv = r["uncertainty"]["singular_values"]
     if sv:
         lines += ["", "Singular values of the Jacobian (whitened residuals per unit of each parameter's range): "
@@ -74,7 +82,20 @@ def plot_residuals(r: dict, path: Path) -> None:
 
 
 def write_report(r: dict, out: Path) -> None:
-    """report.json, report.md and residuals.png in `out`."""
-    (out / "report.json").write_text(json.dumps(r, indent=1, default=float))
+    """report.md and residuals.png in `out`, beside the fit's report.json."""
     (out / "report.md").write_text(report_markdown(r))
     plot_residuals(r, out / "residuals.png")
+
+
+def calibrate_and_report(run_dirs: list[Path], scenario: Scenario, out: Path, settings: CalibrationSettings,
+                         workers: int | None = None, cluster: str | None = None, progress: bool = True) -> dict:
+    """`twin calibrate`: the fit (twin.analysis.calibration_fit.fit.calibrate, its files in
+    `out`), then its report; raises CalibrationNotConverged after writing both when the
+    stop rule was not met (DIR/best_calibration.yaml holds the best point)."""
+    result = calibrate(run_dirs, scenario, out, settings, workers=workers, cluster=cluster, progress=progress)
+    write_report(result, out)
+    if result["status"] != "converged":
+        raise CalibrationNotConverged(f"{result['stop_reason']}; the best point is in {result['calibration_file']}, "
+                                      f"the history in {out / 'history.jsonl'} (run again with the same --out to "
+                                      "continue)")
+    return result

@@ -27,7 +27,8 @@ from twin.tools.compare import compare_runs
 from twin.tools.figures import write_shear_figure
 from twin.tools.demo import run_demo
 from twin.tools.bench import run_bench
-from twin.tools.calibrate import calibrate, load_settings
+from twin.analysis.calibration_fit.settings import load_settings
+from twin.tools.calibration_report import calibrate_and_report
 from twin.tools.video import write_compare_video, write_run_video
 from twin.tools.view import view_scenario
 
@@ -161,8 +162,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 def _cmd_calibrate(args: argparse.Namespace) -> int:
 
     settings = load_settings(Path(args.settings) if args.settings else None)
-    r = calibrate([Path(r) for r in args.runs], load_scenario(args.scenario), Path(args.out), settings,
-                  workers=args.workers, cluster=args.cluster, progress=not args.quiet)
+    r = calibrate_and_report([Path(r) for r in args.runs], load_scenario(args.scenario), Path(args.out), settings,
+                             workers=args.workers, cluster=args.cluster, progress=not args.quiet)
     print(f"{r['status']} ({r['stop_reason']}); pin RMS {r['before']['overall']:.3f} -> {r['after']['overall']:.3f} px")
     for name, u in r["uncertainty"]["parameters"].items():
         flag = "" if u["identifiable"] else f"  NOT IDENTIFIABLE ({'; '.join(u['not_identifiable_because'])}): left at the default"

@@ -28,7 +28,7 @@ from twin.core.poses import Pose
 from twin.core.scenario import scenario_from_dict
 from twin.runs.contour import object_path
 from twin.runs.record import Run, load_run
-from twin.tools.compare import paired_runs
+from twin.analysis.comparison import paired_runs
 from twin.world.render import OverviewRenderer
 from twin.world.scene import Overview, load_scenario_stimulus
 

@@ -20,7 +20,10 @@ from twin.core.scenario import scenario_from_dict
 from twin.core.sensor import CameraModel
 from twin.runs.record import load_run
 from twin.runs.run import run_scenario
-from twin.tools.calibrate import BracketSearch, _robust_variances, _variance_inflation, calibrate, load_settings
+from twin.analysis.calibration_fit.search import BracketSearch
+from twin.analysis.calibration_fit.settings import load_settings
+from twin.analysis.calibration_fit.uncertainty import robust_variances, variance_inflation
+from twin.tools.calibration_report import calibrate_and_report
 from twin.tools.cli import main
 
 TRUTH = {"camera": {"focal_px": 462.0, "distortion": {"k1": 0.08}}, "tcp_offset_mm": [0.0, 0.0, 0.4], "friction": 0.5,
@@ -65,7 +68,7 @@ def recovered(real, tmp_path_factory) -> dict:
     """The calibration of the "real" taps and rest frames with FIT (shared by the tests that read it)."""
     out = tmp_path_factory.mktemp("recovered")
     settings = load_settings(_settings(out, FIT))
-    return calibrate(real["runs"], real["scenario"], out / "cal", settings, workers=1, progress=False)
+    return calibrate_and_report(real["runs"], real["scenario"], out / "cal", settings, workers=1, progress=False)
 
 
 @pytest.mark.slow
@@ -110,7 +113,7 @@ def test_taps_do_not_identify_friction(real, recovered) -> None:
     assert "**no** (" in row and u["not_identifiable_because"][0] in row
 
 
-def test_cluster_robust_error_and_variance_inflation() -> None:
+def test_cluster_robust_error_andvariance_inflation() -> None:
     # 6 samples of 254 residuals each, every residual of a sample sharing one error (as a frame's pins share
     # its contact and tracking error): counted as independent, the error is √254 times too small
     rng = np.random.default_rng(0)
@@ -119,19 +122,19 @@ def test_cluster_robust_error_and_variance_inflation() -> None:
     r = rng.normal(size=6)[sample]
     s2 = float(r @ r / (r.size - 2))
     gauss_newton = np.diag(np.linalg.inv(jac.T @ jac)) * s2
-    robust = _robust_variances(jac, r, sample, jac.T @ jac, s2)
+    robust = robust_variances(jac, r, sample, jac.T @ jac, s2)
     assert robust[0] > 50 * gauss_newton[0]                      # the shared offset: about 254× the variance
     assert robust[1] >= gauss_newton[1]                          # never below Gauss–Newton
     independent = rng.normal(size=sample.size)
     s2 = float(independent @ independent / (r.size - 2))
-    assert _robust_variances(jac, independent, sample, jac.T @ jac, s2)[0] < 3 * np.linalg.inv(jac.T @ jac)[0, 0] * s2
+    assert robust_variances(jac, independent, sample, jac.T @ jac, s2)[0] < 3 * np.linalg.inv(jac.T @ jac)[0, 0] * s2
     # variance inflation 1/(1 − R²): a column of its own, one 1 % outside the others' span, a zero column
     a, b, c = rng.normal(size=(3, 500))
     c -= np.column_stack([a, b]) @ np.linalg.lstsq(np.column_stack([a, b]), c, rcond=None)[0]  # ⟂ a and b
     near = a + b + 0.01 * np.linalg.norm(a + b) / np.linalg.norm(c) * c
-    vif = _variance_inflation(np.column_stack([a, b, near, np.zeros(500)]))
+    vif = variance_inflation(np.column_stack([a, b, near, np.zeros(500)]))
     assert vif[2] == pytest.approx(1 + 1 / 0.01 ** 2, rel=0.05) and vif[3] == np.inf
-    assert _variance_inflation(np.column_stack([a, c]))[0] == pytest.approx(1.0, abs=1e-9)
+    assert variance_inflation(np.column_stack([a, c]))[0] == pytest.approx(1.0, abs=1e-9)
 
 
 @pytest.mark.parametrize("target", [0.0, 0.3137, 0.61, 1.0])
@@ -163,7 +166,7 @@ def test_camera_only_and_what_the_data_cannot_identify(real, tmp_path) -> None:
     # with the rest layout fitted and no distortion, the principal point moves no displacement: not identifiable
     data = {"parameters": {"camera.focal_px": {"fit": True}, "camera.k1": {"fit": False}, "camera.cx_px": {"fit": True},
                            "material.young_kpa": {"fit": False}, "tcp.z_mm": {"fit": False}}}
-    r = calibrate(real["runs"], real["scenario"], tmp_path / "cam", load_settings(_settings(tmp_path, data)), workers=1,
+    r = calibrate_and_report(real["runs"], real["scenario"], tmp_path / "cam", load_settings(_settings(tmp_path, data)), workers=1,
                   progress=False)
     assert r["not_identifiable"] == ["camera.focal_px", "camera.cx_px"] and r["simulations"] == 1  # no CMA: one simulation
     cx = r["uncertainty"]["parameters"]["camera.cx_px"]
@@ -252,7 +255,7 @@ def test_recovers_where_the_base_holds_the_skin(tmp_path, monkeypatch) -> None:
     fit = {"parameters": {"camera.focal_px": {"fit": False}, "camera.k1": {"fit": False}, "tcp.z_mm": {"fit": False},
                           "material.young_kpa": {"fit": False}, "material.skin_held_deg": {"fit": True}},
            "optimiser": {"popsize": 6, "max_generations": 15, "patience": 4, "tol_relative": 0.005, "seed": 3}}
-    r = calibrate(runs, scenario_from_dict(twin, str(tmp_path / "twin.yaml")), tmp_path / "cal",
+    r = calibrate_and_report(runs, scenario_from_dict(twin, str(tmp_path / "twin.yaml")), tmp_path / "cal",
                   load_settings(_settings(tmp_path, fit)), workers=1, progress=False)
     assert r["status"] == "converged"
     assert set(compliance.glob("*.npz")) == users

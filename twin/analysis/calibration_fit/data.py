@@ -1,0 +1,82 @@
+"""The recorded pins a calibration fits: runs read and checked against the calibration
+scenario, grouped (rest, contact, sliding) and weighted, and paired with the replayed
+chunks that simulate them."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from twin.analysis.calibration_fit.settings import Weights
+from twin.analysis.comparison import pair_samples
+from twin.core.errors import UserError
+from twin.core.scenario import Scenario, scenario_from_dict
+from twin.runs.record import Run, load_run
+from twin.runs.replay import replay_chunks
+
+GROUPS = ("rest", "contact", "sliding")
+#: scenario fields a recorded run must share with the calibration scenario
+SHARED_FIELDS = ("object", "placement", "work_frame")
+
+
+@dataclass
+class Data:
+    """The recorded pins to fit, paired with the chunks that simulate them."""
+
+    runs: list[Path]
+    pins: np.ndarray          # (N, 127, 2) px recorded (NaN where not found)
+    group: np.ndarray         # (N,) index into GROUPS
+    run_index: np.ndarray     # (N,)
+    chunks: list[tuple[int, list]]  # (run number, moves) to simulate
+    weights: np.ndarray       # (N,) per-frame weight of its group
+    sim_index: list[np.ndarray] = field(default_factory=list)  # per run: recorded sample -> simulated row
+
+
+def _group(scenario: Scenario, sample: dict) -> int:
+    if sample["target"][2] <= 0.0:
+        return GROUPS.index("rest")
+    return GROUPS.index("sliding" if scenario.protocol.kind in ("slides", "contour") else "contact")
+
+
+def load_data(run_dirs: list[Path], scenario: Scenario, weights: Weights) -> Data:
+    """Read and check the runs against the calibration scenario (UserError naming the run
+    and field: another object, placement, work frame or camera; no samples; no pins)."""
+    pins, group, run_index, chunks, records = [], [], [], [], []
+    cam = scenario.sensor.camera
+    for r, path in enumerate(run_dirs):
+        run = load_run(path)
+        recorded = scenario_from_dict(run.meta["scenario"], str(path / "run.json"))
+        for name in SHARED_FIELDS:
+            if getattr(recorded, name) != getattr(scenario, name):
+                raise UserError(f"{path}: recorded with scenario field '{name}' = {getattr(recorded, name)!r}, but the "
+                                f"calibration scenario {scenario.source} has {getattr(scenario, name)!r}: runs of "
+                                "different scenarios cannot be fitted together")
+        if (recorded.sensor.camera.width, recorded.sensor.camera.height) != (cam.width, cam.height):
+            raise UserError(f"{path}: recorded with a {recorded.sensor.camera.width}×{recorded.sensor.camera.height} "
+                            f"camera (field 'sensor.camera'), the calibration scenario has {cam.width}×{cam.height}")
+        if not run.samples:
+            raise UserError(f"{path}: the run has no samples")
+        for i, s in enumerate(run.samples):
+            if s.get("pins_px") is None:
+                raise UserError(f"{path}: sample {i} has no pins (field 'pins_px' is null; frame "
+                                f"{s.get('frame')!r}): records without frames or pins cannot be fitted")
+        pins.append(run.pins_px)
+        group.extend(_group(recorded, s) for s in run.samples)
+        run_index.extend([r] * len(run.samples))
+        chunks.extend((r, c) for c in replay_chunks(run, recorded))
+        records.append(run)
+    group = np.array(group)
+    data = Data(list(run_dirs), np.concatenate(pins), group, np.array(run_index), chunks,
+                np.array([getattr(weights, g) for g in GROUPS])[group])
+    # pair each recorded sample with its simulated row by target pose (twin compare's pairing)
+    for r, run in enumerate(records):
+        targets = [m.pose.as_array() for rr, c in chunks if rr == r for m in c if m.record]
+        simulated = Run(run.path, run.meta, [{"target": t} for t in targets])
+        pairs = dict(pair_samples(run, simulated))
+        missing = [i for i in range(len(run.samples)) if i not in pairs]
+        if missing:
+            raise UserError(f"{run.path}: samples {missing[:5]} have target poses its protocol does not reach "
+                            "(an edited or foreign record)")
+        data.sim_index.append(np.array([pairs[i] for i in range(len(run.samples))]))
+    return data

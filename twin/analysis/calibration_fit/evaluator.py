@@ -1,0 +1,134 @@
+"""A calibration's model of the recorded pins: physics candidates simulated in parallel
+(cached), the camera solved by least squares for each, the whitened residuals, χ² and
+the pin RMS (px)."""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from twin.analysis.calibration_fit.data import GROUPS, Data
+from twin.analysis.calibration_fit.space import Space
+from twin.core.resources import searching
+from twin.core.scenario import Scenario
+from twin.core.sensor import N_PINS
+from twin.runs.parallel import WorkerPool
+from twin.runs.replay import replay_batch
+
+
+def _replay_candidate(scenario: Scenario, seed: int, batch: list) -> list:
+    """`replay_batch` for one candidate of the search: the dome matrices it computes are
+    cached as a search's (twin.core.resources.searching), apart from the models users run."""
+    with searching():
+        return replay_batch(scenario, seed, batch)
+
+
+class Evaluator:
+    """Simulates physics candidates (in parallel, on one pool kept for the whole
+    calibration) and solves the camera for each."""
+
+    def __init__(self, space: Space, data: Data, pool: WorkerPool) -> None:
+        self.space, self.data, self.pool = space, data, pool
+        self.simulations = 0
+        self.sim_seconds = 0.0
+        self._cache: dict[tuple, np.ndarray] = {}
+        self.cache_size = 32
+        #: parallel slots to fill: the local workers, or (with a Ray cluster) --workers as its CPU count
+        self.parallelism = pool.workers
+        self.valid = np.isfinite(data.pins).all(axis=2)  # (N, 127)
+        #: the sample of each entry of the residual vector (x and y of each valid pin)
+        self.row_sample = np.repeat(np.nonzero(self.valid)[0], 2)
+        self.rest = data.group == GROUPS.index("rest")
+        self.fit_rest = space.settings.rest_pins and bool(self.rest.any())
+
+    def simulate(self, candidates: list[dict[str, float]]) -> list[np.ndarray]:
+        """Pin tips (N, 127, 3) m for each physics candidate, in recorded-sample order (a
+        candidate simulated before is not simulated again). A candidate is read for the
+        physics parameters the dome model has (`Space.modelled`), at their defaults where
+        it does not name them; anything else in it is ignored."""
+        full = [{n: c.get(n, self.space.defaults[n]) for n in self.space.modelled} for c in candidates]
+        keys = [tuple((n, round(v, 12)) for n, v in c.items()) for c in full]
+        todo = list(dict.fromkeys(k for k in keys if k not in self._cache))
+        if todo:
+            for k, tips in zip(todo, self._simulate([dict(k) for k in todo])):
+                self._cache[k] = tips
+                while len(self._cache) > self.cache_size:
+                    self._cache.pop(next(iter(self._cache)))
+        return [self._cache[k] for k in keys]
+
+    def _simulate(self, candidates: list[dict[str, float]]) -> list[np.ndarray]:
+        t0 = time.perf_counter()
+        seed = self.space.scenario.seed
+        scenarios = [self.space.physics_scenario(c) for c in candidates]
+        # one job per candidate and batch of chunks: as few environments built as keep every worker busy
+        moves = [m for _, m in self.data.chunks]
+        n_batches = max(1, min(len(moves), -(-self.parallelism // len(candidates))))
+        batches = [moves[b::n_batches] for b in range(n_batches)]
+        jobs = [(s, seed, batch) for s in scenarios for batch in batches]
+        results = list(self.pool.map_ordered(_replay_candidate, jobs))
+        out = []
+        for c in range(len(candidates)):
+            done = results[c * n_batches:(c + 1) * n_batches]
+            in_order = [done[i % n_batches][i // n_batches] for i in range(len(moves))]
+            per_run: dict[int, list] = {}
+            for (r, _), (_, pins) in zip(self.data.chunks, in_order):
+                per_run.setdefault(r, []).append(pins)
+            out.append(np.concatenate([np.concatenate(per_run[r])[idx] for r, idx in enumerate(self.data.sim_index)]))
+        self.simulations += len(candidates)
+        self.sim_seconds += time.perf_counter() - t0
+        return out
+
+    def predict(self, tips: np.ndarray, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+        """(predicted pins (N, 127, 2) px, rest offsets (127, 2) px) for pin tips and values."""
+        camera = self.space.calibration(values).camera_model(self.space.scenario.camera_model().nominal())
+        proj = camera.project_tool_points(tips.reshape(-1, 3)).reshape(tips.shape[0], N_PINS, 2)
+        offsets = np.zeros((N_PINS, 2))
+        if self.fit_rest:
+            w = (self.data.weights[self.rest][:, None] * self.valid[self.rest])[..., None]
+            diff = np.nan_to_num(self.data.pins[self.rest] - proj[self.rest])
+            offsets = (w * diff).sum(axis=0) / np.maximum(w.sum(axis=0), 1e-12)
+        else:
+            base = self.space.scenario.calibration()
+            if base is not None:
+                offsets = base.rest_offsets_px(self.space.scenario.sensor.camera.width)
+        return proj + offsets, offsets
+
+    def residuals(self, tips: np.ndarray, values: dict[str, float], priors: bool = True) -> np.ndarray:
+        """Whitened residual vector: √w (recorded − predicted) / noise_px, then the priors."""
+        pred, _ = self.predict(tips, values)
+        r = (self.data.pins - pred) * (np.sqrt(self.data.weights)[:, None, None] / self.space.settings.noise_px)
+        r = r[self.valid].ravel()
+        return np.concatenate([r, self.space.prior_residuals(values)]) if priors else r
+
+    def solve_camera(self, tips: np.ndarray, physics: dict[str, float], start: dict[str, float]) -> dict[str, float]:
+        """The physics values plus the least-squares camera values for these pin tips."""
+        names = self.space.camera
+        if not names:
+            return dict(physics)
+
+        def fun(unit: np.ndarray) -> np.ndarray:
+            return self.residuals(tips, {**physics, **self.space.from_unit(names, unit)})
+
+        x0 = np.clip(self.space.to_unit(names, start), 0.0, 1.0)
+        sol = least_squares(fun, x0, bounds=(0.0, 1.0), x_scale="jac", diff_step=1e-6, xtol=1e-10, ftol=1e-10)
+        return {**physics, **self.space.from_unit(names, sol.x)}
+
+    def chi2(self, tips: np.ndarray, values: dict[str, float]) -> float:
+        return float(np.sum(self.residuals(tips, values) ** 2))
+
+    def rms(self, tips: np.ndarray, values: dict[str, float]) -> dict:
+        """Pin RMS (px, Euclidean per pin) overall, per group and per run."""
+        pred, _ = self.predict(tips, values)
+        err2 = np.sum((self.data.pins - pred) ** 2, axis=2)
+
+        def rms(mask: np.ndarray) -> float | None:
+            e = err2[mask][self.valid[mask]]
+            return float(np.sqrt(e.mean())) if e.size else None
+
+        all_ = np.ones(len(err2), bool)
+        return {"overall": rms(all_), "groups": {g: rms(self.data.group == k) for k, g in enumerate(GROUPS)
+                                                  if (self.data.group == k).any()},
+                "runs": {str(p): rms(self.data.run_index == r) for r, p in enumerate(self.data.runs)},
+                "per_pin": np.sqrt(np.nanmean(np.where(self.valid, err2, np.nan), axis=0)).tolist(),
+                "mean_residual": np.nanmean(np.where(self.valid[..., None], self.data.pins - pred, np.nan), axis=0).tolist()}

@@ -1,0 +1,118 @@
+"""The fit behind `twin calibrate`: the twin's parameters from recorded runs of one sensor.
+
+    twin calibrate RUN [RUN…] --scenario S --out DIR [--settings F] [--workers N | --cluster ADDR]
+
+The model of a recorded pin (px) in sample i, pin k:
+
+    pin_ik = camera(θ_cam).project(tip_ik(θ_phys)) + rest_k
+
+* tip_ik(θ_phys): the simulated pin tip (tool frame) at the sample's target pose, reached
+  along the run's own path (twin.runs.replay), for the physics parameters θ_phys: dome
+  material, skin–stimulus friction, TCP offset. Every evaluation re-simulates the runs
+  (projected pins, no rendering), in parallel over chunks and candidates.
+* camera(θ_cam): intrinsics, distortion, pose in the tool (twin.core.sensor.CameraModel).
+* rest_k: the rest layout's offset from the lattice, in closed form: the weighted mean,
+  over the no-contact frames (target z ≤ 0 in the work frame), of recorded minus projected
+  pins (the least-squares solution for given θ). Without no-contact frames it stays 0 and
+  the report says so.
+
+Objective: χ² = Σ w_i |pin_ik − recorded_ik|² / σ² + Σ ((θ − θ_default)/prior_std)², with σ
+= settings.noise_px and per-frame weights w by group (rest, contact, sliding). The
+expensive, noisy physics parameters are searched by CMA-ES (`cma`; one alone, which pycma
+cannot search, by a shrinking grid: BracketSearch); for each candidate the cheap, smooth
+camera parameters are solved by least squares (scipy, trust region) — a separable
+("variable projection") problem, so the search covers only the few physics dimensions.
+Stop rule: the best χ² improved by less than `tol_relative` over `patience` generations
+(converged) or `max_generations` reached (not converged: the command exits 1, best point kept).
+Each generation is checkpointed (DIR/checkpoint.pkl, DIR/history.jsonl); a calibration
+started again with the same runs, scenario and settings resumes from it.
+
+Uncertainty: J is the Jacobian of the whitened residuals at the optimum (central
+differences; physics columns by simulation). Each parameter's standard error is the larger
+of the Gauss–Newton s²(JᵀJ)⁻¹ (s² the reduced χ²) and the cluster-robust sandwich with the
+samples as clusters (a frame's pins share their errors). A parameter is identifiable from
+these runs when that error is below `identifiable_fraction` of its bounds' range, its
+whole range moves the pins by more than the fit's pin RMS, and its Jacobian column is not
+nearly in the span of the others (variance inflation ≤ `max_variance_inflation`); one that
+is not is reported as such, with the reasons, and left at its default in the calibration
+file, not silently fitted (twin.analysis.calibration_fit.uncertainty says why each test).
+"""
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+from twin.analysis.calibration_fit.data import GROUPS, load_data
+from twin.analysis.calibration_fit.evaluator import Evaluator
+from twin.analysis.calibration_fit.search import search_key, optimise
+from twin.analysis.calibration_fit.settings import CalibrationSettings
+from twin.analysis.calibration_fit.space import Space
+from twin.analysis.calibration_fit.uncertainty import uncertainty
+from twin.core.calibration import write_calibration
+from twin.core.scenario import Scenario
+from twin.runs.parallel import WorkerPool
+
+
+def calibrate(run_dirs: list[Path], scenario: Scenario, out: Path, settings: CalibrationSettings,
+              workers: int | None = None, cluster: str | None = None, progress: bool = True) -> dict:
+    """Fit the twin to the runs (module docstring); writes DIR/calibration.yaml (converged) or
+    DIR/best_calibration.yaml (not: the result's status says so), the report data
+    report.json (the returned result), history.jsonl and checkpoint.pkl. The command
+    (twin.tools.calibration_report.calibrate_and_report) adds report.md and residuals.png.
+    workers / cluster: as twin.runs.parallel.WorkerPool, one pool for all the simulations."""
+    with WorkerPool(workers, cluster) as pool:
+        return _calibrate(run_dirs, scenario, out, settings, pool, progress)
+
+
+def _calibrate(run_dirs: list[Path], scenario: Scenario, out: Path, settings: CalibrationSettings, pool: WorkerPool,
+               progress: bool) -> dict:
+    wall = time.perf_counter()
+    if scenario.backend != "sim":
+        scenario = scenario.with_changes(backend="sim")
+    data = load_data([Path(r) for r in run_dirs], scenario, settings.weights)
+    space = Space(scenario, settings)
+    out.mkdir(parents=True, exist_ok=True)
+    ev = Evaluator(space, data, pool)
+    before_tips = ev.simulate([space.defaults])[0]
+    before_values = dict(space.defaults)
+    # "before" is the twin as the scenario has it: its rest layout, not one fitted to these runs
+    ev.fit_rest, fit_rest = False, ev.fit_rest
+    before = ev.rms(before_tips, before_values)
+    ev.fit_rest = fit_rest
+    state = optimise(ev, out, search_key(run_dirs, scenario, settings), progress)
+    best = state["best"]
+    best_tips = ev.simulate([best])[0]
+    errors = uncertainty(ev, best, best_tips)
+    # what the data cannot identify goes back to its default, and the camera is solved again without it
+    final = dict(best)
+    dropped = [n for n, u in errors["parameters"].items() if not u["identifiable"]]
+    for n in dropped:
+        final[n] = space.defaults[n]
+    final_tips = best_tips
+    if any(n in space.physics for n in dropped):
+        final_tips = ev.simulate([final])[0]
+    if dropped and space.camera:
+        keep = [n for n in space.camera if n not in dropped]
+        space.camera = keep
+        final = ev.solve_camera(final_tips, {n: v for n, v in final.items() if n not in keep}, final)
+    _, offsets = ev.predict(final_tips, final)
+    calibration = space.calibration(final, offsets if ev.fit_rest else None)
+    after = ev.rms(final_tips, final)
+    name = "calibration.yaml" if state["converged"] else "best_calibration.yaml"
+    write_calibration(calibration, out / name)
+    result = {
+        "status": "converged" if state["converged"] else "not converged", "stop_reason": state["stop"],
+        "runs": [str(r) for r in run_dirs], "scenario": scenario.source, "calibration_file": str(out / name),
+        "samples": int(len(data.pins)), "samples_per_group": {g: int((data.group == k).sum()) for k, g in enumerate(GROUPS)},
+        "fitted": space.fitted, "not_identifiable": dropped,
+        "rest_pins": ("fitted from %d no-contact frames" % int(ev.rest.sum())) if ev.fit_rest else
+                     ("not fitted: no no-contact frames (target z <= 0) in the runs" if settings.rest_pins else "not fitted (settings)"),
+        "before": before, "after": after, "uncertainty": errors, "generations": state["generation"],
+        "best_chi2": state["best_chi2"], "simulations": ev.simulations,
+        "simulated_frames_per_s": ev.simulations * len(data.pins) / max(ev.sim_seconds, 1e-9),
+        "evaluations_per_s": ev.simulations / max(ev.sim_seconds, 1e-9),
+        "wall_time_s": time.perf_counter() - wall, "workers": pool.workers, "cluster": pool.cluster,
+    }
+    (out / "report.json").write_text(json.dumps(result, indent=1, default=float))
+    return result

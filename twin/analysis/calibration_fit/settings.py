@@ -1,0 +1,100 @@
+"""What `twin calibrate` fits and how: the parameters' names, the settings' types and ranges
+(assets/tactip/calibration_settings.yaml holds their values), and reading a --settings file
+over the shipped one."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from twin.core.errors import UserError
+from twin.core.resources import asset_path
+from twin.core.validation import read_yaml, validate_mapping
+
+CAMERA = ("camera.focal_px", "camera.cx_px", "camera.cy_px", "camera.k1", "camera.k2", "camera.p1", "camera.p2",
+          "camera.x_mm", "camera.y_mm", "camera.z_mm", "camera.rx_deg", "camera.ry_deg", "camera.rz_deg")
+PHYSICS = ("material.young_kpa", "material.poisson", "material.membrane_young_mpa", "material.skin_held_deg",
+           "friction", "tcp.x_mm", "tcp.y_mm", "tcp.z_mm")
+PARAMETERS = CAMERA + PHYSICS
+SETTINGS_FILE = ("tactip", "calibration_settings.yaml")
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
+class ParameterSetting(_Strict):
+    """One parameter: fitted or not, default (None = the scenario's value), bounds, prior (its unit)."""
+
+    fit: bool = False
+    default: float | None = None
+    lower: float
+    upper: float
+    prior_std: float | None = Field(default=None, gt=0)
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "ParameterSetting":
+        if not self.lower < self.upper:
+            raise ValueError(f"lower {self.lower} must be below upper {self.upper}")
+        return self
+
+
+# The settings' values live in the shipped file alone (assets/tactip/calibration_settings.yaml,
+# which a --settings file is merged over): these models state their types and ranges, not defaults.
+class Weights(_Strict):
+    rest: float = Field(ge=0)
+    contact: float = Field(ge=0)
+    sliding: float = Field(ge=0)
+
+
+class OptimiserSettings(_Strict):
+    popsize: int | None = Field(ge=4, le=1000)
+    sigma0: float = Field(gt=0, le=1, description="fraction of each parameter's range")
+    max_generations: int = Field(ge=1, le=10000)
+    tol_relative: float = Field(gt=0, lt=1)
+    patience: int = Field(ge=1, le=1000)
+    tol_bracket: float = Field(gt=0, lt=1, description="one physics parameter: the bracket's stop width, "
+                                                      "fraction of its range")
+    seed: int = Field(ge=1)
+
+
+class CalibrationSettings(_Strict):
+    """What `twin calibrate` fits and how (assets/tactip/calibration_settings.yaml)."""
+
+    parameters: dict[str, ParameterSetting]
+    rest_pins: bool
+    weights: Weights
+    noise_px: float = Field(gt=0, le=50)
+    identifiable_fraction: float = Field(gt=0, le=10)
+    max_variance_inflation: float = Field(ge=1)
+    optimiser: OptimiserSettings
+
+    @model_validator(mode="after")
+    def _known(self) -> "CalibrationSettings":
+        unknown = sorted(set(self.parameters) - set(PARAMETERS))
+        if unknown:
+            raise ValueError(f"unknown parameters {unknown}; known: {', '.join(PARAMETERS)}")
+        return self
+
+    @property
+    def fitted(self) -> list[str]:
+        return [n for n in PARAMETERS if n in self.parameters and self.parameters[n].fit]
+
+
+def load_settings(path: Path | None) -> CalibrationSettings:
+    """The shipped defaults, with `path`'s entries merged over them (per parameter)."""
+    data = read_yaml(asset_path(*SETTINGS_FILE), "calibration settings")
+    source = str(asset_path(*SETTINGS_FILE))
+    if path is not None:
+        user = read_yaml(path, "calibration settings") or {}
+        if not isinstance(user, dict):
+            raise UserError(f"{path}: calibration settings are a mapping of fields")
+        for key, value in user.items():
+            if key in ("parameters", "weights", "optimiser") and isinstance(value, dict):
+                for name, entry in value.items():
+                    old = data.get(key, {}).get(name)
+                    data.setdefault(key, {})[name] = {**old, **entry} if isinstance(old, dict) and isinstance(entry, dict) else entry
+            else:
+                data[key] = value
+        source = str(path)
+    return validate_mapping(CalibrationSettings, data, source, "calibration settings")
