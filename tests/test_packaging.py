@@ -1,15 +1,19 @@
 """The wheel is self-contained: built, installed into a fresh virtual environment outside
 the repository, it checks and runs a scenario from another directory (assets and
-scenarios are package data, caches go to the user cache directory)."""
+scenarios are package data, caches go to the user cache directory). Its requirements are
+compatible ranges that hold the exact tested set locked in uv.lock."""
+
 from __future__ import annotations
 
 import os
 import shutil
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
+from packaging.requirements import Requirement
 
 ROOT = Path(__file__).resolve().parents[1]
 TINY = """name: tiny_render
@@ -17,6 +21,29 @@ object: {name: rectangle}
 effects: [contact, friction]
 protocol: {kind: render, poses: [[0, 0, -5, 0, 0, 0], [0, -30, 2, 0, 0, 0]]}
 """
+
+
+def _requirements() -> list[Requirement]:
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    extras = project.get("optional-dependencies", {}).values()
+    return [Requirement(r) for r in [*project["dependencies"], *(r for extra in extras for r in extra)]]
+
+
+def test_requirements_are_ranges_that_hold_the_locked_versions() -> None:
+    """Exact pins break `pip install` next to anything else: each requirement is a range with
+    a floor and a ceiling, the version uv.lock tested lies inside it, and uv.lock was made
+    from these very ranges (not from older ones)."""
+    lock = tomllib.loads((ROOT / "uv.lock").read_text())
+    locked = {p["name"]: p["version"] for p in lock["package"]}
+    project = next(p for p in lock["package"] if p.get("source", {}).get("editable") == ".")
+    recorded = {r["name"]: r.get("specifier", "") for r in project["metadata"]["requires-dist"]}
+    requirements = _requirements()
+    assert len(requirements) >= 20
+    for req in requirements:
+        operators = {spec.operator for spec in req.specifier}
+        assert operators == {">=", "<"}, f"{req}: want a range such as 'numpy>=2.4,<3'"
+        assert req.specifier.contains(locked[req.name]), f"{req}: uv.lock has {req.name} {locked[req.name]}"
+        assert req.specifier == type(req.specifier)(recorded[req.name]), f"{req}: run `uv lock` (it has {recorded[req.name]})"
 
 
 def _uv() -> str:
