@@ -12,7 +12,7 @@ import pytest
 import yaml
 
 from hardware.protocol import Command
-from twin.tools.compare import compare_runs
+from twin.analysis.comparison import compare_runs
 from twin.core.errors import HardwareError, LostPinsError
 from twin.world.kinematics import Irb120Kinematics
 from twin.core.poses import Pose

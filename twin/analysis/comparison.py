@@ -1,10 +1,20 @@
-"""Two recorded runs of one scenario side by side: which of their samples are compared."""
+"""`twin compare`'s figures: sample-by-sample comparison of two recorded runs of one
+scenario — sim vs sim (two fidelity levels) or sim vs real (sim-to-real): which samples
+pair up, pin differences and correlation, image SSIM, path distance, perception error, and
+each run's orientation signal or along-edge drag. Text and plots: twin.tools.comparison_report."""
 from __future__ import annotations
 
-import numpy as np
+import json
+from pathlib import Path
 
+import cv2
+import numpy as np
+from skimage.metrics import structural_similarity
+
+from twin.analysis.evaluation import along_edge_drag_px, orientation_signal_px
 from twin.core.errors import UserError
-from twin.runs.record import Run
+from twin.runs.record import Run, load_run
+from twin.sensing.perception import PerceptionModel, angle_error_deg
 
 POSE_DECIMALS = 3  # targets are paired when equal to 1e-3 mm / deg
 
@@ -33,3 +43,100 @@ def paired_runs(a: Run, b: Run) -> tuple[list[tuple[int, int]], str]:
     if not pairs:
         raise UserError(f"{a.path} and {b.path} share no target poses: are they runs of the same scenario?")
     return pairs, pairing
+
+
+def displacements(run: Run) -> np.ndarray:
+    """Each sample's pins (px) less the run's first sample's."""
+    pins = run.pins_px
+    return pins - pins[0]
+
+
+def pin_differences(a: Run, b: Run, pairs: list[tuple[int, int]]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The paired samples' indices in a and in b, and each pair's pin distances (pairs, 127) px."""
+    ia, ib = (np.array(x) for x in zip(*pairs))
+    return ia, ib, np.linalg.norm(a.pins_px[ia] - b.pins_px[ib], axis=2)
+
+
+def _ssim(a: np.ndarray, b: np.ndarray) -> float:
+
+    ga, gb = (cv2.cvtColor(x, cv2.COLOR_RGB2GRAY) for x in (a, b))
+    if ga.shape != gb.shape:
+        gb = cv2.resize(gb, (ga.shape[1], ga.shape[0]), interpolation=cv2.INTER_AREA)
+    return float(structural_similarity(ga, gb, data_range=255))
+
+
+def _path_distance(a: Run, b: Run) -> dict:
+    pa = np.array([s["pose"][:2] for s in a.samples])
+    pb = np.array([s["pose"][:2] for s in b.samples])
+    d = np.linalg.norm(pa[:, None, :] - pb[None, :, :], axis=2)
+    ab, ba = d.min(axis=1), d.min(axis=0)
+    return {"mean_mm": float(np.mean(np.concatenate([ab, ba]))), "hausdorff_mm": float(max(ab.max(), ba.max()))}
+
+
+def perception_error(run: Run, model) -> dict | None:
+    """RMS θ (deg) and l (mm) error of `model` on a run whose samples carry theta_deg and
+    lateral_mm labels (taps, slides); None for runs without them."""
+
+    theta, lateral = run.label("theta_deg"), run.label("lateral_mm")
+    if not (np.all(np.isfinite(theta)) and np.all(np.isfinite(lateral))) or not len(theta):
+        return None
+    pred = model.predict(run.pins_px, resolution=run.resolution)
+    return {"orientation_rms_deg": float(np.sqrt(np.mean(angle_error_deg(pred.theta_deg, theta) ** 2))),
+            "lateral_rms_mm": float(np.sqrt(np.mean((pred.lateral_mm - lateral) ** 2))),
+            "ok_fraction": float(np.mean(pred.ok))}
+
+
+def compare_runs(dir_a: Path, dir_b: Path, out: Path, max_ssim_frames: int = 200, model_path: Path | None = None) -> dict:
+    """Pair the runs' samples by target pose and write comparison.json to `out` (the plots:
+    twin.tools.comparison_report).
+
+    Each run's perception error: contour runs report their metrics.json; labelled runs
+    (taps, slides) are scored with the model file `model_path` when given. Tap runs also
+    get each run's orientation signal per lateral position and slide runs each run's
+    along-edge drag (twin.analysis.evaluation), the two figures Table I's along-edge cells
+    weigh, side by side for a sim and a real sensor."""
+    a, b = load_run(dir_a), load_run(dir_b)
+    name_a, name_b = a.meta["scenario"]["name"], b.meta["scenario"]["name"]
+    kind = a.meta["scenario"]["protocol"]["kind"]
+    if kind != b.meta["scenario"]["protocol"]["kind"]:
+        raise UserError(f"{dir_a} ({kind}) and {dir_b} ({b.meta['scenario']['protocol']['kind']}) are different protocols")
+    result: dict = {"run_a": str(dir_a), "run_b": str(dir_b), "backend_a": a.meta["backend"], "backend_b": b.meta["backend"],
+                    "fidelity_a": a.meta["scenario"]["fidelity"], "fidelity_b": b.meta["scenario"]["fidelity"],
+                    "scenario_a": name_a, "scenario_b": name_b, "protocol": kind,
+                    "state_a": a.state, "state_b": b.state,
+                    "unfinished": [n for n in (a.unfinished_note(), b.unfinished_note()) if n]}
+    if kind == "contour":
+        result["path_distance"] = _path_distance(a, b)
+        for tag, run in (("a", a), ("b", b)):
+            metrics = run.path / "metrics.json"
+            if metrics.exists():
+                result[f"metrics_{tag}"] = json.loads(metrics.read_text())
+    elif model_path is not None:
+        model = PerceptionModel.load(model_path)
+        result["perception_a"], result["perception_b"] = perception_error(a, model), perception_error(b, model)
+    if kind == "taps":  # what each sensor's taps carry of the edge's orientation, by lateral position
+        result["orientation_signal_px"] = {"a": orientation_signal_px(a), "b": orientation_signal_px(b)}
+    elif kind == "slides":  # how far each sensor's skin is dragged along the edge
+        result["along_edge_drag_px"] = {"a": along_edge_drag_px(a), "b": along_edge_drag_px(b)}
+    pairs, result["pairing"] = paired_runs(a, b)
+    ia, ib, diff = pin_differences(a, b, pairs)
+    disp_a, disp_b = displacements(a)[ia], displacements(b)[ib]
+    corr = []
+    for k in range(diff.shape[1]):
+        va, vb = disp_a[:, k].ravel(), disp_b[:, k].ravel()
+        if np.std(va) > 1e-9 and np.std(vb) > 1e-9:
+            corr.append(float(np.corrcoef(va, vb)[0, 1]))
+    result.update(n_pairs=len(pairs), n_a=len(a.samples), n_b=len(b.samples),
+                  pin_rms_difference_px=float(np.sqrt(np.nanmean(diff**2))),
+                  pin_displacement_correlation={"mean": float(np.mean(corr)) if corr else None,
+                                                "min": float(np.min(corr)) if corr else None, "pins": len(corr)})
+    ssims = []
+    step = max(1, len(pairs) // max_ssim_frames)
+    for i, j in pairs[::step]:
+        fa, fb = a.frame(i), b.frame(j)
+        if fa is not None and fb is not None:
+            ssims.append(_ssim(fa, fb))
+    result["ssim"] = {"mean": float(np.mean(ssims)), "min": float(np.min(ssims)), "frames": len(ssims)} if ssims else None
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "comparison.json").write_text(json.dumps(result, indent=1, default=float))
+    return result

@@ -20,10 +20,10 @@ from twin.core.scenario import START_POSE
 from twin.world.scene import build_scene
 from twin.runs.sim_env import check_reachable, render_scenario_view
 from twin.runs.run import resume_run, run_scenario
-from twin.tools.evaluate import (evaluate, format_along_edge_drag, format_heldout, format_orientation_signal,
-                                 format_table)
+from twin.tools.evaluation_report import (evaluate_and_report, format_along_edge_drag, format_heldout,
+                                          format_orientation_signal, format_table)
 from hardware.virtual_controller import serve_robot
-from twin.tools.compare import compare_runs
+from twin.tools.comparison_report import compare_and_report
 from twin.tools.figures import write_shear_figure
 from twin.tools.demo import run_demo
 from twin.tools.bench import run_bench
@@ -104,7 +104,7 @@ def _warn_unfinished(notes: list[str]) -> None:
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
 
-    result = evaluate(Path(args.train), Path(args.test), Path(args.out), seed=args.seed)
+    result = evaluate_and_report(Path(args.train), Path(args.test), Path(args.out), seed=args.seed)
     _warn_unfinished(result["unfinished"])
     if "heldout_by_lateral_mm" in result:
         print(format_heldout(result["heldout_by_lateral_mm"]))
@@ -132,8 +132,8 @@ def _cmd_serve_robot(args: argparse.Namespace) -> int:
 
 def _cmd_compare(args: argparse.Namespace) -> int:
 
-    r = compare_runs(Path(args.run_a), Path(args.run_b), Path(args.out),
-                     model_path=Path(args.model) if args.model else None)
+    r = compare_and_report(Path(args.run_a), Path(args.run_b), Path(args.out),
+                           model_path=Path(args.model) if args.model else None)
     _warn_unfinished(r["unfinished"])
     print(f"{r['n_pairs']} paired samples ({r['pairing']})")
     print(f"pin RMS difference: {r['pin_rms_difference_px']:.3f} px")

@@ -268,7 +268,7 @@ def compare_frame(a: Run, b: Run, i: int, j: int, n: int, total: int) -> np.ndar
 
 def write_compare_video(dir_a: Path, dir_b: Path, out: Path) -> Path:
     """Write the MP4 of two runs side by side, paired as `twin compare` pairs them
-    (twin.tools.compare.paired_runs); returns its path."""
+    (twin.analysis.comparison.paired_runs); returns its path."""
     a, b = load_run(dir_a), load_run(dir_b)
     pairs, _ = paired_runs(a, b)
     with VideoWriter(Path(out)) as writer:

@@ -1,4 +1,4 @@
-"""`twin compare` on two sim runs of one scenario at two fidelity levels."""
+"""`twin compare` (twin.analysis.comparison) on two sim runs of one scenario at two fidelity levels."""
 from __future__ import annotations
 
 import json

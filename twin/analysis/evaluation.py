@@ -1,10 +1,10 @@
-"""`twin evaluate`: the paper's offline experiment (§IV-A) — train PCA+GP and the
-raw-pin baseline on a tap run, test on a multi-directional sliding run, and write
-Table I, the lateral error, the variance explained and the PCA figures, with what the
+"""The paper's offline experiment (§IV-A), behind `twin evaluate`: train PCA+GP and the
+raw-pin baseline on a tap run, test on a multi-directional sliding run: Table I, the
+lateral error, the variance explained and the PCA figures' projections, with what the
 along-edge cells weigh against each other: the taps' orientation signal per lateral
-position and the slides' drag (both in px, for a twin's runs and a rig's alike). Tested on a tap
-run instead (held-out taps, scenarios/taps_heldout.yaml), it writes the orientation and
-lateral errors per lateral position."""
+position and the slides' drag (both in px, for a twin's runs and a rig's alike). Tested on
+a tap run instead (held-out taps, scenarios/taps_heldout.yaml), the orientation and
+lateral errors per lateral position. Text and figures: twin.tools.evaluation_report."""
 from __future__ import annotations
 
 import csv
@@ -14,11 +14,9 @@ from pathlib import Path
 import numpy as np
 
 from twin.core.errors import UserError
-from twin.sensing.perception import angle_error_deg, pca_fit, pins_to_vectors
 from twin.runs.record import Run, jsonable, load_run
 from twin.runs.training import train_from_run
-import matplotlib
-import matplotlib.pyplot as plt
+from twin.sensing.perception import angle_error_deg, pca_fit, pins_to_vectors
 
 DIRECTIONS = (0, 45, 90, 135, 180, 225, 270, 315)
 #: Table I of the paper (RMS orientation error, deg): direction → (On, Off); 90°/270° On only.
@@ -49,22 +47,6 @@ def table_i(test: Run, predictions: dict[str, np.ndarray]) -> dict:
     return table
 
 
-def _fmt(v) -> str:
-    return "—" if v is None else f"{v:.2f}"
-
-
-def format_table(table: dict, paper: bool = True) -> str:
-    """Table I as text, the paper's figures beside the twin's."""
-    head = "model".ljust(24) + "".join(f"{d}° on/off".rjust(16) for d in DIRECTIONS)
-    lines = [head]
-    for name, rows in table.items():
-        lines.append(f"twin {name}".ljust(24) + "".join(f"{_fmt(rows[d]['on'])}/{_fmt(rows[d]['off'])}".rjust(16) for d in DIRECTIONS))
-        if paper and name in PAPER_TABLE_I:
-            p = PAPER_TABLE_I[name]
-            lines.append(f"paper {name}".ljust(24) + "".join(f"{_fmt(p[d][0])}/{_fmt(p[d][1])}".rjust(16) for d in DIRECTIONS))
-    return "\n".join(lines)
-
-
 def heldout_table(test: Run, predictions: dict) -> dict:
     """{model: {lateral_mm: {"theta_rms_deg", "lateral_rms_mm", "n"}}} of a tap run's
     errors per lateral position (mm, as labelled), from predictions with theta_deg and
@@ -78,16 +60,6 @@ def heldout_table(test: Run, predictions: dict) -> dict:
                                   "lateral_rms_mm": _rms(lateral_err[lateral == l]), "n": int(np.sum(lateral == l))}
                        for l in sorted(set(lateral.tolist()), reverse=True)}
     return table
-
-
-def format_heldout(table: dict) -> str:
-    """The held-out errors as text: one line per model and lateral position."""
-    lines = ["model".ljust(16) + "lateral mm".rjust(12) + "θ RMS °".rjust(10) + "lateral RMS mm".rjust(16) + "taps".rjust(6)]
-    for name, rows in table.items():
-        for l, row in rows.items():
-            lines.append(name.ljust(16) + f"{l:+.1f}".rjust(12) + _fmt(row["theta_rms_deg"]).rjust(10)
-                         + _fmt(row["lateral_rms_mm"]).rjust(16) + str(row["n"]).rjust(6))
-    return "\n".join(lines)
 
 
 def orientation_signal_px(taps: Run) -> dict[float, dict[float, float]]:
@@ -127,23 +99,10 @@ def along_edge_drag_px(slides: Run) -> dict[int, float | None]:
     return drag
 
 
-def format_orientation_signal(signal: dict[float, dict[float, float]], who: str = "the taps'") -> str:
-    """`orientation_signal_px` as text, a line per depth."""
-    lines = [f"{who} orientation signal (each pin's spread over the orientations, RMS over the pins), px:"]
-    for depth, row in signal.items():
-        lines.append(f"  {depth:g} mm deep: " + "  ".join(f"l {l:+g}: {v:.2f}" for l, v in row.items()))
-    return "\n".join(lines)
-
-
-def format_along_edge_drag(drag: dict[int, float | None], who: str = "the along-edge slides'") -> str:
-    """`along_edge_drag_px` as text, one line."""
-    return (f"{who} drag (the pins' shift from each slide's unslid first sample, RMS), px: "
-            + "  ".join(f"{d}°: {_fmt(v)}" for d, v in drag.items()))
-
-
 def evaluate(train_dir: Path, test_dir: Path, out: Path, seed: int = 0) -> dict:
     """Train on `train_dir` (tap run), test on `test_dir`: a slides run (Table I) or a
-    held-out tap run (errors per lateral position); write results to `out`."""
+    held-out tap run (errors per lateral position); write the results (json, csv) and the
+    trained models (Table I) to `out`. The PCA figures are twin.tools.evaluation_report's."""
     train, test = load_run(train_dir), load_run(test_dir)
     taps = not np.isfinite(test.label("direction_deg")).any()
     if not (taps or np.all(np.isfinite(test.label("direction_deg")))):
@@ -176,7 +135,6 @@ def evaluate(train_dir: Path, test_dir: Path, out: Path, seed: int = 0) -> dict:
     _write_results(out, "table_i", result, ["model", "direction_deg", "group", "rms_orientation_error_deg", "paper_deg"],
                    [[name, d, group, rows[d][group], PAPER_TABLE_I[name][d][i]]
                     for name, rows in table.items() for d in DIRECTIONS for i, group in enumerate(("on", "off"))])
-    write_pca_figures(train, test, out)
     for name, m in models.items():
         m.save(out / f"model_{'pca' if name == 'PCA + GP' else 'baseline'}.npz")
     return result
@@ -202,32 +160,12 @@ def _write_results(out: Path, stem: str, result: dict, header: list[str], rows: 
         w.writerows(rows)
 
 
-def write_pca_figures(train: Run, test: Run, out: Path) -> list[Path]:
-    """Figs. 5–6: the sliding set on its own PCs (PC1–PC2, PC4–PC5) and on the tap set's
-    PC2–PC3, one panel per sliding direction, coloured by the true orientation."""
-
-    matplotlib.use("Agg")
-
+def pca_projections(train: Run, test: Run) -> dict[str, np.ndarray]:
+    """The data of Figs. 5–6: the sliding set on its own first 5 PCs ("own", (N, 5)) and on
+    the tap set's first 3 ("tap", (N, 3)), with each sample's true orientation and sliding
+    direction ("theta_deg", "direction_deg", (N,), deg)."""
     z_test = pins_to_vectors(test.pins_px)
-    theta = test.label("theta_deg")
-    direction = test.label("direction_deg")
     mean_t, comps_t, _ = pca_fit(z_test, 5)
-    own = (z_test - mean_t) @ comps_t.T
     mean_tap, comps_tap, _ = pca_fit(pins_to_vectors(train.pins_px), 3)
-    tap = (z_test - mean_tap) @ comps_tap.T
-    panels = [("fig5_multidirectional_pc1_pc2.png", own, (0, 1)), ("fig5_multidirectional_pc4_pc5.png", own, (3, 4)),
-              ("fig6_tap_eigenvectors_pc2_pc3.png", tap, (1, 2))]
-    paths = []
-    for name, proj, (a, b) in panels:
-        fig, axes = plt.subplots(1, 4, figsize=(13, 3.4), dpi=110, sharex=True, sharey=True)
-        for ax, d in zip(axes, (0, 90, 180, 270)):
-            m = direction == d
-            sc = ax.scatter(proj[m, a], proj[m, b], c=theta[m], cmap="hsv", vmin=-180, vmax=180, s=8)
-            ax.set_title(f"sliding direction {d}°")
-            ax.set_xlabel(f"PC{a + 1}")
-        axes[0].set_ylabel(f"PC{b + 1}")
-        fig.colorbar(sc, ax=axes, label="true orientation θ (deg)")
-        fig.savefig(out / name)
-        plt.close(fig)
-        paths.append(out / name)
-    return paths
+    return {"own": (z_test - mean_t) @ comps_t.T, "tap": (z_test - mean_tap) @ comps_tap.T,
+            "theta_deg": test.label("theta_deg"), "direction_deg": test.label("direction_deg")}

@@ -1,4 +1,4 @@
-"""Table I (twin.tools.evaluate): RMS orientation error per sliding direction, on and off
+"""Table I (twin.analysis.evaluation): RMS orientation error per sliding direction, on and off
 the object, with angles compared on the circle; figures worked out by hand."""
 from __future__ import annotations
 
@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from twin.runs.record import Run
-from twin.tools.evaluate import DIRECTIONS, PAPER_TABLE_I, format_table, table_i
+from twin.analysis.evaluation import DIRECTIONS, PAPER_TABLE_I, table_i
+from twin.tools.evaluation_report import format_table
 
 
 def _run(rows: list[tuple[float, float, bool]]) -> Run:
@@ -42,7 +43,8 @@ def test_heldout_taps_per_lateral_position_with_wrap() -> None:
     """Held-out taps (a tap run as the test set): θ and lateral RMS per lateral position,
     angles compared on the circle; figures worked out by hand."""
     from twin.sensing.perception import Prediction
-    from twin.tools.evaluate import format_heldout, heldout_table
+    from twin.analysis.evaluation import heldout_table
+    from twin.tools.evaluation_report import format_heldout
 
     labels = [(179.0, 5.0), (10.0, 5.0), (-50.0, -3.0)]
     run = Run(Path("synthetic"), {}, [{"labels": {"theta_deg": t, "lateral_mm": l}, "pins_px": None} for t, l in labels])
@@ -98,7 +100,7 @@ def test_compliant_dome_reads_taps_between_its_training_depths(tmp_path) -> None
     from twin.core.resources import scenario_path
     from twin.core.scenario import load_scenario
     from twin.runs.run import run_scenario
-    from twin.tools.evaluate import evaluate
+    from twin.analysis.evaluation import evaluate
 
     def record(name: str, **protocol) -> Path:
         scenario = load_scenario(scenario_path(name))
@@ -118,7 +120,7 @@ def test_compliant_dome_reads_taps_between_its_training_depths(tmp_path) -> None
 
 def test_the_along_edge_cells_weigh_the_drag_against_the_taps_orientation_signal(tmp_path, capsys) -> None:
     """What Table I's along-edge cells weigh against each other, as `twin evaluate` reports
-    it (twin.tools.evaluate.orientation_signal_px, along_edge_drag_px), recorded on the
+    it (twin.analysis.evaluation.orientation_signal_px, along_edge_drag_px), recorded on the
     compliant dome (fast level, pins projected). 9.9 mm beside the edge and 2 mm deep
     the dome touches nothing (the paper: "not touching anything"): no orientation signal.
     The edge through the sensor's centre carries more of its orientation than the edge
@@ -133,7 +135,7 @@ def test_the_along_edge_cells_weigh_the_drag_against_the_taps_orientation_signal
     from twin.runs.record import load_run
     from twin.runs.run import run_scenario
     from twin.tools.cli import main
-    from twin.tools.evaluate import along_edge_drag_px, orientation_signal_px
+    from twin.analysis.evaluation import along_edge_drag_px, orientation_signal_px
 
     def record(name: str, out: str, friction: float | None = None, **protocol) -> Path:
         scenario = load_scenario(scenario_path(name))

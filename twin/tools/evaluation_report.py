@@ -1,0 +1,88 @@
+"""`twin evaluate`'s report: the evaluation (twin.analysis.evaluation), then Table I, the
+held-out errors, the orientation signal and the along-edge drag as text, and the PCA
+figures (Figs. 5–6)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+import matplotlib.pyplot as plt
+
+from twin.analysis.evaluation import DIRECTIONS, PAPER_TABLE_I, evaluate, pca_projections
+from twin.runs.record import load_run
+
+
+def _fmt(v) -> str:
+    return "—" if v is None else f"{v:.2f}"
+
+
+def format_table(table: dict, paper: bool = True) -> str:
+    """Table I as text, the paper's figures beside the twin's."""
+    head = "model".ljust(24) + "".join(f"{d}° on/off".rjust(16) for d in DIRECTIONS)
+    lines = [head]
+    for name, rows in table.items():
+        lines.append(f"twin {name}".ljust(24) + "".join(f"{_fmt(rows[d]['on'])}/{_fmt(rows[d]['off'])}".rjust(16) for d in DIRECTIONS))
+        if paper and name in PAPER_TABLE_I:
+            p = PAPER_TABLE_I[name]
+            lines.append(f"paper {name}".ljust(24) + "".join(f"{_fmt(p[d][0])}/{_fmt(p[d][1])}".rjust(16) for d in DIRECTIONS))
+    return "\n".join(lines)
+
+
+def format_heldout(table: dict) -> str:
+    """The held-out errors as text: one line per model and lateral position."""
+    lines = ["model".ljust(16) + "lateral mm".rjust(12) + "θ RMS °".rjust(10) + "lateral RMS mm".rjust(16) + "taps".rjust(6)]
+    for name, rows in table.items():
+        for l, row in rows.items():
+            lines.append(name.ljust(16) + f"{l:+.1f}".rjust(12) + _fmt(row["theta_rms_deg"]).rjust(10)
+                         + _fmt(row["lateral_rms_mm"]).rjust(16) + str(row["n"]).rjust(6))
+    return "\n".join(lines)
+
+
+def format_orientation_signal(signal: dict[float, dict[float, float]], who: str = "the taps'") -> str:
+    """`orientation_signal_px` as text, a line per depth."""
+    lines = [f"{who} orientation signal (each pin's spread over the orientations, RMS over the pins), px:"]
+    for depth, row in signal.items():
+        lines.append(f"  {depth:g} mm deep: " + "  ".join(f"l {l:+g}: {v:.2f}" for l, v in row.items()))
+    return "\n".join(lines)
+
+
+def format_along_edge_drag(drag: dict[int, float | None], who: str = "the along-edge slides'") -> str:
+    """`along_edge_drag_px` as text, one line."""
+    return (f"{who} drag (the pins' shift from each slide's unslid first sample, RMS), px: "
+            + "  ".join(f"{d}°: {_fmt(v)}" for d, v in drag.items()))
+
+
+def write_pca_figures(train_dir: Path, test_dir: Path, out: Path) -> list[Path]:
+    """Figs. 5–6: the sliding set on its own PCs (PC1–PC2, PC4–PC5) and on the tap set's
+    PC2–PC3, one panel per sliding direction, coloured by the true orientation
+    (twin.analysis.evaluation.pca_projections)."""
+
+    matplotlib.use("Agg")
+
+    data = pca_projections(load_run(train_dir), load_run(test_dir))
+    own, tap, theta, direction = data["own"], data["tap"], data["theta_deg"], data["direction_deg"]
+    panels = [("fig5_multidirectional_pc1_pc2.png", own, (0, 1)), ("fig5_multidirectional_pc4_pc5.png", own, (3, 4)),
+              ("fig6_tap_eigenvectors_pc2_pc3.png", tap, (1, 2))]
+    paths = []
+    for name, proj, (a, b) in panels:
+        fig, axes = plt.subplots(1, 4, figsize=(13, 3.4), dpi=110, sharex=True, sharey=True)
+        for ax, d in zip(axes, (0, 90, 180, 270)):
+            m = direction == d
+            sc = ax.scatter(proj[m, a], proj[m, b], c=theta[m], cmap="hsv", vmin=-180, vmax=180, s=8)
+            ax.set_title(f"sliding direction {d}°")
+            ax.set_xlabel(f"PC{a + 1}")
+        axes[0].set_ylabel(f"PC{b + 1}")
+        fig.colorbar(sc, ax=axes, label="true orientation θ (deg)")
+        fig.savefig(out / name)
+        plt.close(fig)
+        paths.append(out / name)
+    return paths
+
+
+def evaluate_and_report(train_dir: Path, test_dir: Path, out: Path, seed: int = 0) -> dict:
+    """`twin evaluate`: the evaluation's results and models in `out`
+    (twin.analysis.evaluation.evaluate), and for a slides run the PCA figures."""
+    result = evaluate(train_dir, test_dir, out, seed=seed)
+    if "table_i_rms_orientation_deg" in result:
+        write_pca_figures(train_dir, test_dir, out)
+    return result
