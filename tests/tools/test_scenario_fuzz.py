@@ -2,7 +2,7 @@
 wrong types, missing and unknown keys, broken meshes and outlines. Each one either passes
 `twin check` and then runs a short protocol (`twin run`) without a traceback, or exits 2
 with a message naming the file and the field (or the broken mesh/outline file). Zero
-tracebacks. TWIN_FUZZ_EXAMPLES sets how many are tried (default 30 in the suite; the
+tracebacks. TWIN_FUZZ_EXAMPLES sets how many are tried (default 30 in the suite;
 docs/reliability.md reports a longer run)."""
 from __future__ import annotations
 
