@@ -50,6 +50,18 @@ def test_reference_from_frame_is_canonical_order() -> None:
     assert np.all(areas > 50)
 
 
+def test_reference_from_a_lens_that_spaces_the_rings_otherwise() -> None:
+    """A filmed TacTip's lens pulls the inner rings in against the outer ones (the DigiTac
+    edge set's: the second ring at 0.70 of the model's radius where the rim is at 0.93),
+    more than a similarity can absorb: the rings are respaced too, and the order holds."""
+    centre = np.array([320.0, 240.0])
+    offset = TEMPLATE - TEMPLATE.mean(0)
+    rho = np.linalg.norm(offset, axis=1) / np.max(np.linalg.norm(offset, axis=1))
+    pins = centre + offset * (0.65 + 0.28 * rho**2)[:, None] @ np.array([[0.99, -0.12], [0.12, 0.99]]).T
+    ref, _ = reference_pins_from_frame(render_pins_frame(pins))
+    assert _rms(ref, pins) < 0.3
+
+
 def test_reference_frame_with_missing_pin_is_refused() -> None:
     pins = TEMPLATE.copy()
     pins[40] = np.nan

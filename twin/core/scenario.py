@@ -139,16 +139,21 @@ class RenderProtocol(StrictModel):
     speed_mm_s: float = bounded(0, 250, "mm/s", "TCP speed", DEFAULT_SPEED_MM_S, open_lo=True)
 
 
-class _StraightEdgeProtocol(StrictModel):
-    """Fields shared by the paper's two data sets on the rectangle's straight edge."""
+class _EdgeProtocol(StrictModel):
+    """Where the straight edge lies and how the sensor moves to it (every edge protocol)."""
 
-    orientations_deg: bounded_list(-360, 360, "deg", max_length=360) = [float(a) for a in range(-160, 181, 20)]
-    lateral_mm: bounded_list(-50, 50, "mm", max_length=100) = [9.9, 6, 4, 2, 0, -2, -4, -6]
     edge_point_mm: bounded_list(-500, 500, "mm", length=2) = [60.0, 0.0]
     edge_normal_deg: float = bounded(-360, 360, "deg", "edge's outward normal", 0.0)
     approach_mm: float = bounded(0, 50, "mm", "hover height above the surface", -HOVER_Z_MM, open_lo=True)
     speed_mm_s: float = bounded(0, 250, "mm/s", "TCP speed in contact", DEFAULT_SPEED_MM_S, open_lo=True)
     free_speed_mm_s: float = bounded(0, 250, "mm/s", "moves above the object, out of contact", 50.0, open_lo=True)
+
+
+class _StraightEdgeProtocol(_EdgeProtocol):
+    """Fields shared by the paper's two data sets on the rectangle's straight edge."""
+
+    orientations_deg: bounded_list(-360, 360, "deg", max_length=360) = [float(a) for a in range(-160, 181, 20)]
+    lateral_mm: bounded_list(-50, 50, "mm", max_length=100) = [9.9, 6, 4, 2, 0, -2, -4, -6]
 
 
 class TapProtocol(_StraightEdgeProtocol):
@@ -166,6 +171,46 @@ class SlideProtocol(_StraightEdgeProtocol):
     depth_mm: float = bounded(0, 6, "mm", "indentation while sliding", 3.0)
 
 
+class ShearedTap(StrictModel):
+    """One sheared tap: where the frame is taken (lateral, along, θ, depth offset) and the
+    in-contact slide and twist made just before it (twin.runs.protocols.sheared_tap_moves)."""
+
+    lateral_mm: float = bounded(-50, 50, "mm", "lateral position l at the frame (+ off the object)")
+    along_mm: float = bounded(-100, 100, "mm", "position along the edge at the frame (+ along the tangent t)", 0.0)
+    theta_deg: float = bounded(-360, 360, "deg", "sensor orientation θ at the frame")
+    depth_offset_mm: float = bounded(-5, 5, "mm", "depth at the frame minus the protocol's depth_mm (+ deeper)", 0.0)
+    slide_along_mm: float = bounded(-20, 20, "mm", "in-contact slide before the frame, along the edge", 0.0)
+    slide_lateral_mm: float = bounded(-20, 20, "mm", "in-contact slide before the frame, along the normal", 0.0)
+    twist_deg: float = bounded(-45, 45, "deg", "in-contact turn before the frame", 0.0)
+
+
+class ShearedTapProtocol(_EdgeProtocol):
+    """Taps sheared before their frame, like the lab's edge sets (twin.runs.lab_recording):
+    press at the slid-back pose, slide and twist in contact to the tap's pose, record.
+    The taps are `given` in order, or `taps` drawn uniformly with `seed` from the ranges."""
+
+    kind: Literal["sheared_taps"] = "sheared_taps"
+    depth_mm: float = bounded(0, 6, "mm", "nominal indentation of the taps", 3.0)
+    taps: int = bounded(1, 10_000, "frames", "how many taps to draw, a frame each (without `given`)", 100)
+    seed: int = bounded(0, 2**32 - 1, "dimensionless", "seed of the taps' draw", 0)
+    lateral_range_mm: bounded_list(-50, 50, "mm", length=2) = [-5.0, 5.0]
+    angle_range_deg: bounded_list(-360, 360, "deg", length=2) = [-45.0, 45.0]
+    depth_offset_mm: float = bounded(0, 5, "mm", "drawn depth offsets lie in ±this", 1.0)
+    slide_mm: float = bounded(0, 20, "mm", "drawn slides lie in ±this along the edge and along the normal", 5.0)
+    twist_deg: float = bounded(0, 45, "deg", "drawn twists lie in ±this", 5.0)
+    given: Annotated[list[ShearedTap], Field(max_length=10_000)] | None = Field(
+        default=None, description="the taps in order (an imported lab recording's: twin run --taps-from RUN); "
+                                  "none = draw `taps`")
+
+    @model_validator(mode="after")
+    def _ranges_in_order(self) -> "ShearedTapProtocol":
+        for name in ("lateral_range_mm", "angle_range_deg"):
+            lo, hi = getattr(self, name)
+            if lo > hi:
+                raise ValueError(f"{name} = [{lo:g}, {hi:g}]: the first value is the lower bound")
+        return self
+
+
 class ContourProtocol(StrictModel):
     """Contour following with the paper's controller (§III-D)."""
 
@@ -181,7 +226,8 @@ class ContourProtocol(StrictModel):
     speed_mm_s: float = bounded(0, 250, "mm/s", "TCP speed", DEFAULT_SPEED_MM_S, open_lo=True)
 
 
-Protocol = Annotated[Union[RenderProtocol, TapProtocol, SlideProtocol, ContourProtocol], Field(discriminator="kind")]
+Protocol = Annotated[Union[RenderProtocol, TapProtocol, SlideProtocol, ShearedTapProtocol, ContourProtocol],
+                     Field(discriminator="kind")]
 
 
 class Scenario(StrictModel):

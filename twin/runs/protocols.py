@@ -6,7 +6,9 @@ an observation where `record` is set. Geometry of the straight-edge protocols (�
 `edge_normal_deg`; the tangent t is n turned +90°. Lateral position l is the offset of
 the sensor centre along n (+9.9 off the object, 0 on the edge, −6 on it). Sliding
 direction δ: 0° = onto the object (−n), 90° = along the edge (+t, "west" in the paper's
-Fig. 4), 180° = off the object (+n), 270° = −t.
+Fig. 4), 180° = off the object (+n), 270° = −t. A sheared tap (`sheared_tap_moves`)
+presses at its pose slid back by its slide and twist, then slides and twists in contact
+to its pose and records there, as the lab's edge sets do (twin.runs.lab_recording).
 """
 from __future__ import annotations
 
@@ -15,17 +17,20 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from twin.core.poses import Pose
-from twin.core.scenario import RenderProtocol, SlideProtocol, TapProtocol
+from twin.core.scenario import RenderProtocol, ShearedTap, ShearedTapProtocol, SlideProtocol, TapProtocol
 
 
 @dataclass(frozen=True)
 class Move:
-    """One commanded move; `record` marks the samples of the data set."""
+    """One commanded move; `record` marks the samples of the data set; `in_contact_turn`
+    marks a turn (a change of γ) that continues a contact, so the runner does not start a
+    new chunk there (twin.runs.runner.chunk_moves)."""
 
     pose: Pose
     speed_mm_s: float
     record: bool = False
     labels: dict = field(default_factory=dict)
+    in_contact_turn: bool = False
 
 
 def _edge_frame(edge_point_mm, edge_normal_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -92,11 +97,44 @@ def slide_moves(p: SlideProtocol) -> list[Move]:
     return moves
 
 
+def drawn_sheared_taps(p: ShearedTapProtocol) -> list[ShearedTap]:
+    """`p.taps` taps drawn uniformly from the protocol's ranges with `p.seed`, ordered by
+    θ then lateral position as the lab orders its targets (neighbouring taps turn least)."""
+    rng = np.random.default_rng(p.seed)
+    n = p.taps
+    lateral = rng.uniform(*p.lateral_range_mm, n)
+    theta = rng.uniform(*p.angle_range_deg, n)
+    depth = rng.uniform(-p.depth_offset_mm, p.depth_offset_mm, n)
+    along, across = rng.uniform(-p.slide_mm, p.slide_mm, (2, n))
+    twist = rng.uniform(-p.twist_deg, p.twist_deg, n)
+    return [ShearedTap(lateral_mm=lateral[k], theta_deg=theta[k], depth_offset_mm=depth[k], slide_along_mm=along[k],
+                       slide_lateral_mm=across[k], twist_deg=twist[k]) for k in np.lexsort((lateral, theta))]
+
+
+def sheared_tap_moves(p: ShearedTapProtocol) -> list[Move]:
+    """Per tap: above the slid-back pose (out of contact), press there to the tap's depth,
+    slide and twist in contact to the tap's pose and record, lift. Labels: the tap's
+    fields, its depth (mm) and its index in the protocol."""
+    origin, n, t = _edge_frame(p.edge_point_mm, p.edge_normal_deg)
+    moves: list[Move] = []
+    for k, tap in enumerate(p.given if p.given is not None else drawn_sheared_taps(p)):
+        depth = p.depth_mm + tap.depth_offset_mm
+        x, y = origin + tap.lateral_mm * n + tap.along_mm * t
+        x0, y0 = np.array([x, y]) - tap.slide_lateral_mm * n - tap.slide_along_mm * t
+        theta0 = tap.theta_deg - tap.twist_deg
+        labels = {**tap.model_dump(), "depth_mm": depth, "tap": k}
+        moves.append(Move(Pose(x0, y0, -p.approach_mm, 0.0, 0.0, theta0), p.free_speed_mm_s))
+        moves.append(Move(Pose(x0, y0, depth, 0.0, 0.0, theta0), p.speed_mm_s))
+        moves.append(Move(Pose(x, y, depth, 0.0, 0.0, tap.theta_deg), p.speed_mm_s, True, labels, in_contact_turn=True))
+        moves.append(Move(Pose(x, y, -p.approach_mm, 0.0, 0.0, tap.theta_deg), p.speed_mm_s))
+    return moves
+
+
 def render_moves(p: RenderProtocol) -> list[Move]:
     return [Move(Pose.from_array(v), p.speed_mm_s, True, {"pose_index": i}) for i, v in enumerate(p.poses)]
 
 
 def protocol_moves(protocol) -> list[Move]:
     """The moves of a non-closed-loop protocol (contour following is closed-loop: see twin.control.contour)."""
-    builders = {"taps": tap_moves, "slides": slide_moves, "render": render_moves}
+    builders = {"taps": tap_moves, "slides": slide_moves, "sheared_taps": sheared_tap_moves, "render": render_moves}
     return builders[protocol.kind](protocol)

@@ -40,10 +40,10 @@ class Sample:
 
 def chunk_moves(moves: list[Move]) -> list[list[Move]]:
     """Split a protocol into chunks that start out of contact: a new chunk begins at each
-    change of sensor orientation (γ)."""
+    change of sensor orientation (γ) but a turn in contact (`Move.in_contact_turn`)."""
     chunks: list[list[Move]] = []
     for move in moves:
-        if not chunks or move.pose.gamma != chunks[-1][-1].pose.gamma:
+        if not chunks or (move.pose.gamma != chunks[-1][-1].pose.gamma and not move.in_contact_turn):
             chunks.append([])
         chunks[-1].append(move)
     return chunks

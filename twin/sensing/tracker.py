@@ -262,12 +262,62 @@ def order_to_template(points_px: np.ndarray, template_px: np.ndarray, iterations
         best_rms = rms
     spacing = float(np.median(cKDTree(points_px).query(points_px, 2)[0][:, 1]))
     residual = np.linalg.norm(moved - points_px[order], axis=1)
+    if np.max(residual) > 0.5 * spacing:  # a real lens spaces the rings unlike the model camera
+        moved, order = _radial_icp(points_px, template_px, iterations)
+        residual = np.linalg.norm(moved - points_px[order], axis=1)
     if np.max(residual) > 0.5 * spacing:
         raise UserError(
             "tracker reference: the no-contact frame's pins do not fit the hexagonal pin template "
             f"(worst residual {np.max(residual):.1f} px, pin spacing {spacing:.1f} px)"
         )
     return points_px[order]
+
+
+def _radial_warp(template_px: np.ndarray, coefficients: np.ndarray) -> np.ndarray:
+    """The template about its centroid, each radius r mapped to r·(c0 + c1·ρ² + c2·ρ⁴),
+    ρ = r over the largest radius (px)."""
+    v = template_px - template_px.mean(0)
+    rho = np.linalg.norm(v, axis=1) / np.max(np.linalg.norm(v, axis=1))
+    return v * (coefficients[0] + coefficients[1] * rho**2 + coefficients[2] * rho**4)[:, None]
+
+
+def _radial_coefficients(template_px: np.ndarray, radii_px: np.ndarray) -> np.ndarray:
+    """Least-squares (c0, c1, c2) of `_radial_warp` that move each template pin to the radius `radii_px`."""
+    r = np.linalg.norm(template_px - template_px.mean(0), axis=1)
+    rho = r / np.max(r)
+    return np.linalg.lstsq(np.column_stack([r, r * rho**2, r * rho**4]), radii_px, rcond=None)[0]
+
+
+def _radial_icp(points_px: np.ndarray, template_px: np.ndarray, iterations: int) -> tuple[np.ndarray, np.ndarray]:
+    """`order_to_template`'s fit with the template's rings respaced (`_radial_warp`) as well as
+    moved, scaled and rolled: a filmed TacTip's lens compresses the inner rings against the
+    outer ones more than the model camera does. Starts from matching the sorted radii;
+    returns (the fitted template, the order of the points) as the similarity fit does."""
+    mu_p, mu_t = points_px.mean(0), template_px.mean(0)
+    coefficients = _radial_coefficients(template_px[np.argsort(np.linalg.norm(template_px - mu_t, axis=1))],
+                                        np.sort(np.linalg.norm(points_px - mu_p, axis=1)))
+    warped = _radial_warp(template_px, coefficients)
+    tree = cKDTree(points_px)
+    best = (np.inf, None)
+    for roll in np.radians(np.arange(-30.0, 30.5, 1.0)):  # a hexagonal lattice repeats every 60°
+        c, s = np.cos(roll), np.sin(roll)
+        cand = warped @ np.array([[c, s], [-s, c]]) + mu_p
+        cost = float(np.sum(tree.query(cand)[0] ** 2))
+        if cost < best[0]:
+            best = (cost, cand)
+    moved, order, best_rms = best[1], np.arange(len(points_px)), np.inf
+    for _ in range(iterations):
+        rows, cols = linear_sum_assignment(np.linalg.norm(moved[:, None, :] - points_px[None, :, :], axis=2))
+        order = cols[np.argsort(rows)]
+        scale, rot, t = _similarity_fit(warped, points_px[order])
+        back = (points_px[order] - t) @ rot / scale  # the matched points in the warped template's frame
+        warped = _radial_warp(template_px, _radial_coefficients(template_px, np.linalg.norm(back, axis=1)))
+        moved = warped @ (scale * rot).T + t
+        rms = float(np.sqrt(np.mean(np.sum((moved - points_px[order]) ** 2, 1))))
+        if rms >= best_rms - 1e-9:
+            break
+        best_rms = rms
+    return moved, order
 
 
 def reference_pins_from_frame(frame: np.ndarray, camera: CameraModel | None = None) -> tuple[np.ndarray, np.ndarray]:

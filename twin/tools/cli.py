@@ -20,6 +20,7 @@ from twin.core.scenario import START_POSE
 from twin.world.scene import build_scene
 from twin.runs.sim_env import check_reachable, render_scenario_view
 from twin.runs.run import resume_run, run_scenario
+from twin.runs.lab_recording import import_lab_recording, with_taps_from
 from twin.tools.evaluation_report import (evaluate_and_report, format_along_edge_drag, format_heldout,
                                           format_orientation_signal, format_table)
 from hardware.virtual_controller import serve_robot
@@ -59,6 +60,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     scenario = None if args.scenario is None else load_scenario(args.scenario)
     if scenario is not None and args.backend:
         scenario = scenario.with_changes(backend=args.backend)
+    if scenario is not None and args.taps_from:
+        scenario = with_taps_from(scenario, Path(args.taps_from), args.first_taps)
     if scenario is not None and args.hardware_config:
         scenario = scenario.with_changes(hardware_config=str(Path(args.hardware_config).resolve()))
     if args.resume is not None:
@@ -81,6 +84,20 @@ def _cmd_run(args: argparse.Namespace) -> int:
         video = write_run_video(run_dir)
         video_s = time.perf_counter() - t1
         print(f"wrote {video} in {video_s:.1f} s ({video_s / run_s:.2f}× the run's {run_s:.1f} s)")
+    return 0
+
+
+def _cmd_import_lab(args: argparse.Namespace) -> int:
+
+    if args.object_side not in ("+y", "-y"):
+        raise UserError(f"twin import-lab: --object-side is +y or -y, got {args.object_side!r}")
+    r = import_lab_recording(Path(args.folder), Path(args.targets), Path(args.out),
+                             init=Path(args.init) if args.init else None, depth_mm=args.depth_mm,
+                             object_side=1 if args.object_side == "+y" else -1, limit=args.limit,
+                             progress=not args.quiet)
+    print(f"imported {r['frames']} frames into {args.out}: {r['complete']} with every pin tracked, "
+          f"{len(r['incomplete'])} with pins not found (recorded, flagged in 'found'), "
+          f"{len(r['unreadable'])} missing or unreadable (recorded without pins)")
     return 0
 
 
@@ -220,7 +237,24 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cluster", default=None, help="Ray address ('local' starts one); needs the ray extra")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--video", action="store_true", help="also write RUN/video.mp4: frame, pins, rig and path per sample")
+    p.add_argument("--taps-from", default=None, metavar="RUN",
+                   help="sheared_taps scenarios: replay the taps of RUN (an imported lab recording) in order")
+    p.add_argument("--first-taps", type=int, default=None, metavar="N", help="with --taps-from: only the first N taps")
     p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("import-lab", help="import a recording in the lab's format (frames, targets CSV, init_0.png) "
+                                          "as a run that evaluate, compare and calibrate read")
+    p.add_argument("folder", help="the folder of frames (with init_0.png or init.png)")
+    p.add_argument("--targets", required=True, help="the targets CSV (image_name, pose_1..6, move_1..6)")
+    p.add_argument("--out", required=True, help="run directory to write")
+    p.add_argument("--init", default=None, help="the no-contact frame (default FOLDER/init_0.png or init.png)")
+    p.add_argument("--depth-mm", type=float, default=3.0,
+                   help="the taps' depth at pose_3 = 0, which the lab does not record (mm; default 3)")
+    p.add_argument("--object-side", default="+y", help="the lab's y side the object lies on: +y (default, the "
+                                                       "DigiTac edge set) or -y")
+    p.add_argument("--limit", type=int, default=None, metavar="N", help="only the first N targets")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_import_lab)
 
     p = sub.add_parser("video", help="write the MP4 of a recorded run (one frame per sample)")
     p.add_argument("run", help="run directory")
