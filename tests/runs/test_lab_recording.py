@@ -39,7 +39,8 @@ def test_the_twins_taps_go_where_the_lab_arm_goes(object_side: int) -> None:
     moves[:, 0], moves[:, 1], moves[:, 5] = rng.uniform(-5, 5, 6), rng.uniform(-5, 5, 6), rng.uniform(-5, 5, 6)
     scenario = lab_scenario(LabTargets([f"frame_{k}_0.png" for k in range(6)], poses, moves), (256, 256), 3.0,
                             object_side, "lab", "<test>")
-    twin_moves = sheared_tap_moves(scenario.protocol)
+    rest, *twin_moves = sheared_tap_moves(scenario.protocol)
+    assert rest.record and rest.labels["no_contact"] and rest.pose.z < 0
     for k in range(6):
         arm = _collect(poses[k], moves[k])
         press, frame = twin_moves[4 * k + 1], twin_moves[4 * k + 2]
@@ -51,7 +52,7 @@ def test_the_twins_taps_go_where_the_lab_arm_goes(object_side: int) -> None:
         assert press.pose.z == frame.pose.z > 0  # pressed in, slid at that depth
         assert twin_moves[4 * k].pose.z < 0 and twin_moves[4 * k + 3].pose.z < 0  # approach and leave above it
     # each tap is one chunk (from a reset): the in-contact twist does not split it
-    assert [len(c) for c in chunk_moves(twin_moves)] == [4] * 6
+    assert [len(c) for c in chunk_moves([rest, *twin_moves])] == [1] + [4] * 6
 
 
 def test_the_lab_convention_in_numbers() -> None:
@@ -85,15 +86,14 @@ def _write_lab_set(run_dir: Path, folder: Path, extra_rows: list[tuple[str, np.n
     targets CSV in the lab's columns (+ `extra_rows`: a frame name and its image or None)."""
     run = load_run(run_dir)
     folder.mkdir()
-    init = cv2.imread(str(run_dir / "init.png"), cv2.IMREAD_GRAYSCALE)
-    cv2.imwrite(str(folder / "init_0.png"), init)
+    cv2.imwrite(str(folder / "init_0.png"), cv2.cvtColor(run.frame(0), cv2.COLOR_RGB2GRAY))  # the no-contact frame
     columns = ["image_name", "data_name", "obj_id", "pose_id", *(f"pose_{k}" for k in range(1, 7)),
                *(f"move_{k}" for k in range(1, 7))]
     rows = []
     given = run.meta["scenario"]["protocol"]["given"]
-    for k, s in enumerate(run.samples):
+    for k in range(len(run.samples) - 1):
         name = f"frame_{k}_0.png"
-        cv2.imwrite(str(folder / name), cv2.cvtColor(run.frame(k), cv2.COLOR_RGB2GRAY))
+        cv2.imwrite(str(folder / name), cv2.cvtColor(run.frame(k + 1), cv2.COLOR_RGB2GRAY))
         rows.append([name, f"frame_{k}", 1, k + 1, *sum(_twin_to_lab(given[k]), [])])
     for name, image in extra_rows:
         if image is not None:
@@ -106,9 +106,7 @@ def _write_lab_set(run_dir: Path, folder: Path, extra_rows: list[tuple[str, np.n
 
 @pytest.fixture(scope="module")
 def twin_sheared_run(tmp_path_factory) -> Path:
-    """Three sheared taps on the twin (fast dome), rendered, with its no-contact frame."""
-    from twin.runs.runner import worker_environment
-
+    """Three sheared taps on the twin (fast dome), rendered, after its no-contact frame."""
     tmp = tmp_path_factory.mktemp("sheared")
     taps = [{"lateral_mm": 2.0, "theta_deg": 20.0, "depth_offset_mm": 0.5, "slide_along_mm": 1.5,
              "slide_lateral_mm": -1.0, "twist_deg": 3.0},
@@ -120,9 +118,6 @@ def twin_sheared_run(tmp_path_factory) -> Path:
     path = tmp / "sheared.yaml"
     path.write_text(yaml.safe_dump(scenario))
     assert main(["run", str(path), "--out", str(tmp / "run"), "--workers", "1", "--quiet"]) == 0
-    from twin.core.scenario import load_scenario
-    rest = worker_environment(load_scenario(path), 0).reset().frame
-    cv2.imwrite(str(tmp / "run" / "init.png"), rest[..., ::-1])
     return tmp / "run"
 
 
@@ -136,18 +131,18 @@ def test_import_round_trips_the_twins_own_taps(twin_sheared_run: Path, tmp_path:
     assert main(["import-lab", str(tmp_path / "lab"), "--targets", str(targets), "--out", str(out),
                  "--depth-mm", "2.5", "--quiet"]) == 0
     printed = capsys.readouterr().out
-    assert "imported 5 frames" in printed and "3 with every pin tracked" in printed
+    assert "imported 6 frames" in printed and "4 with every pin tracked" in printed
     assert "1 with pins not found" in printed and "1 missing or unreadable" in printed
     twin, lab = load_run(twin_sheared_run), load_run(out)
-    assert lab.meta["backend"] == "hardware" and lab.meta["import"]["incomplete"] == [3]
-    assert lab.meta["import"]["unreadable"] == [4] and lab.samples[4]["pins_px"] is None
-    assert not all(lab.samples[3]["found"]) and lab.samples[3]["pins_px"] is not None
-    np.testing.assert_allclose(lab.targets[:3], twin.targets, atol=1e-5)
+    assert lab.meta["backend"] == "hardware" and lab.meta["import"]["incomplete"] == [4]
+    assert lab.meta["import"]["unreadable"] == [5] and lab.samples[5]["pins_px"] is None
+    assert not all(lab.samples[4]["found"]) and lab.samples[4]["pins_px"] is not None
+    np.testing.assert_allclose(lab.targets[:4], twin.targets, atol=1e-5)
     for key in ("lateral_mm", "theta_deg", "depth_mm", "slide_along_mm", "slide_lateral_mm", "twist_deg"):
-        np.testing.assert_allclose(lab.label(key)[:3], twin.label(key), atol=1e-5)
-    np.testing.assert_allclose(lab.pins_px[:3], twin.pins_px, atol=0.05)
+        np.testing.assert_allclose(lab.label(key)[:4], twin.label(key), atol=1e-5)
+    np.testing.assert_allclose(lab.pins_px[:4], twin.pins_px, atol=0.05)
     np.testing.assert_allclose(lab.rest_pins_px, twin.rest_pins_px, atol=0.05)
-    assert np.ptp(twin.pins_px[:, :, 0] - twin.rest_pins_px[:, 0]) > 1.0  # the taps moved the pins
+    assert np.ptp(twin.pins_px[1:, :, 0] - twin.rest_pins_px[:, 0]) > 1.0  # the taps moved the pins
 
 
 def test_replay_takes_an_imported_runs_taps_in_order(twin_sheared_run: Path, tmp_path: Path) -> None:
@@ -160,7 +155,7 @@ def test_replay_takes_an_imported_runs_taps_in_order(twin_sheared_run: Path, tmp
     (tmp_path / "replay.yaml").write_text(yaml.safe_dump(scenario))
     assert main(["run", str(tmp_path / "replay.yaml"), "--taps-from", str(tmp_path / "imp"), "--first-taps", "2",
                  "--out", str(tmp_path / "replay"), "--workers", "1", "--quiet"]) == 0
-    np.testing.assert_allclose(load_run(tmp_path / "replay").targets, load_run(tmp_path / "imp").targets[:2], atol=1e-5)
+    np.testing.assert_allclose(load_run(tmp_path / "replay").targets, load_run(tmp_path / "imp").targets[:3], atol=1e-5)
 
 
 def test_bad_targets_name_the_file_row_and_column(tmp_path: Path, capsys) -> None:

@@ -171,6 +171,11 @@ class SlideProtocol(_StraightEdgeProtocol):
     depth_mm: float = bounded(0, 6, "mm", "indentation while sliding", 3.0)
 
 
+#: where a sheared-taps run records its no-contact frame (mm, + off the object): the paper's
+#: lateral position off the object, where the perception model looks for no-contact frames
+NO_CONTACT_LATERAL_MM = 9.9
+
+
 class ShearedTap(StrictModel):
     """One sheared tap: where the frame is taken (lateral, along, θ, depth offset) and the
     in-contact slide and twist made just before it (twin.runs.protocols.sheared_tap_moves)."""
@@ -198,6 +203,8 @@ class ShearedTapProtocol(_EdgeProtocol):
     depth_offset_mm: float = bounded(0, 5, "mm", "drawn depth offsets lie in ±this", 1.0)
     slide_mm: float = bounded(0, 20, "mm", "drawn slides lie in ±this along the edge and along the normal", 5.0)
     twist_deg: float = bounded(0, 45, "deg", "drawn twists lie in ±this", 5.0)
+    rest_frame: bool = Field(default=True, description="record a no-contact frame first, hovering off the object "
+                                                        "at l = NO_CONTACT_LATERAL_MM (the perception model's reference)")
     given: Annotated[list[ShearedTap], Field(max_length=10_000)] | None = Field(
         default=None, description="the taps in order (an imported lab recording's: twin run --taps-from RUN); "
                                   "none = draw `taps`")

@@ -31,7 +31,8 @@ pose_2 grows) and s = +1 when it lies on the −y side:
 A turn about the lab's up z is the opposite turn about the twin's down z; the lab's
 (x, y) are the twin's (along, lateral) turned over the edge, so both flip with s.
 
-Each frame is tracked on its own from the no-contact frame by the twin's tracker
+The run's first sample is the no-contact frame (the sheared-taps protocol's rest frame,
+hovering off the object); each frame is tracked on its own from it by the twin's tracker
 (twin.sensing.tracker); a frame with pins the tracker did not find is recorded with
 them flagged (`found`), one missing or unreadable is recorded without pins; both are
 counted in run.json ("import") and by `twin import-lab`.
@@ -157,7 +158,8 @@ def import_lab_recording(folder: Path, targets_csv: Path, out: Path, *, init: Pa
         raise UserError(f"{init_path}: not a readable image")
     tracker = PinTracker(reference)
     scenario = lab_scenario(targets, reference.shape, depth_mm, object_side, folder.name, str(Path(targets_csv)))
-    frames = [m for m in sheared_tap_moves(scenario.protocol) if m.record]
+    frames = [m for m in sheared_tap_moves(scenario.protocol) if m.record]  # the no-contact frame, then the taps
+    files = [init_path, *(folder / name for name in targets.image_names)]
     camera = camera_for_frame(reference.shape[1], reference.shape[0])
     summary = {"folder": str(folder), "targets": str(targets_csv), "init": str(init_path), "depth_mm": depth_mm,
                "object_side": object_side, "frames": len(frames)}
@@ -165,19 +167,20 @@ def import_lab_recording(folder: Path, targets_csv: Path, out: Path, *, init: Pa
     wall = time.perf_counter()
     with RunRecorder(out, scenario, 0, "hardware", camera, extra={"import": summary}) as recorder:
         recorder.set_rest_pins(tracker.reference_pins_px)
-        for k, (move, name) in enumerate(tqdm(list(zip(frames, targets.image_names)), desc=folder.name,
-                                              unit="frame", disable=not progress)):
-            gray = _gray(folder / name)
+        for k, (move, path) in enumerate(tqdm(list(zip(frames, files)), desc=folder.name, unit="frame",
+                                              disable=not progress)):
+            labels = {**move.labels, "lab_frame": path.name}
+            gray = _gray(path)
             if gray is None or gray.shape != reference.shape:
                 unreadable.append(k)
-                recorder.add(Observation(float(k), move.pose), move.pose, {**move.labels, "lab_frame": name})
+                recorder.add(Observation(float(k), move.pose), move.pose, labels)
                 continue
             tracker.reset()  # every frame is its own tap from out of contact
             result = tracker.track(gray)
             if not result.found.all():
                 incomplete.append(k)
-            recorder.add(Observation(float(k), move.pose, cv2.cvtColor(gray, cv2.COLOR_GRAY2RGB)), move.pose,
-                         {**move.labels, "lab_frame": name}, result.pins_px, result.found)
+            recorder.add(Observation(float(k), move.pose, cv2.cvtColor(gray, cv2.COLOR_GRAY2RGB)), move.pose, labels,
+                         result.pins_px, result.found)
         summary.update(complete=len(frames) - len(incomplete) - len(unreadable), incomplete=incomplete,
                        unreadable=unreadable, wall_time_s=time.perf_counter() - wall)
         recorder.meta["import"] = summary

@@ -17,7 +17,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from twin.core.poses import Pose
-from twin.core.scenario import RenderProtocol, ShearedTap, ShearedTapProtocol, SlideProtocol, TapProtocol
+from twin.core.scenario import (NO_CONTACT_LATERAL_MM, RenderProtocol, ShearedTap, ShearedTapProtocol, SlideProtocol,
+                                TapProtocol)
 
 
 @dataclass(frozen=True)
@@ -114,9 +115,15 @@ def drawn_sheared_taps(p: ShearedTapProtocol) -> list[ShearedTap]:
 def sheared_tap_moves(p: ShearedTapProtocol) -> list[Move]:
     """Per tap: above the slid-back pose (out of contact), press there to the tap's depth,
     slide and twist in contact to the tap's pose and record, lift. Labels: the tap's
-    fields, its depth (mm) and its index in the protocol."""
+    fields, its depth (mm) and its index in the protocol. With `rest_frame`, a no-contact
+    frame first, hovering at l = NO_CONTACT_LATERAL_MM (labels tap −1, no_contact)."""
     origin, n, t = _edge_frame(p.edge_point_mm, p.edge_normal_deg)
     moves: list[Move] = []
+    if p.rest_frame:
+        x, y = origin + NO_CONTACT_LATERAL_MM * n
+        labels = {"lateral_mm": NO_CONTACT_LATERAL_MM, "theta_deg": 0.0, "depth_mm": -p.approach_mm, "tap": -1,
+                  "no_contact": True}
+        moves.append(Move(Pose(x, y, -p.approach_mm, 0.0, 0.0, 0.0), p.free_speed_mm_s, True, labels))
     for k, tap in enumerate(p.given if p.given is not None else drawn_sheared_taps(p)):
         depth = p.depth_mm + tap.depth_offset_mm
         x, y = origin + tap.lateral_mm * n + tap.along_mm * t

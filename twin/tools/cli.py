@@ -95,7 +95,8 @@ def _cmd_import_lab(args: argparse.Namespace) -> int:
                              init=Path(args.init) if args.init else None, depth_mm=args.depth_mm,
                              object_side=1 if args.object_side == "+y" else -1, limit=args.limit,
                              progress=not args.quiet)
-    print(f"imported {r['frames']} frames into {args.out}: {r['complete']} with every pin tracked, "
+    print(f"imported {r['frames']} frames (the no-contact frame first) into {args.out}: "
+          f"{r['complete']} with every pin tracked, "
           f"{len(r['incomplete'])} with pins not found (recorded, flagged in 'found'), "
           f"{len(r['unreadable'])} missing or unreadable (recorded without pins)")
     return 0
