@@ -16,6 +16,7 @@ import numpy as np
 
 from twin.core.errors import UserError
 from twin.core.poses import Pose, wrap_deg
+from twin.core.validation import no_link_out
 
 #: Travel direction: counter-clockwise seen from above (object on the left). The work
 #: frame is the object frame turned 180° about x, so in work coordinates the tangent is
@@ -103,6 +104,7 @@ def load_controller(spec: "str | Controller", protocol, base_dir: Path | None = 
     path = Path(file)
     if not path.is_absolute() and base_dir is not None:
         path = base_dir / path
+    path = no_link_out(path, f"controller {spec!r}")
     if not path.is_file():
         raise UserError(f"controller {spec!r}: file {path} not found")
     module_spec = importlib.util.spec_from_file_location(f"user_controller_{path.stem}", path)

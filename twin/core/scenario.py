@@ -12,7 +12,7 @@ from twin.core.poses import Pose
 from twin.core.resources import scenario_path
 from twin.core.calibration import DOME_MATERIAL, Calibration, load_calibration
 from twin.core.sensor import CameraModel
-from twin.core.validation import PoseList, StrictModel, bounded, bounded_list, read_yaml, validate_mapping
+from twin.core.validation import PoseList, RunName, no_link_out, StrictModel, bounded, bounded_list, read_yaml, validate_mapping
 
 EFFECTS = ("contact", "friction", "arm_dynamics", "render", "camera_noise", "lighting")
 #: Approach choreography shared by every protocol (work frame, README "Conventions"):
@@ -241,7 +241,7 @@ class Scenario(StrictModel):
     """One run. README.md, "Scenarios", shows a whole file; every field's unit and range is in
     its model's description here (ObjectSpec, SensorSpec, PhysicsOverrides, the protocols)."""
 
-    name: str
+    name: RunName
     description: str = ""
     backend: Literal["sim", "hardware"] = "sim"
     seed: int = bounded(0, 2**32 - 1, "dimensionless", "random seed", 0)
@@ -299,9 +299,10 @@ class Scenario(StrictModel):
         return getattr(self, "_source", "<inline>")
 
     def resolve(self, relative: str) -> Path:
-        """A path named in the scenario, relative to the scenario file."""
+        """A path named in the scenario, relative to the scenario file; a symbolic link
+        out of the folder that holds the link is refused (UserError naming the field's path)."""
         p = Path(relative).expanduser()
-        return p if p.is_absolute() else (self.source_dir / p)
+        return no_link_out(p if p.is_absolute() else (self.source_dir / p), self.source)
 
     def camera_model(self) -> CameraModel:
         """The sensor's camera model (resolution and field of view of `sensor.camera`, with

@@ -9,6 +9,7 @@ tests/core/test_validation.py walks every schema and holds this).
 """
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -58,13 +59,85 @@ PoseList = Annotated[
 ]
 
 
+#: The most bytes a validated YAML file may hold (B); the shipped ones hold a few kB.
+MAX_YAML_BYTES = 4 * 2**20
+#: The most nodes a YAML document may hold once its aliases are expanded: anchors and
+#: aliases are allowed, but a few hundred bytes of nested aliases (an alias bomb) expand
+#: to billions of nodes, which validation would walk.
+MAX_YAML_NODES = 200_000
+
+
+class _BoundedLoader(yaml.SafeLoader):
+    """yaml.SafeLoader refusing a document of more than MAX_YAML_NODES nodes counted with
+    its aliases expanded (each aliased node counted where it is used)."""
+
+    def get_single_node(self):
+        node = super().get_single_node()
+        if node is not None:
+            _expanded_size(node, {})
+        return node
+
+
+def _expanded_size(node: yaml.Node, sizes: dict[int, int]) -> int:
+    """The nodes under `node` with aliases expanded; yaml.YAMLError beyond MAX_YAML_NODES.
+    Memoised per node, so an alias bomb is measured in time linear in its size."""
+    known = sizes.get(id(node))
+    if known is not None:
+        return known
+    sizes[id(node)] = 1  # a node that holds itself (a recursive alias) counts once
+    total = 1
+    if isinstance(node, yaml.SequenceNode):
+        total += sum(_expanded_size(child, sizes) for child in node.value)
+    elif isinstance(node, yaml.MappingNode):
+        total += sum(_expanded_size(k, sizes) + _expanded_size(v, sizes) for k, v in node.value)
+    if total > MAX_YAML_NODES:
+        raise yaml.YAMLError(f"more than {MAX_YAML_NODES} values once its aliases are expanded (an alias bomb?)")
+    sizes[id(node)] = total
+    return total
+
+
+#: A run's name (a scenario's `name`): one folder name, the default run folder's start.
+RUN_NAME_CHARACTERS = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.+-]*")
+RUN_NAME_MAX = 100
+
+
+def _one_folder_name(name: str) -> str:
+    if not 1 <= len(name) <= RUN_NAME_MAX:
+        raise ValueError(f"a run name has 1 to {RUN_NAME_MAX} characters, this one {len(name)}")
+    if not RUN_NAME_CHARACTERS.fullmatch(name):
+        raise ValueError("a run name is one folder name: ASCII letters, digits and _ . + - "
+                         "(not first: . + -); no /, spaces, NUL or newlines")
+    return name
+
+
+#: A name that is one path segment (no /, no .., no NUL or newline), 1 to RUN_NAME_MAX characters.
+RunName = Annotated[str, AfterValidator(_one_folder_name)]
+
+
+def no_link_out(path: Path, source: str) -> Path:
+    """`path` (a file named in `source`), unless it is a symbolic link to a place outside the
+    folder that holds the link: an input never leads out of where the user put it."""
+    if path.is_symlink():
+        try:
+            path.resolve(strict=False).relative_to(path.parent.resolve())
+        except (ValueError, OSError, RuntimeError):
+            raise UserError(f"{source}: {path} is a symbolic link out of its folder; name the file itself") from None
+    return path
+
+
 def read_yaml(path: str | Path, what: str):
-    """The parsed contents of a YAML file; UserError naming the file (and line) otherwise."""
+    """The parsed contents of a YAML file; UserError naming the file (and line) otherwise.
+    Files over MAX_YAML_BYTES, and documents whose aliases expand past MAX_YAML_NODES
+    values, are refused; messages never quote the file's contents."""
     path = Path(path)
     if not path.is_file():
         raise UserError(f"{path}: no such {what} file")
     try:
-        return yaml.safe_load(path.read_text())
+        if path.stat().st_size > MAX_YAML_BYTES:
+            raise UserError(f"{path}: a {what} file of {path.stat().st_size} B; at most {MAX_YAML_BYTES} B are read")
+        return yaml.load(path.read_text(), Loader=_BoundedLoader)  # noqa: S506  (a SafeLoader)
+    except OSError as err:
+        raise UserError(f"{path}: cannot read the {what} file ({err.strerror or type(err).__name__})") from None
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         where = f" line {mark.line + 1}, column {mark.column + 1}:" if mark is not None else ""

@@ -515,7 +515,7 @@ def read_outline_csv(path: Path) -> tuple[np.ndarray, list[int]]:
     try:
         text = path.read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as exc:
-        raise UserError(f"outline {path}: cannot be read ({exc})") from None
+        raise UserError(f"outline {path}: cannot be read ({type(exc).__name__})") from None
     pts: list[tuple[float, float]] = []
     lines: list[int] = []
     header_allowed = True
@@ -531,11 +531,11 @@ def read_outline_csv(path: Path) -> tuple[np.ndarray, list[int]]:
                 header_allowed = False
                 continue
             raise UserError(f"outline {path} line {lineno}: expected 'x,y' in mm, "
-                            f"got {raw.strip()!r}") from None
+                            "the line holds something else") from None
         header_allowed = False
         if len(values) != 2 or not all(math.isfinite(v) for v in values):
-            raise UserError(f"outline {path} line {lineno}: expected two finite numbers 'x,y' "
-                            f"in mm, got {raw.strip()!r}")
+            raise UserError(f"outline {path} line {lineno}: expected two finite numbers 'x,y' in mm, "
+                            f"got {len(values)} numbers" + (" not both finite" if len(values) == 2 else ""))
         if pts and values == list(pts[-1]):
             continue  # repeated vertex
         pts.append((values[0], values[1]))
