@@ -14,6 +14,7 @@ import dataclasses
 import hashlib
 import json
 import shutil
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -80,18 +81,33 @@ def cached_tap_model(scenario: Scenario, progress: bool = True) -> PerceptionMod
     taps = tap_scenario_like(scenario)
     key = cache_key(taps)
     model_path = cache_dir() / "models" / f"taps_{key}.npz"
+    model = None
     if model_path.exists():
-        model = PerceptionModel.load(model_path)
-    else:
+        try:
+            model = PerceptionModel.load(model_path)
+        except UserError as err:  # a damaged cache entry (cut by a kill, a full disk) is trained again
+            warnings.warn(f"{err}; training it again")
+    if model is None:
         run_dir = cache_dir() / "runs" / f"taps_{key}"
-        if not (run_dir / "run.json").exists() or load_run(run_dir).meta.get("status") != "completed":
+        if not _completed_run(run_dir):
             shutil.rmtree(run_dir, ignore_errors=True)
             record_protocol(taps, run_dir, progress=progress)
         model = train_from_run(load_run(run_dir))
-        model_path.parent.mkdir(parents=True, exist_ok=True)
-        model.save(model_path)
+        try:
+            model_path.parent.mkdir(parents=True, exist_ok=True)
+            model.save(model_path)
+        except OSError as err:
+            warnings.warn(f"{model_path}: could not store the trained model in the cache ({err.strerror})")
     model.info["path"] = str(model_path)
     return model
+
+
+def _completed_run(run_dir: Path) -> bool:
+    """True if `run_dir` holds a readable, completed run (a damaged one is recorded again)."""
+    try:
+        return (run_dir / "run.json").exists() and load_run(run_dir).meta.get("status") == "completed"
+    except UserError:
+        return False
 
 
 def model_for_scenario(scenario: Scenario) -> PerceptionModel:

@@ -82,7 +82,9 @@ import warnings
 
 import json
 import math
+import os
 import time
+import zipfile
 from dataclasses import asdict, dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
@@ -759,8 +761,14 @@ class PerceptionModel:
             arrays[f"gp_{k}_theta"] = g.kernel_.theta
         for k, a in self._train.items():
             arrays[f"train_{k}"] = np.asarray(a)
-        with path.open("wb") as fh:
-            np.savez(fh, **arrays)
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        try:  # under a temporary name, then renamed: a model file that exists is whole
+            with tmp.open("wb") as fh:
+                np.savez(fh, **arrays)
+            os.replace(tmp, path)
+        except BaseException:
+            tmp.unlink(missing_ok=True)
+            raise
         return path
 
     @classmethod
@@ -772,8 +780,8 @@ class PerceptionModel:
         try:
             data = np.load(path, allow_pickle=False)
             header = json.loads(bytes(data["header"]).decode("utf-8"))
-        except (ValueError, KeyError, OSError) as exc:
-            raise UserError(f"{path}: not a perception model file ({exc})") from exc
+        except (ValueError, KeyError, OSError, EOFError, zipfile.BadZipFile) as exc:
+            raise UserError(f"{path}: not a perception model file ({type(exc).__name__})") from None
         if not isinstance(header, dict):
             raise UserError(f"{path}: the header is not a JSON object")
         if header.get("format") != FORMAT:
