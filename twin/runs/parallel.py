@@ -2,7 +2,13 @@
 yielding results in job order. Same jobs and seeds → same results either way."""
 from __future__ import annotations
 
+import contextlib
+import ctypes
 import os
+import signal
+import sys
+import threading
+import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_context
@@ -72,14 +78,28 @@ class WorkerPool:
             # training), which a forked child inherits half-initialised and can deadlock on.
             context = get_context("forkserver")
             context.set_forkserver_preload(["twin.runs.sim_env", "twin.runs.runner", "twin.control.contour"])
-            self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=context, initializer=one_blas_thread)
+            self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=context, initializer=_start_worker,
+                                             initargs=(os.getpid(),))
         futures = [self._pool.submit(fn, *job) for job in jobs]
+        # Ctrl-C and SIGTERM land while this waits for a worker, never while the caller
+        # handles a result (records a chunk): the results finished by then are all kept.
+        on_main = threading.current_thread() is threading.main_thread()
+        caller_mask = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS) if on_main else None
         try:
-            for future in futures:
-                yield future.result()
+            for index, future in enumerate(futures):
+                try:
+                    with _signals_delivered(caller_mask):
+                        result = future.result()
+                except KeyboardInterrupt:  # Ctrl-C, SIGTERM: what the workers have finished is kept
+                    yield from _finished_in_order(futures[index:])
+                    raise
+                yield result
         except BaseException:
             self._stop_local()
             raise
+        finally:
+            if on_main:
+                signal.pthread_sigmask(signal.SIG_SETMASK, caller_mask)
 
     def close(self) -> None:
         """Stop the local workers and a Ray instance this pool started."""
@@ -112,6 +132,67 @@ class WorkerPool:
         refs = [self._ray_remote.remote(fn, *job) for job in jobs]
         for ref in refs:
             yield ray.get(ref)
+
+
+_STOP_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+
+
+@contextlib.contextmanager
+def _signals_delivered(mask: set | None) -> Iterator[None]:
+    """Inside, the signal mask is `mask` (the caller's); None leaves it as it is."""
+    if mask is None:
+        yield
+        return
+    signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
+
+
+def _finished_in_order(futures: list) -> Iterator:
+    """After an interruption: the queued jobs cancelled, the results of those finished or
+    running, in order, up to the first that was cancelled or failed (a record is a prefix
+    of the protocol)."""
+    for future in futures:
+        future.cancel()
+    for future in futures:
+        if future.cancelled():
+            return
+        try:
+            result = future.result()
+        except Exception:  # noqa: BLE001  (a failed job ends the kept prefix; the interruption is raised)
+            return
+        yield result
+
+
+#: How often a worker checks that the process that started it is alive (s)
+PARENT_CHECK_S = 0.5
+
+
+def _start_worker(parent_pid: int) -> None:
+    """A local worker's start: one BLAS thread; Ctrl-C left to the parent, which keeps
+    what the workers finish; the worker ends when its parent does, even one killed
+    outright (SIGKILL: Linux's parent-death signal, and a thread that polls the parent)."""
+    one_blas_thread()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if sys.platform.startswith("linux"):
+        with contextlib.suppress(OSError, AttributeError):
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, signal.SIGKILL, 0, 0, 0)  # PR_SET_PDEATHSIG: killed when the forkserver goes
+    threading.Thread(target=_exit_with, args=(parent_pid,), daemon=True, name="twin-parent-watch").start()
+
+
+def _exit_with(parent_pid: int) -> None:
+    """End this process as soon as `parent_pid` is gone."""
+    while True:
+        time.sleep(PARENT_CHECK_S)
+        try:
+            os.kill(parent_pid, 0)
+        except ProcessLookupError:
+            os._exit(1)
+        except PermissionError:
+            pass
 
 
 def one_blas_thread() -> None:

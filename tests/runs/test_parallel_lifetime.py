@@ -1,0 +1,99 @@
+"""A parallel run's worker processes end with it, even when it is killed outright
+(SIGKILL: checked by process id), and a SIGTERM keeps every sample the workers had
+finished or were working on: the chunks in progress are recorded, not thrown away."""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import yaml
+
+from twin.runs.record import load_run
+
+SCENARIO = {"name": "lifetime_taps", "object": {"name": "rectangle"}, "fidelity": "fast", "seed": 3,
+            "effects": ["contact", "friction"],
+            "protocol": {"kind": "taps", "orientations_deg": [-60, -20, 20, 60], "lateral_mm": [6, 0, -4],
+                         "depths_mm": [3]}}
+CHUNK = 3  # samples per orientation: a chunk (twin.runs.runner.chunk_moves)
+
+pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads process trees from /proc")
+
+
+def _children(pid: int) -> set[int]:
+    """Every live descendant of `pid` (from /proc)."""
+    parents = {}
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:
+                continue
+            parents[int(entry.name)] = int(stat.rsplit(")", 1)[1].split()[1])
+    found, todo = set(), [pid]
+    while todo:
+        parent = todo.pop()
+        for child, ppid in parents.items():
+            if ppid == parent and child not in found:
+                found.add(child)
+                todo.append(child)
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return "Z" not in Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+
+
+def _start(tmp_path: Path) -> tuple[subprocess.Popen, Path]:
+    scenario = tmp_path / "taps.yaml"
+    scenario.write_text(yaml.safe_dump(SCENARIO))
+    out = tmp_path / "run"
+    proc = subprocess.Popen([sys.executable, "-m", "twin.tools.cli", "run", str(scenario), "--out", str(out),
+                             "--workers", "2", "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            env=os.environ | {"PYTHONUNBUFFERED": "1"})
+    return proc, out
+
+
+def _wait(condition, proc: subprocess.Popen, what: str, timeout_s: float = 180.0) -> None:
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline, f"no {what} within {timeout_s} s"
+        time.sleep(0.01)
+
+
+def test_workers_end_when_the_parent_is_killed(tmp_path: Path) -> None:
+    proc, out = _start(tmp_path)
+    workers: set[int] = set()
+
+    def two_workers_busy() -> bool:
+        workers.update(_children(proc.pid))
+        return len([p for p in workers if _alive(p)]) >= 3 and (out / "run.json").exists()  # forkserver + 2
+
+    _wait(two_workers_busy, proc, "worker processes")
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    deadline = time.monotonic() + 20.0
+    while any(_alive(p) for p in workers) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not [p for p in workers if _alive(p)], f"processes left of {sorted(workers)}"
+
+
+def test_sigterm_keeps_every_chunk_the_workers_were_running(tmp_path: Path) -> None:
+    proc, out = _start(tmp_path)
+    samples = out / "samples.jsonl"
+    _wait(lambda: samples.exists() and samples.read_bytes().count(b"\n") >= 1, proc, "first sample")
+    seen = samples.read_bytes().count(b"\n")  # the first chunk; the second was running beside it
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=180)
+    assert proc.returncode == 143, err.decode()
+    run = load_run(out)
+    assert run.meta["status"] == "interrupted" and len(run.samples) % CHUNK == 0
+    assert len(run.samples) >= max(seen, CHUNK * 2), (seen, len(run.samples))
