@@ -104,12 +104,13 @@ def test_flank_on_the_edge_settles(dome, level):
 
 
 def _flank_cycle_run(cycle_relaxation: float) -> list[int]:
-    """The sweep's grid_5x5x2 slide probe at θ = −80° (twin.tools.sweep); settle steps per frame."""
+    """The sweep's grid_5x5x2 slide probe at θ = −80° (twin.analysis.sweep); settle steps per frame."""
     from dataclasses import replace
 
     from twin.runs.protocols import protocol_moves
     from twin.runs.runner import chunk_moves
-    from twin.tools.sweep import FULL_PROBE, full_settings
+    from twin.analysis.sweep.knobs import full_settings
+    from twin.analysis.sweep.probe import FULL_PROBE
 
     setting = next(s for s in full_settings() if s.name == "grid_5x5x2")
     probe = replace(FULL_PROBE, slide_orientations_deg=(-80.0,))

@@ -26,7 +26,7 @@ from twin.runs.protocols import protocol_moves
 from twin.runs.runner import chunk_moves, close_worker_envs
 from twin.core.resources import scenario_path
 from twin.core.scenario import load_scenario
-from twin.tools.sweep import run_sweep
+from twin.tools.sweep_report import sweep_and_report
 from twin.core.errors import UserError
 import csv
 
@@ -132,12 +132,12 @@ def bench_throughput(quick: bool = False) -> list[dict]:
 
 def bench_sweep(quick: bool = False, out: Path | None = None, workers: int | None = None,
                 cluster: str | None = None) -> list[dict]:
-    """The fidelity sweep (twin.tools.sweep): per setting, ms per frame split into physics,
+    """The fidelity sweep (twin.analysis.sweep): per setting, ms per frame split into physics,
     render, tracking and perception, against pin error (px), perception error (deg, mm)
     and contour error (mm); writes sweep.csv, sweep.md, sweep.json and pareto.png to
     `out` (default out/bench). Prints its own table."""
 
-    return run_sweep(out if out is not None else Path("out") / "bench", quick=quick, workers=workers, cluster=cluster)
+    return sweep_and_report(out if out is not None else Path("out") / "bench", quick=quick, workers=workers, cluster=cluster)
 
 
 SECTIONS: dict[str, Callable[..., list[dict]]] = {

@@ -476,7 +476,7 @@ class SensorPhysics:
     def converged_pins(self, settle_px: float | None = None, max_steps: int = 400) -> np.ndarray:
         """(127, 3) pin tips in the tool frame (m), the kind `settle` returns, of the state
         the current frame was settling towards; the simulation is left exactly as it was.
-        "How far is this frame from its equilibrium?" (twin.tools.sweep's settling error).
+        "How far is this frame from its equilibrium?" (twin.analysis.sweep's settling error).
 
         Call right after `settle`: settles on at the commanded pose with `settle` itself
         (same stepping and checks, the stationary-cycle rule included) until a step moves

@@ -19,8 +19,10 @@ from twin.world.dome.flex import FIDELITY_LEVELS
 from twin.core.errors import PhysicsError
 from twin.world.dome.testbed import edge_scene, sensor_down
 from twin.core.errors import UserError
-from twin.tools.sweep import (COMPLIANT_REFERENCE, CSV_COLUMNS, DEFAULT, REFERENCE, Probe, Setting, annotate_fronts,
-                              dominates, dominators, markdown_table, pareto_flags, peers, quick_settings, run_sweep)
+from twin.analysis.sweep.fronts import annotate_fronts, dominates, dominators, pareto_flags, peers
+from twin.analysis.sweep.knobs import COMPLIANT_REFERENCE, DEFAULT, REFERENCE, Setting, quick_settings
+from twin.analysis.sweep.probe import Probe
+from twin.tools.sweep_report import CSV_COLUMNS, markdown_table, sweep_and_report
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -92,7 +94,7 @@ def test_failed_setting_is_recorded_counted_and_kept_off_the_front(tmp_path) -> 
                  lateral_mm=(9.9, 4.0, 0.0, -4.0), tap_depths_mm=(2.0, 4.0), contour_max_steps=3, gp_restarts=0)
     settings = [Setting(REFERENCE, "reference", "fast", effects=("contact", "friction")),
                 Setting("bad_timestep", "time step", physics={"timestep_s": 1.0})]
-    rows = run_sweep(tmp_path, settings=settings, probe=tiny, workers=1, verbose=False)
+    rows = sweep_and_report(tmp_path, settings=settings, probe=tiny, workers=1, verbose=False)
     ok, bad = rows
     assert ok["status"] == "ok" and ok["pin_rms_px"] == 0.0 and ok["on_front"] is True
     assert bad["status"] == "failed" and bad["stage"] == "build" and "timestep_s" in bad["error"]
@@ -222,7 +224,7 @@ def test_compliant_settings_are_measured_against_their_own_reference(tmp_path) -
                 Setting("compliant_fast", "compliant dome", "fast", effects=pins, dome="compliant"),
                 Setting("compliant_membrane", "compliant skin", "fast", physics=SKIN_PHYSICS["membrane"], effects=pins,
                         dome="compliant", pins_comparable=False)]
-    rows = run_sweep(tmp_path, settings=settings, probe=tiny, workers=1, verbose=False)
+    rows = sweep_and_report(tmp_path, settings=settings, probe=tiny, workers=1, verbose=False)
     flex_ref, ref, fast, membrane = rows
     assert all(r["status"] == "ok" for r in rows), [(r["setting"], r["error"]) for r in rows]
     assert ref["dome"] == fast["dome"] == "compliant" and flex_ref["dome"] == "flex"
@@ -239,7 +241,7 @@ def test_compliant_settings_are_measured_against_their_own_reference(tmp_path) -
     md = (tmp_path / "sweep.md").read_text()
     assert "compliant_reference" in md and "contour front" in md
     with pytest.raises(UserError, match="compliant_reference"):
-        run_sweep(tmp_path / "no_ref", settings=settings[:1] + settings[2:], probe=tiny, workers=1, verbose=False)
+        sweep_and_report(tmp_path / "no_ref", settings=settings[:1] + settings[2:], probe=tiny, workers=1, verbose=False)
 
 
 def test_pin_fronts_stay_within_a_dome_model_and_the_contour_front_spans_both() -> None:
