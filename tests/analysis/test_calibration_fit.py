@@ -196,6 +196,34 @@ def test_not_converged_keeps_the_best_point_and_resumes(real, tmp_path) -> None:
     assert main(args[:-5] + ["--settings", str(two), "--workers", "1", "--quiet"]) == 1  # resumes at generation 2
     history = [json.loads(line) for line in (tmp_path / "cal" / "history.jsonl").read_text().splitlines()]
     assert [h["generation"] for h in history].count(2) == 6 and len(history) == 1 + 12
+    # the search rebuilt from the JSON checkpoint goes on exactly as one never stopped
+    whole = args[:-5] + ["--settings", str(two), "--workers", "1", "--quiet"]
+    whole[whole.index(str(tmp_path / "cal"))] = str(tmp_path / "whole")
+    assert main(whole) == 1
+    assert (tmp_path / "whole" / "history.jsonl").read_text() == (tmp_path / "cal" / "history.jsonl").read_text()
+
+
+def test_a_planted_checkpoint_is_never_unpickled(real, tmp_path, capsys) -> None:
+    out = tmp_path / "cal"
+    out.mkdir()
+    marker = tmp_path / "ran"
+    (out / "checkpoint.pkl").write_bytes(pickle.dumps(_Planted(str(marker))))
+    (out / "checkpoint.json").write_text(json.dumps({"format": "twin calibration checkpoint 1", "key": "x"}))
+    args = ["calibrate", *map(str, real["runs"]), "--scenario", str(real["root"] / "twin.yaml"), "--out", str(out),
+            "--settings", str(_settings(tmp_path, FIT)), "--workers", "1", "--quiet"]
+    assert main(args) == 2
+    assert "checkpoint.json: field 'generation' missing or of the wrong type" in capsys.readouterr().err
+    assert not marker.exists()
+
+
+class _Planted:
+    """What a planted pickle does when it is loaded: here, create a file."""
+
+    def __init__(self, path: str) -> None:
+        self.path = path
+
+    def __reduce__(self):
+        return (Path(self.path).touch, ())
 
 
 def _copy_run(src: Path, dst: Path, edit_meta=None, edit_sample=None) -> Path:

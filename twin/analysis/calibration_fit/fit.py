@@ -24,7 +24,7 @@ camera parameters are solved by least squares (scipy, trust region) — a separa
 ("variable projection") problem, so the search covers only the few physics dimensions.
 Stop rule: the best χ² improved by less than `tol_relative` over `patience` generations
 (converged) or `max_generations` reached (not converged: the command exits 1, best point kept).
-Each generation is checkpointed (DIR/checkpoint.pkl, DIR/history.jsonl); a calibration
+Each generation is checkpointed (DIR/checkpoint.json, DIR/history.jsonl); a calibration
 started again with the same runs, scenario and settings resumes from it.
 
 Uncertainty: J is the Jacobian of the whitened residuals at the optimum (central
@@ -58,7 +58,7 @@ def calibrate(run_dirs: list[Path], scenario: Scenario, out: Path, settings: Cal
               workers: int | None = None, cluster: str | None = None, progress: bool = True) -> dict:
     """Fit the twin to the runs (module docstring); writes DIR/calibration.yaml (converged) or
     DIR/best_calibration.yaml (not: the result's status says so), the report data
-    report.json (the returned result), history.jsonl and checkpoint.pkl. The command
+    report.json (the returned result), history.jsonl and checkpoint.json. The command
     (twin.tools.calibration_report.calibrate_and_report) adds report.md and residuals.png.
     workers / cluster: as twin.runs.parallel.WorkerPool, one pool for all the simulations."""
     with WorkerPool(workers, cluster) as pool:

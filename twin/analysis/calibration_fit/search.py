@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import pickle
 from pathlib import Path
 
 import cma
@@ -26,10 +25,72 @@ def search_key(runs: list[Path], scenario: Scenario, settings: CalibrationSettin
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
+#: The checkpoint: JSON (never pickle, which runs code when it is read). The search itself
+#: is not stored: it is rebuilt from its settings and replayed through the generations'
+#: candidates ("asked", unit cube) and their χ² ("told"), which reproduces its state.
+CHECKPOINT = "checkpoint.json"
+CHECKPOINT_FORMAT = "twin calibration checkpoint 1"
+
+
 def _save_checkpoint(out: Path, state: dict) -> None:
-    tmp = out / "checkpoint.pkl.tmp"
-    tmp.write_bytes(pickle.dumps(state))
-    tmp.replace(out / "checkpoint.pkl")
+    """Write the state (all but the search object) under a temporary name, then rename."""
+    data = {"format": CHECKPOINT_FORMAT, **{k: v for k, v in state.items() if k != "es"}}
+    tmp = out / f".{CHECKPOINT}.tmp"
+    tmp.write_text(json.dumps(data))
+    tmp.replace(out / CHECKPOINT)
+
+
+def _load_checkpoint(path: Path) -> dict:
+    """A checkpoint written by `_save_checkpoint`, checked field by field; UserError naming
+    the file and field otherwise (its contents are never quoted)."""
+    try:
+        data = json.loads(path.read_bytes())
+    except (OSError, ValueError, RecursionError):
+        raise UserError(f"{path}: not a calibration checkpoint (unreadable JSON); delete it to start again") from None
+    def numbers(v) -> bool:
+        return isinstance(v, list) and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)
+    checks = {
+        "format": lambda v: v == CHECKPOINT_FORMAT,
+        "key": lambda v: isinstance(v, str),
+        "generation": lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 0,
+        "best": lambda v: isinstance(v, dict) and numbers(list(v.values())),
+        "best_chi2": lambda v: numbers([v]),
+        "start_chi2": lambda v: numbers([v]),
+        "trace": numbers,
+        "converged": lambda v: isinstance(v, bool),
+        "stop": lambda v: v is None or isinstance(v, str),
+        "asked": lambda v: isinstance(v, list) and all(isinstance(g, list) and all(numbers(u) for u in g) for g in v),
+        "told": lambda v: isinstance(v, list) and all(numbers(g) for g in v),
+    }
+    if not isinstance(data, dict):
+        raise UserError(f"{path}: not a calibration checkpoint (a JSON object); delete it to start again")
+    for field, ok in checks.items():
+        if field not in data or not ok(data[field]):
+            raise UserError(f"{path}: field {field!r} missing or of the wrong type; delete the checkpoint to start again")
+    if len(data["asked"]) != data["generation"] or [len(g) for g in data["asked"]] != [len(g) for g in data["told"]]:
+        raise UserError(f"{path}: fields 'asked' and 'told' do not hold one entry per generation")
+    data.pop("format")
+    return data
+
+
+def _new_search(names: list[str], space, opt, best_chi2: float):
+    """The search of `names` from the defaults: a BracketSearch for one parameter, else CMA-ES."""
+    popsize = opt.popsize or 4 + int(3 * np.log(max(len(names), 2)))
+    if len(names) == 1:  # pycma does not run in 1-D (CMA-ES/pycma#86, #302)
+        return BracketSearch(popsize, float(space.to_unit(names, space.defaults)[0]), best_chi2, opt.tol_bracket)
+    return cma.CMAEvolutionStrategy(space.to_unit(names, space.defaults), opt.sigma0, {
+        "bounds": [0.0, 1.0], "popsize": popsize, "seed": opt.seed, "verbose": -9, "tolfun": 0.0,
+        "tolflatfitness": 3})
+
+
+def _replayed_search(names: list[str], space, opt, state: dict):
+    """The search as it was after the checkpoint's generations: built again and told each
+    generation's candidates and χ² in order (each asked first, which advances its sampler)."""
+    es = _new_search(names, space, opt, state["start_chi2"])
+    for units, chi2 in zip(state["asked"], state["told"]):
+        es.ask()
+        es.tell([np.asarray(u, float) for u in units], list(chi2))
+    return es
 
 
 class BracketSearch:
@@ -73,29 +134,24 @@ def optimise(ev: Evaluator, out: Path, key: str, progress: bool) -> dict:
     space, opt = ev.space, ev.space.settings.optimiser
     names = space.physics
     history_file = out / "history.jsonl"
-    checkpoint = out / "checkpoint.pkl"
+    checkpoint = out / CHECKPOINT
     if checkpoint.exists():
-        state = pickle.loads(checkpoint.read_bytes())
+        state = _load_checkpoint(checkpoint)
         if state["key"] != key:
             raise UserError(f"{out}: holds a checkpoint of another calibration (other runs, scenario or settings); "
                             "choose another --out")
+        state["es"] = _replayed_search(names, space, opt, state) if names else None
     else:
         start = {n: space.defaults[n] for n in space.fitted}
         tips = ev.simulate([{n: space.defaults[n] for n in names}])[0]
         best = ev.solve_camera(tips, {n: space.defaults[n] for n in names}, start)
-        state = {"key": key, "es": None, "generation": 0, "best": best, "best_chi2": ev.chi2(tips, best),
-                 "trace": [], "converged": not names, "stop": "no physics parameters: camera solved by least squares"
-                 if not names else None}
+        chi2_0 = ev.chi2(tips, best)
+        state = {"key": key, "es": None, "generation": 0, "best": best, "best_chi2": chi2_0, "start_chi2": chi2_0,
+                 "trace": [], "asked": [], "told": [], "converged": not names,
+                 "stop": "no physics parameters: camera solved by least squares" if not names else None}
         history_file.write_text(json.dumps({"generation": 0, "values": best, "chi2": state["best_chi2"]}) + "\n")
         if names:
-            popsize = opt.popsize or 4 + int(3 * np.log(max(len(names), 2)))
-            if len(names) == 1:  # pycma does not run in 1-D (CMA-ES/pycma#86, #302)
-                state["es"] = BracketSearch(popsize, float(space.to_unit(names, space.defaults)[0]), state["best_chi2"],
-                                            opt.tol_bracket)
-            else:
-                state["es"] = cma.CMAEvolutionStrategy(space.to_unit(names, space.defaults), opt.sigma0, {
-                    "bounds": [0.0, 1.0], "popsize": popsize, "seed": opt.seed, "verbose": -9, "tolfun": 0.0,
-                    "tolflatfitness": 3})
+            state["es"] = _new_search(names, space, opt, chi2_0)
         _save_checkpoint(out, state)
     es = state["es"]
     bar = tqdm(total=opt.max_generations, initial=state["generation"], desc="calibrate", unit="gen", disable=not progress or es is None)
@@ -106,6 +162,8 @@ def optimise(ev: Evaluator, out: Path, key: str, progress: bool) -> dict:
         fitted = [ev.solve_camera(t, p, state["best"]) for t, p in zip(tips_all, physics)]
         chi2 = [ev.chi2(t, v) for t, v in zip(tips_all, fitted)]
         es.tell(units, chi2)
+        state["asked"].append([np.asarray(u, float).tolist() for u in units])
+        state["told"].append([float(c) for c in chi2])
         state["generation"] += 1
         k = int(np.argmin(chi2))
         if chi2[k] < state["best_chi2"]:
