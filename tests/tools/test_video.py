@@ -16,7 +16,7 @@ import pytest
 import yaml
 
 from twin.core.scenario import scenario_from_dict
-from twin.runs.contour import run_contour
+from twin.runs.contour_run import run_contour
 from twin.runs.record import load_run
 from twin.sensing.perception import GPConfig, PerceptionModel, paper_training_labels, synthetic_tap_pins
 from twin.tools.cli import main

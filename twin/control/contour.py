@@ -1,7 +1,7 @@
 """The closed contour-following loop (§III-D) on any Environment: observe → read pins →
 perceive θ̂ and l̂ → step with the controller; it stops when the loop closes, at the
 spiral's end, when the contour is lost or at the step limit. Recording, scoring and
-plotting a run: twin.runs.contour.
+plotting a run: twin.runs.contour_run.
 """
 from __future__ import annotations
 

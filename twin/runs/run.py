@@ -1,5 +1,5 @@
 """`twin run`: execute any scenario on its backend and record it — open-loop protocols
-(twin.runs.runner) and closed-loop contour following (twin.runs.contour)."""
+(twin.runs.runner) and closed-loop contour following (twin.runs.contour_run)."""
 from __future__ import annotations
 
 import json
@@ -7,7 +7,7 @@ from pathlib import Path
 
 from twin.core.errors import UserError
 from twin.core.scenario import Scenario, scenario_from_dict
-from twin.runs.contour import run_contour
+from twin.runs.contour_run import run_contour
 from twin.runs.record import jsonable, load_run
 from twin.runs.runner import record_protocol
 

@@ -9,7 +9,7 @@ from pathlib import Path
 from twin.core.resources import scenario_path
 from twin.core.scenario import load_scenario
 from twin.runs.sim_env import render_scenario_view
-from twin.runs.contour import run_contour
+from twin.runs.contour_run import run_contour
 from twin.runs.parallel import map_ordered
 from twin.runs.training import cached_tap_model
 from twin.tools.video import write_run_video

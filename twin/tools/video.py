@@ -26,7 +26,7 @@ from PIL import Image, ImageDraw, ImageFont
 from twin.core.errors import UserError
 from twin.core.poses import Pose
 from twin.core.scenario import scenario_from_dict
-from twin.runs.contour import object_path
+from twin.runs.contour_run import object_path
 from twin.runs.record import Run, load_run
 from twin.analysis.comparison import paired_runs
 from twin.world.render import OverviewRenderer

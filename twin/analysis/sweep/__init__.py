@@ -15,9 +15,9 @@ so the stage timings are the simulation's own):
    8 samples per slide): the pins of these frames give the **pin error**, and the model
    trained in 1. predicts θ̂ and l̂ on them: the **perception error**;
 3. closed-loop contour following of the rectangle (§III-D) with that model: the
-   **contour error**. The loop is `twin.runs.contour.run_contour`'s, step for step, without
+   **contour error**. The loop is `twin.runs.contour_run.run_contour`'s, step for step, without
    the recorder (so no PNG writing lands in the timings); the metrics are computed by
-   `twin.runs.contour.contour_metrics` itself.
+   `twin.runs.contour_metrics.contour_metrics` itself.
 
 Figures per setting (units in the column names; the CSV's columns:
 twin.tools.sweep_report.CSV_COLUMNS):

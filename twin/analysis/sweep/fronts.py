@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 from twin.analysis.sweep.knobs import DEFAULT
-from twin.runs.contour import COMPLETED_STOPS
+from twin.runs.contour_metrics import COMPLETED_STOPS
 
 #: Accuracy columns measured against the dome's own reference (compared within a dome only).
 PIN_METRICS: tuple[str, ...] = ("pin_rms_px", "pin_physics_rms_px", "pin_settling_rms_px")

@@ -15,7 +15,7 @@ import numpy as np
 from twin.analysis.sweep.knobs import Setting
 from twin.control.contour import ContourFollower
 from twin.core.sensor import CameraModel
-from twin.runs.contour import contour_metrics
+from twin.runs.contour_metrics import contour_metrics
 from twin.runs.protocols import protocol_moves
 from twin.runs.record import Run
 from twin.runs.runner import chunk_moves, chunk_samples
@@ -160,7 +160,7 @@ def open_loop(env, moves, stages: Stages, settling: bool = False) -> dict:
 def _contour(env, scenario, model, stages: Stages) -> dict:
     """Contour following of the scenario's object with twin.control.contour.ContourFollower (the
     same loop and stop rules as `twin run`, without the recorder); returns
-    twin.runs.contour.contour_metrics of the steps."""
+    twin.runs.contour_metrics.contour_metrics of the steps."""
 
     stimulus = load_scenario_stimulus(scenario)
     follower = ContourFollower(env, scenario, model, stimulus, clock=stages.clock)
