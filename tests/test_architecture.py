@@ -60,3 +60,22 @@ def test_layers_hold_at_run_time(module: str) -> None:
     above = sorted(m for m in loaded if m.startswith(("twin.world", "twin.sensing", "twin.control", "twin.runs",
                                                       "twin.tools", "twin.analysis")))
     assert not above, above
+
+
+def _imported_modules(path: Path) -> set[str]:
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            names.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names.add(node.module)
+    return names
+
+
+def test_analysis_draws_nothing() -> None:
+    """twin.analysis computes what the runs mean; its figures are drawn by the command line
+    (twin.tools), so a plot never sits inside the logic a test or a script calls."""
+    files = sorted((ROOT / "twin" / "analysis").rglob("*.py"))
+    assert files
+    drawing = [str(f.relative_to(ROOT)) for f in files if any(n.split(".")[0] == "matplotlib" for n in _imported_modules(f))]
+    assert not drawing, "matplotlib imported in twin.analysis (draw in twin.tools): " + ", ".join(drawing)

@@ -1,9 +1,9 @@
-"""The paper's Fig. 2 in the twin (twin.tools.figures): sliding shears the skin, tapping does not.
+"""The paper's Fig. 2 in the twin (twin.analysis.shear): sliding shears the skin, tapping does not.
 
 Taps across the rectangle's edge at the 8 lateral positions vs slides through the same
 distances in the 8 directions (twin.runs.protocols geometry; 0° = onto the object, 90° =
 along the edge). "Shift" = slide frame minus the tap at the same lateral position (px),
-averaged over pins and samples (twin.tools.figures.shear_numbers).
+averaged over pins and samples (twin.analysis.shear.shear_numbers).
 """
 from __future__ import annotations
 
@@ -12,7 +12,8 @@ import itertools
 import numpy as np
 import pytest
 
-from twin.tools.figures import DIRECTIONS_DEG, collect_shear_data, plot_shear_figure, shear_numbers, write_shear_figure
+from twin.analysis.shear import DIRECTIONS_DEG, collect_shear_data, shear_numbers
+from twin.tools.shear_report import plot_shear_figure, write_shear_figure
 
 
 @pytest.fixture(scope="module")

@@ -25,7 +25,7 @@ from twin.tools.evaluation_report import (evaluate_and_report, format_along_edge
                                           format_orientation_signal, format_table)
 from hardware.virtual_controller import serve_robot
 from twin.tools.comparison_report import compare_and_report
-from twin.tools.figures import write_shear_figure
+from twin.tools.shear_report import write_shear_figure
 from twin.tools.demo import run_demo
 from twin.tools.bench import run_bench
 from twin.analysis.calibration_fit.settings import load_settings
