@@ -14,15 +14,15 @@ import numpy as np
 import pytest
 import yaml
 
+from twin.analysis.calibration_fit.search import BracketSearch
+from twin.analysis.calibration_fit.settings import load_settings
+from twin.analysis.calibration_fit.uncertainty import robust_variances, variance_inflation
 from twin.core.calibration import Calibration, load_calibration
 from twin.core.resources import SEARCH_FOLDER
 from twin.core.scenario import scenario_from_dict
 from twin.core.sensor import CameraModel
 from twin.runs.record import load_run
 from twin.runs.run import run_scenario
-from twin.analysis.calibration_fit.search import BracketSearch
-from twin.analysis.calibration_fit.settings import load_settings
-from twin.analysis.calibration_fit.uncertainty import robust_variances, variance_inflation
 from twin.tools.calibration_report import calibrate_and_report
 from twin.tools.cli import main
 

@@ -3,11 +3,11 @@ from __future__ import annotations
 
 import json
 
-from twin.tools.cli import main
+from twin.core.scenario import scenario_from_dict
 from twin.runs.record import load_run
 from twin.runs.run import run_scenario
 from twin.runs.training import train_from_run
-from twin.core.scenario import scenario_from_dict
+from twin.tools.cli import main
 
 SCENARIO = {"name": "compare_taps", "object": {"name": "rectangle"}, "effects": ["contact", "friction", "render"],
             "protocol": {"kind": "taps", "orientations_deg": [0, 90], "lateral_mm": [9.9, 2, -2], "depths_mm": [3]}}

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.runs.record import Run
 from twin.analysis.evaluation import DIRECTIONS, PAPER_TABLE_I, table_i
+from twin.runs.record import Run
 from twin.tools.evaluation_report import format_table
 
 
@@ -42,8 +42,8 @@ def test_text_table_puts_the_papers_row_under_the_twins() -> None:
 def test_heldout_taps_per_lateral_position_with_wrap() -> None:
     """Held-out taps (a tap run as the test set): θ and lateral RMS per lateral position,
     angles compared on the circle; figures worked out by hand."""
-    from twin.sensing.perception import Prediction
     from twin.analysis.evaluation import heldout_table
+    from twin.sensing.perception import Prediction
     from twin.tools.evaluation_report import format_heldout
 
     labels = [(179.0, 5.0), (10.0, 5.0), (-50.0, -3.0)]
@@ -97,10 +97,10 @@ def test_compliant_dome_reads_taps_between_its_training_depths(tmp_path) -> None
     within 10° and l within 1 mm RMS at every lateral position on and beside the object. The lateral GP reads φ, not ρ
     (twin.sensing.perception, step 4): with ρ among its inputs it read these taps 2.5–5.8
     mm wrong 1–5 mm onto the object (measured 2026-11-27), because ρ grows with depth."""
+    from twin.analysis.evaluation import evaluate
     from twin.core.resources import scenario_path
     from twin.core.scenario import load_scenario
     from twin.runs.run import run_scenario
-    from twin.analysis.evaluation import evaluate
 
     def record(name: str, **protocol) -> Path:
         scenario = load_scenario(scenario_path(name))
@@ -130,12 +130,12 @@ def test_the_along_edge_cells_weigh_the_drag_against_the_taps_orientation_signal
     at l = −6 (2 / 4 mm deep), a drag of 14.4 px, and 0.0 px without friction."""
     import json
 
+    from twin.analysis.evaluation import along_edge_drag_px, orientation_signal_px
     from twin.core.resources import scenario_path
     from twin.core.scenario import load_scenario
     from twin.runs.record import load_run
     from twin.runs.run import run_scenario
     from twin.tools.cli import main
-    from twin.analysis.evaluation import along_edge_drag_px, orientation_signal_px
 
     def record(name: str, out: str, friction: float | None = None, **protocol) -> Path:
         scenario = load_scenario(scenario_path(name))

@@ -14,15 +14,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.world.dome.compliant import SKIN_PHYSICS
-from twin.world.dome.flex import FIDELITY_LEVELS
-from twin.core.errors import PhysicsError
-from twin.world.dome.testbed import edge_scene, sensor_down
-from twin.core.errors import UserError
 from twin.analysis.sweep.fronts import annotate_fronts, dominates, dominators, pareto_flags, peers
 from twin.analysis.sweep.knobs import COMPLIANT_REFERENCE, DEFAULT, REFERENCE, Setting, quick_settings
 from twin.analysis.sweep.probe import Probe
+from twin.core.errors import PhysicsError, UserError
 from twin.tools.sweep_report import CSV_COLUMNS, markdown_table, sweep_and_report
+from twin.world.dome.compliant import SKIN_PHYSICS
+from twin.world.dome.flex import FIDELITY_LEVELS
+from twin.world.dome.testbed import edge_scene, sensor_down
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -8,6 +8,8 @@ import json
 import time
 from pathlib import Path
 
+import matplotlib
+import matplotlib.pyplot as plt
 import numpy as np
 from tqdm import tqdm
 
@@ -19,8 +21,6 @@ from twin.runs.contour_metrics import contour_metrics
 from twin.runs.record import RunRecorder, load_run
 from twin.runs.training import model_for_scenario
 from twin.world.scene import load_scenario_stimulus
-import matplotlib
-import matplotlib.pyplot as plt
 
 
 def run_contour(scenario: Scenario, out: Path, seed: int | None = None, progress: bool = True, model=None,

@@ -12,8 +12,15 @@ import matplotlib.pyplot as plt
 import matplotlib.ticker
 import numpy as np
 
-from twin.analysis.sweep.fronts import (ERROR_MARGIN_ABS, ERROR_MARGIN_REL, FRONTS, PIN_METRICS, TIME_MARGIN,
-                                        default_on_front, is_finite_number)
+from twin.analysis.sweep.fronts import (
+    ERROR_MARGIN_ABS,
+    ERROR_MARGIN_REL,
+    FRONTS,
+    PIN_METRICS,
+    TIME_MARGIN,
+    default_on_front,
+    is_finite_number,
+)
 from twin.analysis.sweep.knobs import DEFAULT, REFERENCES, Setting
 from twin.analysis.sweep.measure import run_sweep
 from twin.analysis.sweep.probe import Probe

@@ -45,7 +45,7 @@ from pathlib import Path
 
 from twin.analysis.calibration_fit.data import GROUPS, load_data
 from twin.analysis.calibration_fit.evaluator import Evaluator
-from twin.analysis.calibration_fit.search import search_key, optimise
+from twin.analysis.calibration_fit.search import optimise, search_key
 from twin.analysis.calibration_fit.settings import CalibrationSettings
 from twin.analysis.calibration_fit.space import Space
 from twin.analysis.calibration_fit.uncertainty import uncertainty
@@ -106,7 +106,7 @@ def _calibrate(run_dirs: list[Path], scenario: Scenario, out: Path, settings: Ca
         "runs": [str(r) for r in run_dirs], "scenario": scenario.source, "calibration_file": str(out / name),
         "samples": int(len(data.pins)), "samples_per_group": {g: int((data.group == k).sum()) for k, g in enumerate(GROUPS)},
         "fitted": space.fitted, "not_identifiable": dropped,
-        "rest_pins": ("fitted from %d no-contact frames" % int(ev.rest.sum())) if ev.fit_rest else
+        "rest_pins": f"fitted from {int(ev.rest.sum())} no-contact frames" if ev.fit_rest else
                      ("not fitted: no no-contact frames (target z <= 0) in the runs" if settings.rest_pins else "not fitted (settings)"),
         "before": before, "after": after, "uncertainty": errors, "generations": state["generation"],
         "best_chi2": state["best_chi2"], "simulations": ev.simulations,

@@ -33,7 +33,7 @@ class ParameterSetting(_Strict):
     prior_std: float | None = Field(default=None, gt=0)
 
     @model_validator(mode="after")
-    def _ordered(self) -> "ParameterSetting":
+    def _ordered(self) -> ParameterSetting:
         if not self.lower < self.upper:
             raise ValueError(f"lower {self.lower} must be below upper {self.upper}")
         return self
@@ -70,7 +70,7 @@ class CalibrationSettings(_Strict):
     optimiser: OptimiserSettings
 
     @model_validator(mode="after")
-    def _known(self) -> "CalibrationSettings":
+    def _known(self) -> CalibrationSettings:
         unknown = sorted(set(self.parameters) - set(PARAMETERS))
         if unknown:
             raise ValueError(f"unknown parameters {unknown}; known: {', '.join(PARAMETERS)}")

@@ -15,6 +15,7 @@ from twin.core.errors import UserError
 from twin.runs.parallel import default_workers, map_ordered
 from twin.world import gl
 
+
 def run_sweep(quick: bool = False, workers: int | None = None, cluster: str | None = None,
               settings: list[Setting] | None = None, probe: Probe | None = None, seed: int = 0,
               verbose: bool = True) -> tuple[list[dict], dict]:
