@@ -38,20 +38,26 @@ Semantics (as on the controller):
   controller) get a bare ERROR status. The real controller may instead stop the RAPID
   program with an error on the FlexPendant and drop the connection.
 * GET_INFO's text has no length prefix; a client reads what arrives after the status.
+* Every number travels as a float32: beyond ±FLOAT32_MAX it cannot be sent, and below
+  FLOAT32_TINY (the smallest normal float32) it arrives as a denormal or 0.
+  `wire_number` refuses both before anything is sent.
 
 Replies have no length prefix either, so a reader must know the command it is waiting
 for: `reply_value_count` gives the number of float32 values after an OK status.
 """
 from __future__ import annotations
 
+import math
+import numbers
 import struct
 from dataclasses import dataclass
 from enum import IntEnum
 
 import numpy as np
-
-from twin.core.poses import Pose, make_transform, quat_wxyz_to_matrix, quat_xyzw_to_wxyz
 from scipy.spatial.transform import Rotation
+
+from twin.core.errors import SafetyError
+from twin.core.poses import Pose, make_transform, quat_wxyz_to_matrix, quat_xyzw_to_wxyz
 
 #: default TCP port of the RAPID server
 DEFAULT_PORT = 5000
@@ -111,6 +117,15 @@ REPLY_LAYOUT: dict[Command, struct.Struct | None] = {
 
 CODE_SIZE = _CODE.size  # bytes of a command code or a status
 
+#: the largest finite float32 and the smallest normal one: the range a number keeps on the wire
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+FLOAT32_TINY = float(np.finfo(np.float32).tiny)
+
+#: the slowest speeds the driver sends and the virtual controller accepts (mm/s, deg/s):
+#: a move across the IRB120's whole reach still ends within days, and its time fits a timeout
+MIN_LINEAR_SPEED_MM_S = 0.01
+MIN_ANGULAR_SPEED_DEG_S = 0.01
+
 
 class ProtocolError(ValueError):
     """Bytes that do not follow the protocol (unknown code, wrong length)."""
@@ -129,7 +144,7 @@ def encode_request(command: Command, *args: float) -> bytes:
         values = tuple(float(a) for a in args)
     try:
         return _CODE.pack(int(command)) + layout.pack(*values)
-    except struct.error as err:
+    except (struct.error, OverflowError) as err:  # OverflowError: beyond float32
         raise ProtocolError(f"{command.name}: {err} (got {len(values)} values)") from None
 
 
@@ -237,7 +252,7 @@ def encode_reply(command: Command, ok: bool = True, values: tuple[float, ...] | 
     layout = REPLY_LAYOUT[command]
     try:
         return status + layout.pack(*(float(v) for v in values))
-    except struct.error as err:
+    except (struct.error, OverflowError) as err:  # OverflowError: beyond float32
         raise ProtocolError(f"{command.name} reply: {err}") from None
 
 
@@ -265,6 +280,46 @@ def decode_reply_values(command: Command, data: bytes) -> tuple[float, ...]:
     return layout.unpack(data)
 
 
+# ---------------------------------------------------------------------------- numbers on the wire
+def show_value(value: object, limit: int = 40) -> str:
+    """A value for a one-line message, whatever its type: floats as %.6g (1e-40 stays
+    readable), anything else as a repr cut to `limit` characters (10**400 has 401 digits)."""
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10**16:
+        return f"~1e+{int(math.log10(abs(value)))}" if value > 0 else f"~-1e+{int(math.log10(-value))}"
+    try:
+        text = repr(value)
+    except Exception:  # a repr that fails must not take the message with it
+        text = f"<{type(value).__name__}>"
+    text = " ".join(text.split())
+    return text if len(text) <= limit else text[: limit - 1] + "…"
+
+
+def wire_number(field: str, value: object, unit: str = "", *, refuse_underflow: bool = False) -> float:
+    """`value` as a float that the protocol's float32 carries: a real number (bool and
+    str are not), finite and at most FLOAT32_MAX in size. With `refuse_underflow` (speeds,
+    where it changes the meaning: 0 or a crawl) also 0 or at least FLOAT32_TINY in size;
+    without it (coordinates) a smaller one arrives as a denormal or 0, off by < 1.2e-38.
+    SafetyError naming `field` and the value otherwise; nothing has been sent."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise SafetyError(f"{field} = {show_value(value)} is not a number ({type(value).__name__})")
+    shown = f"{field} = {show_value(value)}{' ' + unit if unit else ''}"
+    try:
+        number = float(value)
+    except OverflowError:  # an int beyond float64
+        raise SafetyError(f"{shown} is beyond the robot's float32 range (±{FLOAT32_MAX:.7g})") from None
+    if not math.isfinite(number):
+        raise SafetyError(f"{shown} is not a finite number")
+    if abs(number) > FLOAT32_MAX:
+        raise SafetyError(f"{shown} is beyond the robot's float32 range (±{FLOAT32_MAX:.7g})")
+    if refuse_underflow and 0.0 < abs(number) < FLOAT32_TINY:
+        sent = float(np.float32(number))
+        raise SafetyError(f"{shown} is too small to send: the robot's float32 carries it as {sent:.6g} "
+                          f"(the smallest normal float32 is {FLOAT32_TINY:.7g})")
+    return number
+
+
 # ---------------------------------------------------------------------------- poses on the wire
 @dataclass(frozen=True)
 class Zone:
@@ -282,16 +337,36 @@ class Zone:
 FINE_POINT = Zone()
 
 
+POSE_FIELDS = (("x", "mm"), ("y", "mm"), ("z", "mm"), ("alpha", "deg"), ("beta", "deg"), ("gamma", "deg"))
+
+
+def format_pose(pose: Pose) -> str:
+    """(x, y, z, α, β, γ) of a pose for a message, whatever its fields hold."""
+    return "(" + ", ".join(show_value(getattr(pose, name, None), 12) for name, _ in POSE_FIELDS) + ")"
+
+
+def check_pose_numbers(pose: Pose, what: str = "pose") -> None:
+    """SafetyError naming `what`, the field and its value unless every field of `pose` is
+    a number the wire carries (`wire_number`)."""
+    for name, unit in POSE_FIELDS:
+        try:
+            wire_number(name, getattr(pose, name), unit)
+        except SafetyError as err:
+            raise SafetyError(f"{what} {format_pose(pose)}: {err}") from None
+
+
 def pose_to_wire(pose: Pose) -> tuple[float, ...]:
-    """(x, y, z mm, qw, qx, qy, qz) of a lab pose (mm, extrinsic-XYZ deg).
+    """(x, y, z mm, qw, qx, qy, qz) of a lab pose (mm, extrinsic-XYZ deg); SafetyError for
+    a field the wire cannot carry (`check_pose_numbers`).
 
     The quaternion is computed here by `twin.core.poses` (Euler axes explicit), so no client
     library converts Euler angles with its own (fork-dependent) axis convention.
     """
+    check_pose_numbers(pose)
     q = pose.quat_wxyz()
     if q[0] < 0:  # same rotation; keep w ≥ 0 for readable logs
         q = -q
-    return (pose.x, pose.y, pose.z, *(float(c) for c in q))
+    return (float(pose.x), float(pose.y), float(pose.z), *(float(c) for c in q))
 
 
 def normalised_quat(q_wxyz) -> np.ndarray:

@@ -28,7 +28,6 @@ from __future__ import annotations
 import contextlib
 import io
 import logging
-import math
 import socket
 import struct
 import time
@@ -40,17 +39,22 @@ from hardware.protocol import (
     CODE_SIZE,
     DEFAULT_PORT,
     FINE_POINT,
+    MIN_ANGULAR_SPEED_DEG_S,
+    MIN_LINEAR_SPEED_MM_S,
     Command,
     ProtocolError,
     Zone,
+    check_pose_numbers,
     decode_reply_values,
     encode_request,
     parse_status,
     pose_to_wire,
     reply_values_size,
+    show_value,
+    wire_number,
     wire_to_pose,
 )
-from twin.core.errors import HardwareError, UserError
+from twin.core.errors import HardwareError, SafetyError, UserError
 from twin.core.poses import Pose, angle_between_rotations_deg
 
 log = logging.getLogger(__name__)
@@ -59,6 +63,9 @@ CRI_MISSING = "install the robot extra: uv sync --extra robot (GPL-3.0)"
 
 #: upper bound of the TCP's distance from joint 1's axis plus tool (m), for move-time bounds
 _REACH_BOUND_M = 0.8
+#: the longest a move's reply is waited for (s, 11.6 days): a joint move of 1e38 deg
+#: would otherwise ask the socket for a timeout it cannot hold
+MAX_MOVE_TIMEOUT_S = 1e6
 
 
 class RobotCommandRefused(HardwareError):
@@ -233,7 +240,7 @@ class CriClient:
 
 
 def _fmt_args(args: tuple[float, ...]) -> str:
-    return "(" + ", ".join(f"{a:.6g}" for a in args) + ")"
+    return "(" + ", ".join(show_value(a, 12) for a in args) + ")"
 
 
 # ---------------------------------------------------------------------------- driver
@@ -251,7 +258,10 @@ class RobotDriver:
     | get_joints()       | measured joints 1–6, deg                                     |
 
     A move's timeout is `reply_timeout_s` plus `move_timeout_factor` × the move's expected
-    duration at the set speeds (distance / linear speed, rotation / angular speed).
+    duration at the set speeds (distance / linear speed, rotation / angular speed), at most
+    `MAX_MOVE_TIMEOUT_S`. Every number is checked before it is sent (`wire_number`: a
+    type, finiteness and float32 range; speeds at least `MIN_LINEAR_SPEED_MM_S` and
+    `MIN_ANGULAR_SPEED_DEG_S`): SafetyError naming the field and value, nothing sent.
     """
 
     def __init__(
@@ -301,21 +311,29 @@ class RobotDriver:
 
     def set_tool(self, tool2flange: Pose) -> None:
         """Tool centre point (dome apex) in the flange frame tool0 (mm / deg)."""
+        check_pose_numbers(tool2flange, "tool")
         self._request(Command.SET_TOOL, pose_to_wire(tool2flange))
         self._last_pose = None
 
     def set_work_frame(self, work2world: Pose) -> None:
         """Work frame (work object) in the robot base frame (mm / deg)."""
+        check_pose_numbers(work2world, "work frame")
         self._request(Command.SET_WORK_OBJECT, pose_to_wire(work2world))
         self._last_pose = None
 
     def set_speed(self, linear_mm_s: float, angular_deg_s: float) -> None:
-        """Linear TCP speed (mm/s) and reorientation speed (deg/s), sent together."""
-        for name, v in (("linear", linear_mm_s), ("angular", angular_deg_s)):
-            if not (math.isfinite(v) and v > 0):
-                raise UserError(f"{name} speed must be a positive number, got {v!r}")
-        self._request(Command.SET_SPEED, (float(linear_mm_s), float(angular_deg_s)))
-        self._linear_speed_mm_s, self._angular_speed_deg_s = float(linear_mm_s), float(angular_deg_s)
+        """Linear TCP speed (mm/s) and reorientation speed (deg/s), sent together. SafetyError
+        for a speed that is not a number the wire carries (one too small to send included)."""
+        speeds = []
+        for name, v, unit, slowest in (("linear speed", linear_mm_s, "mm/s", MIN_LINEAR_SPEED_MM_S),
+                                       ("angular speed", angular_deg_s, "deg/s", MIN_ANGULAR_SPEED_DEG_S)):
+            speed = wire_number(name, v, unit, refuse_underflow=True)
+            if not speed >= slowest:
+                raise SafetyError(f"{name} = {show_value(v)} {unit} is below the slowest speed the driver sends, "
+                                  f"{slowest} {unit}")
+            speeds.append(speed)
+        self._request(Command.SET_SPEED, tuple(speeds))
+        self._linear_speed_mm_s, self._angular_speed_deg_s = speeds
 
     @property
     def linear_speed_mm_s(self) -> float | None:
@@ -327,12 +345,17 @@ class RobotDriver:
 
     def set_zone(self, zone: Zone = FINE_POINT) -> None:
         """Fine point (default: moves reply when stopped) or fly-by zone."""
+        for name, value, unit in (("zone pzone_tcp", zone.pzone_tcp_mm, "mm"), ("zone pzone_ori", zone.pzone_ori_mm, "mm"),
+                                  ("zone zone_ori", zone.zone_ori_deg, "deg")):
+            if not wire_number(name, value, unit) >= 0:
+                raise SafetyError(f"{name} = {show_value(value)} {unit} must be ≥ 0")
         self._request(Command.SET_ZONE, zone.as_args())
 
     # ------------------------------------------------------------------ motion
     def move_linear(self, pose: Pose) -> None:
         """Straight-line move of the TCP to `pose` (work frame, mm / deg); blocks until the
         controller replies (robot stopped, with the fine-point zone)."""
+        check_pose_numbers(pose)
         start = self._last_pose if self._last_pose is not None else self.get_pose()
         duration = self._linear_duration_s(start, pose)
         self._last_pose = None
@@ -342,9 +365,10 @@ class RobotDriver:
 
     def move_joints(self, joints_deg) -> None:
         """Joint move to joints 1–6 (deg); blocks until the controller replies."""
-        q = np.asarray(joints_deg, dtype=float).ravel()
-        if q.shape != (6,) or not np.all(np.isfinite(q)):
-            raise UserError(f"move_joints needs 6 finite joint angles (deg), got {q.tolist()}")
+        values = list(np.ravel(np.asarray(joints_deg, dtype=object)))
+        if len(values) != 6:
+            raise UserError(f"move_joints needs 6 joint angles (deg), got {len(values)} values")
+        q = np.array([wire_number(f"joint {j + 1}", v, "deg") for j, v in enumerate(values)])
         start = self._last_joints_deg if self._last_joints_deg is not None else self.get_joints()
         # bound on the TCP path: every joint swings the TCP on a radius < _REACH_BOUND_M
         path_mm = float(np.sum(np.abs(np.radians(q - start)))) * _REACH_BOUND_M * 1e3
@@ -375,7 +399,7 @@ class RobotDriver:
         return max(distance / v, angle / w)
 
     def _move_timeout(self, duration_s: float) -> float:
-        return self.reply_timeout_s + self.move_timeout_factor * duration_s
+        return min(self.reply_timeout_s + self.move_timeout_factor * duration_s, MAX_MOVE_TIMEOUT_S)
 
     def _request(self, command: Command, args: tuple[float, ...], timeout_s: float | None = None):
         if self._transport is None:

@@ -27,7 +27,6 @@ RAPID server defines a workspace box) configured as well.
 from __future__ import annotations
 
 import math
-import numbers
 from typing import Annotated
 
 import numpy as np
@@ -36,6 +35,7 @@ from scipy.spatial.transform import Rotation
 
 from pydantic import Field, ValidationInfo, field_validator, model_validator
 
+from hardware.protocol import check_pose_numbers, format_pose, wire_number
 from twin.core.errors import SafetyError
 from twin.core.poses import EULER_AXES, Pose
 from twin.core.validation import StrictModel, bounded
@@ -79,17 +79,15 @@ class SafetyLimits(StrictModel):
         return min(self.z_mm[1], self.max_depth_mm)
 
     def check_pose(self, pose: Pose) -> None:
-        """Raise SafetyError unless every coordinate of `pose` (work frame, mm/deg) is
-        finite and inside the limits."""
-        for name in ("x", "y", "z", "alpha", "beta", "gamma"):
-            value = getattr(pose, name)
-            if not isinstance(value, numbers.Real) or not math.isfinite(value):
-                raise SafetyError(f"pose {_fmt(pose)}: {name} = {value!r} is not a finite number")
+        """Raise SafetyError unless every coordinate of `pose` (work frame, mm/deg) is a
+        number the robot's float32 carries (`hardware.protocol.wire_number`: not bool or
+        str, finite, within ±3.4e38) and inside the limits."""
+        check_pose_numbers(pose)
         self._check_range(pose, "x", pose.x, self.x_mm, "mm", "safety.x_mm")
         self._check_range(pose, "y", pose.y, self.y_mm, "mm", "safety.y_mm")
         if pose.z > self.max_depth_mm:
             raise SafetyError(
-                f"pose {_fmt(pose)}: z = {pose.z!r} mm is deeper than the max indentation depth "
+                f"pose {format_pose(pose)}: z = {pose.z!r} mm is deeper than the max indentation depth "
                 f"{self.max_depth_mm} mm (safety.max_depth_mm; +z points into the object)"
             )
         self._check_range(pose, "z", pose.z, (self.z_mm[0], self.z_mm[1]), "mm", "safety.z_mm")
@@ -97,15 +95,16 @@ class SafetyLimits(StrictModel):
         self._check_range(pose, "beta", pose.beta, self.beta_deg, "deg", "safety.beta_deg")
 
     def check_speed(self, linear_mm_s: float | None = None, angular_deg_s: float | None = None) -> None:
-        """Raise SafetyError unless the given speeds are finite, > 0 and within the limits."""
+        """Raise SafetyError unless the given speeds are numbers the robot's float32 carries
+        (`hardware.protocol.wire_number`: a speed too small to send is refused), > 0 and
+        within the limits."""
         for name, value, limit, unit, field in (
             ("linear speed", linear_mm_s, self.max_linear_speed_mm_s, "mm/s", "safety.max_linear_speed_mm_s"),
             ("angular speed", angular_deg_s, self.max_angular_speed_deg_s, "deg/s", "safety.max_angular_speed_deg_s"),
         ):
             if value is None:
                 continue
-            if not isinstance(value, numbers.Real) or not math.isfinite(value):
-                raise SafetyError(f"{name} = {value!r} {unit} is not a finite number")
+            wire_number(name, value, unit, refuse_underflow=True)
             if not value > 0.0:
                 raise SafetyError(f"{name} = {value!r} {unit} must be > 0")
             if value > limit:
@@ -137,7 +136,7 @@ class SafetyLimits(StrictModel):
                 if sign * (worst - bound) > PATH_TOL_DEG:
                     field = f"safety.{name}_deg"
                     raise SafetyError(
-                        f"move {_fmt(start)} → {_fmt(end)}: {name} reaches {worst:.6g} deg on the way "
+                        f"move {format_pose(start)} → {format_pose(end)}: {name} reaches {worst:.6g} deg on the way "
                         f"(the controller slerps the orientation), beyond the limit {bound} deg ({field}); "
                         "split the move: turn γ first, then tilt")
 
@@ -153,9 +152,9 @@ class SafetyLimits(StrictModel):
     def _check_range(pose: Pose, name: str, value: float, bounds: tuple[float, float], unit: str, field: str) -> None:
         lo, hi = bounds
         if value < lo:
-            raise SafetyError(f"pose {_fmt(pose)}: {name} = {value!r} {unit} is below the limit {lo} {unit} ({field})")
+            raise SafetyError(f"pose {format_pose(pose)}: {name} = {value!r} {unit} is below the limit {lo} {unit} ({field})")
         if value > hi:
-            raise SafetyError(f"pose {_fmt(pose)}: {name} = {value!r} {unit} is above the limit {hi} {unit} ({field})")
+            raise SafetyError(f"pose {format_pose(pose)}: {name} = {value!r} {unit} is above the limit {hi} {unit} ({field})")
 
 
 #: path sampling of `check_path`: every PATH_STEP_DEG of rotation; a sampled α/β within
@@ -164,7 +163,3 @@ class SafetyLimits(StrictModel):
 PATH_STEP_DEG = 0.25
 PATH_REFINE_DEG = 0.01
 PATH_TOL_DEG = 1e-9
-
-
-def _fmt(pose: Pose) -> str:
-    return "(" + ", ".join(f"{v:.6g}" for v in (pose.x, pose.y, pose.z, pose.alpha, pose.beta, pose.gamma)) + ")"

@@ -15,7 +15,9 @@ One client at a time, like the RAPID server; a client that disconnects (or sends
 frees the server for the next, and so does one that stalls mid-command for
 `stall_timeout_s` or sends nothing for `idle_timeout_s` (dropped with the reason logged).
 Requests are decoded incrementally (`hardware.protocol.RequestDecoder`): any bytes, split
-anywhere, give requests or ERROR replies, never an exception. What it keeps is bounded:
+anywhere, give requests or ERROR replies, never an exception. Every number of a request is
+checked against `FIELD_RANGES` before any arithmetic (NaN, ±inf and float32 extremes
+included): a value outside gets the ERROR status and changes nothing. What it keeps is bounded:
 the command and move logs hold the last `log_limit` entries, and each client's refusals
 are logged up to `MAX_LOGGED_REFUSALS`, then counted. Loopback only unless
 `allow_remote=True`.
@@ -43,6 +45,8 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from hardware.protocol import (
     DEFAULT_PORT,
+    MIN_ANGULAR_SPEED_DEG_S,
+    MIN_LINEAR_SPEED_MM_S,
     Command,
     DecodeError,
     ProtocolError,
@@ -65,6 +69,60 @@ _POLL_S = 0.05  # how often blocking socket calls look at the stop flag
 #: refusals logged per client; further ones are only counted (a client sending garbage
 #: cannot fill the log)
 MAX_LOGGED_REFUSALS = 20
+
+#: how far (mm, each coordinate) a work object or a move target may be from its frame's
+#: origin: 8.6× the IRB120's 580 mm reach, so no reachable pose is refused by it
+POSITION_LIMIT_MM = 5000.0
+#: how far (mm, each coordinate) the tool centre point may be from the flange
+TOOL_LIMIT_MM = 1000.0
+#: joint targets (deg); the arm's own joint limits (axis 6: ±400°) are checked after it
+JOINT_LIMIT_DEG = 720.0
+#: quaternion components; the norm must then be 1 within 1e-3
+QUAT_LIMIT = 1.001
+#: fastest speeds accepted (mm/s, deg/s): above the IRB120's 6.2 m/s TCP and 420 deg/s axis 6
+MAX_LINEAR_SPEED_MM_S = 10_000.0
+MAX_ANGULAR_SPEED_DEG_S = 1000.0
+#: largest fly-by zone (mm, deg)
+MAX_ZONE_MM = 1000.0
+MAX_ZONE_DEG = 180.0
+#: the longest real time a move may take with `realtime_factor` > 0 (s, 1 year)
+MAX_REALTIME_WAIT_S = 3.2e7
+
+
+def _pose_ranges(prefix: str, limit_mm: float) -> tuple[tuple[str, float, float, str], ...]:
+    return (*((f"{prefix}{c}", -limit_mm, limit_mm, "mm") for c in "xyz"),
+            *((f"{prefix}q{c}", -QUAT_LIMIT, QUAT_LIMIT, "") for c in "wxyz"))
+
+
+#: (field, lowest, highest, unit) of each number of each request, in wire order; inclusive
+FIELD_RANGES: dict[Command, tuple[tuple[str, float, float, str], ...]] = {
+    Command.MOVE_JOINTS: tuple((f"joint {j}", -JOINT_LIMIT_DEG, JOINT_LIMIT_DEG, "deg") for j in range(1, 7)),
+    Command.MOVE_LINEAR: _pose_ranges("", POSITION_LIMIT_MM),
+    Command.MOVE_CIRCULAR: _pose_ranges("via ", POSITION_LIMIT_MM) + _pose_ranges("end ", POSITION_LIMIT_MM),
+    Command.SET_TOOL: _pose_ranges("tool ", TOOL_LIMIT_MM),
+    Command.SET_WORK_OBJECT: _pose_ranges("work object ", POSITION_LIMIT_MM),
+    Command.SET_SPEED: (("linear speed", MIN_LINEAR_SPEED_MM_S, MAX_LINEAR_SPEED_MM_S, "mm/s"),
+                        ("angular speed", MIN_ANGULAR_SPEED_DEG_S, MAX_ANGULAR_SPEED_DEG_S, "deg/s")),
+    Command.SET_ZONE: (("point_motion", 0, 1, ""), ("pzone_tcp", 0.0, MAX_ZONE_MM, "mm"),
+                       ("pzone_ori", 0.0, MAX_ZONE_MM, "mm"), ("zone_ori", 0.0, MAX_ZONE_DEG, "deg")),
+}
+
+
+#: FIELD_RANGES' bounds as they arrive in float32 (0.01 arrives as 0.0099999998): a bound
+#: sent by a client is inside
+_WIRE_BOUNDS = {command: tuple((float(np.float32(lo)), float(np.float32(hi))) for _, lo, hi, _ in ranges)
+                for command, ranges in FIELD_RANGES.items()}
+
+
+def check_request_ranges(command: Command, args: tuple[float, ...]) -> None:
+    """ProtocolError naming the first field of a request outside `FIELD_RANGES` (NaN
+    included); nothing is computed from the values before this passes."""
+    ranges, bounds = FIELD_RANGES.get(command, ()), _WIRE_BOUNDS.get(command, ())
+    if len(args) != len(ranges):
+        raise ProtocolError(f"{command.name} takes {len(ranges)} values, got {len(args)}")
+    for (name, lo, hi, unit), (lo32, hi32), value in zip(ranges, bounds, args):
+        if not lo32 <= value <= hi32:  # float32 needs 9 digits to show a value just beyond
+            raise ProtocolError(f"{name} = {value:.9g}{' ' + unit if unit else ''} is outside [{lo:g}, {hi:g}]")
 
 
 class ArmBackend(Protocol):
@@ -225,6 +283,13 @@ class VirtualRobotServer:
         stall_timeout_s: float = 5.0,
         log_limit: int | None = 10_000,
     ) -> None:
+        if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
+            raise UserError(f"virtual robot: port = {port!r} is not a TCP port (0-65535; 0 = any free one)")
+        if log_limit is not None and (isinstance(log_limit, bool) or not isinstance(log_limit, int) or log_limit < 0):
+            raise UserError(f"virtual robot: log limit = {log_limit!r} must be a count ≥ 0 (commands and moves kept)")
+        if not (math.isfinite(realtime_factor) and 0 <= realtime_factor <= 1000):
+            raise UserError(f"virtual robot: realtime factor = {realtime_factor!r} must be in [0, 1000] "
+                            "(0 = instant moves, 1 = real durations)")
         if not allow_remote and not _is_loopback(host):
             raise UserError(f"virtual robot: host {host!r} is not a loopback address; pass allow_remote=True to serve on it")
         self.backend: ArmBackend = backend if backend is not None else KinematicArm()
@@ -244,6 +309,7 @@ class VirtualRobotServer:
         self.counts: Counter[Command] = Counter()
         self.dropped: deque[str] = deque(maxlen=100)  # why the last clients were dropped
         self.last_error: str | None = None
+        self.internal_faults = 0  # requests whose handling raised unexpectedly (answered ERROR)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._client: socket.socket | None = None
@@ -289,6 +355,8 @@ class VirtualRobotServer:
                         self._serve_client(conn, peer)
                     except (ConnectionError, OSError) as err:
                         log.info("virtual robot %s: client %s gone: %s", self.address, peer, err)
+                    except Exception as err:  # a fault of ours: drop this client, serve the next
+                        self._internal_fault(f"serving client {peer}", err, "dropped it, still serving")
                     finally:
                         self._client = None
         finally:
@@ -356,7 +424,8 @@ class VirtualRobotServer:
                     if error:
                         refusals += 1
                         self._refused(refusals, error)
-                    if duration > 0 and self.realtime_factor > 0 and self._stop.wait(duration * self.realtime_factor):
+                    wait_s = min(duration * self.realtime_factor, MAX_REALTIME_WAIT_S)
+                    if wait_s > 0 and self._stop.wait(wait_s):
                         return  # shut down mid-move: the client gets no reply
                     conn.sendall(reply)
         finally:
@@ -368,6 +437,12 @@ class VirtualRobotServer:
         self.dropped.append(f"{peer}: {reason}")
         log.warning("virtual robot %s: dropped client %s: %s", self.address, peer, reason)
 
+    def _internal_fault(self, doing: str, err: Exception, outcome: str) -> None:
+        self.internal_faults += 1
+        self.last_error = f"internal fault {doing}: {type(err).__name__}: {err}"
+        log.error("virtual robot %s: %s (%s)", self.address, self.last_error, outcome)
+        log.debug("virtual robot %s: internal fault", self.address, exc_info=err)
+
     def _refused(self, n: int, error: str) -> None:
         self.last_error = error
         if n <= MAX_LOGGED_REFUSALS:
@@ -377,6 +452,7 @@ class VirtualRobotServer:
     def _execute(self, command: Command, args: tuple[float, ...]) -> tuple[bytes, float, str | None]:
         """(reply bytes, simulated duration s, why it was refused or None) of one request."""
         try:
+            check_request_ranges(command, args)
             if command is Command.GET_INFO:
                 return encode_reply(command, True, self.info_text), 0.0, None
             if command is Command.SET_TOOL:
@@ -386,12 +462,8 @@ class VirtualRobotServer:
                 self._check_frame(args)
                 self.work_object = tuple(args)
             elif command is Command.SET_SPEED:
-                if not all(math.isfinite(v) and v > 0 for v in args):
-                    raise ProtocolError(f"speeds must be > 0, got {args}")
                 self.speed = (float(args[0]), float(args[1]))
             elif command is Command.SET_ZONE:
-                if not all(math.isfinite(v) and v >= 0 for v in args[1:]):
-                    raise ProtocolError(f"zone sizes must be finite and ≥ 0, got {args[1:]}")
                 self.zone = Zone(bool(args[0]), *(float(a) for a in args[1:]))
             elif command is Command.GET_JOINTS:
                 return encode_reply(command, True, tuple(np.degrees(self.backend.get_joints()))), 0.0, None
@@ -404,6 +476,9 @@ class VirtualRobotServer:
             return encode_reply(command, True), 0.0, None
         except (UnreachablePoseError, ProtocolError) as err:
             return encode_reply(command, False), 0.0, f"{command.name}: {err}"
+        except Exception as err:  # a fault of ours the range checks missed: refuse, keep serving
+            self._internal_fault(f"on {command.name}", err, "answered ERROR, still serving")
+            return encode_reply(command, False), 0.0, None
 
     def _tool_in_work(self) -> tuple[float, ...]:
         """The TCP's pose in the work object now (wire units)."""
@@ -473,8 +548,6 @@ def serve_robot(host: str = "127.0.0.1", port: int = DEFAULT_PORT, *, realtime_f
                                 stall_timeout_s=stall_timeout_s, log_limit=log_limit)
     print(f"virtual IRB120 controller (RAPID server protocol) listening on {server.address}; Ctrl-C stops it", flush=True)
     try:
-        server.serve_forever()
-    except KeyboardInterrupt:
-        pass
+        server.serve_forever()  # Ctrl-C and SIGTERM reach the CLI, which exits 130 or 143
     finally:
         server.shutdown()

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -23,12 +24,14 @@ LIMITS = SafetyLimits(
     max_angular_speed_deg_s=30.0,
 )
 FIELDS = ("x", "y", "z", "alpha", "beta", "gamma")
+#: the largest finite float32: the robot's wire carries nothing larger
+F32_MAX = (2 - 2**-23) * 2.0**127
 
 
 def oracle(limits: SafetyLimits, pose: Pose) -> bool:
     """Independent statement of the rule the checker must implement."""
     v = pose.as_array()
-    if not all(math.isfinite(a) for a in v):
+    if not all(math.isfinite(a) and abs(a) <= F32_MAX for a in v):
         return False
     boxes = [limits.x_mm, limits.y_mm, (limits.z_mm[0], min(limits.z_mm[1], limits.max_depth_mm)), limits.alpha_deg, limits.beta_deg]
     return all(lo <= a <= hi for a, (lo, hi) in zip(v[:5], boxes))
@@ -105,7 +108,7 @@ def test_random_limits_with_poses_at_their_faces(data):
 @pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
 def test_non_finite_values_are_named(field, bad):
     pose = Pose(**{field: bad})
-    with pytest.raises(SafetyError, match=rf"{field} = {bad!r} is not a finite number"):
+    with pytest.raises(SafetyError, match=rf"{field} = {bad!r} (mm|deg) is not a finite number"):
         LIMITS.check_pose(pose)
 
 
@@ -124,6 +127,36 @@ def test_each_face_inclusive_and_one_nanometre_beyond_refused(field, bound, outs
             LIMITS.check_pose(Pose(**{field: value}))
         text = str(err.value)
         assert f"{field} = {value!r}" in text and f"{bound}" in text and "safety." in text
+
+
+@pytest.mark.parametrize("value, match", [
+    (None, r"x = None is not a number \(NoneType\)"),
+    (True, r"x = True is not a number \(bool\)"),
+    (np.bool_(False), r"x = (np\.)?False_? is not a number \(bool_?\)"),
+    ("5", r"x = '5' is not a number \(str\)"),
+    (10**400, r"x = ~1e\+400 mm is beyond the robot's float32 range"),
+    (-3.5e38, r"x = -3\.5e\+38 mm is beyond the robot's float32 range"),
+])
+def test_pose_fields_the_wire_cannot_carry_are_named_in_one_line(value, match):
+    with pytest.raises(SafetyError, match=r"^pose \(.*\): " + match) as err:
+        LIMITS.check_pose(Pose(x=value))
+    assert "\n" not in str(err.value) and len(str(err.value)) < 200
+
+
+def test_a_coordinate_below_float32_normals_passes_as_the_zero_it_is():
+    LIMITS.check_pose(Pose(x=1e-40, gamma=-5e-324))   # arrives as a denormal or 0: off by < 1.2e-38 mm/deg
+
+
+@pytest.mark.parametrize("value, match", [
+    (1e-300, r"linear speed = 1e-300 mm/s is too small to send: the robot's float32 carries it as 0 "),
+    (1e-40, r"linear speed = 1e-40 mm/s is too small to send: the robot's float32 carries it as 9\.99995e-41 "),
+    ("5", r"linear speed = '5' is not a number \(str\)"),
+    (10**400, r"linear speed = ~1e\+400 mm/s is beyond the robot's float32 range"),
+    (True, r"linear speed = True is not a number \(bool\)"),
+])
+def test_speeds_the_wire_cannot_carry_are_named(value, match):
+    with pytest.raises(SafetyError, match="^" + match):
+        LIMITS.check_speed(value)
 
 
 def test_depth_limit_is_max_z_into_the_object():
