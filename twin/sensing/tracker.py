@@ -31,8 +31,6 @@ from functools import lru_cache
 import cv2
 import numpy as np
 from scipy.optimize import linear_sum_assignment
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from twin.core.errors import UserError
@@ -335,6 +333,20 @@ def reference_pins_from_frame(frame: np.ndarray, camera: CameraModel | None = No
     return ordered, det.areas_px[idx]
 
 
+def _bipartite_components(near: np.ndarray) -> np.ndarray:
+    """Connected components of the bipartite graph whose (n, m) adjacency is `near`: a
+    label per node, rows first (0…n−1), then columns (n…n+m−1)."""
+    n, m = near.shape
+    label = np.arange(n + m)
+    while True:  # every node takes the smallest label among itself and its neighbours
+        rows = np.minimum(label[:n], np.where(near, label[None, n:], n + m).min(axis=1, initial=n + m))
+        cols = np.minimum(label[n:], np.where(near, rows[:, None], n + m).min(axis=0, initial=n + m))
+        merged = np.concatenate([rows, cols])
+        if np.array_equal(merged, label):
+            return label
+        label = merged
+
+
 def _unambiguous_pairs(dist: np.ndarray, reach: float, ratio: float) -> tuple[np.ndarray, np.ndarray]:
     """Pairs (rows, cols) of the one-to-one assignment of rows to columns on `dist` (px) that
     nothing else comes close to.
@@ -345,8 +357,7 @@ def _unambiguous_pairs(dist: np.ndarray, reach: float, ratio: float) -> tuple[np
     columns that cannot meet within `reach` of each other are solved apart."""
     n, m = dist.shape
     near = dist <= reach
-    graph = csr_matrix(np.block([[np.zeros((n, n), bool), near], [near.T, np.zeros((m, m), bool)]]))
-    _, label = connected_components(graph, directed=False)
+    label = _bipartite_components(near)
     keep_rows, keep_cols = [], []
     for group in np.unique(label[:n][near.any(axis=1)]):
         r = np.flatnonzero(label[:n] == group)
@@ -382,8 +393,10 @@ class PinTracker:
        detections (with all pins seen, the mean of the blobs minus the mean of the pins is
        the pins' mean motion: it catches the whole-pattern shear when a slide starts), the
        reference moved likewise, and the reference itself (taps are independent presses,
-       so the previous frame may belong to another contact). The start whose steps 2–4
-       resolve the most pins (then the smoothest field) wins.
+       so the previous frame may belong to another contact). The starts are tried in
+       this order, each through steps 2–5, and the first that resolves every pin is the
+       assignment; if none does, the start whose steps 2–4 resolved the most pins (then
+       the smoothest field) goes on to step 6.
     2. Confident matches: the pin's nearest blob is within `confident_fraction` of a pin
        spacing, the match is mutual (the blob's nearest prediction is that pin) and both
        pass a ratio test (the second-nearest blob / prediction is at least twice as far).
@@ -506,17 +519,15 @@ class PinTracker:
         g = self._moments @ rhs                                     # (6, 127, 3)
         if exclude_self:  # the pin's own term: weight 1, offset 0 → only in the Σw rows
             g[0] -= rhs
+        # Per pin, the weighted affine fit's normal equations A·x = b, divided by Σw:
+        # A = [[1, m1, m2], [m1, m11 + ridge, m12], [m2, m12, m22 + ridge]]; its constant
+        # term x[0] (the displacement at the pin) by the first row of A's adjugate.
         sw = g[0, :, 0] + 1e-300
-        ridge = self.field_ridge * sw
-        a = np.empty((N_PINS, 3, 3))
-        a[:, 0, 0] = sw
-        a[:, 0, 1] = a[:, 1, 0] = g[1, :, 0]
-        a[:, 0, 2] = a[:, 2, 0] = g[2, :, 0]
-        a[:, 1, 1] = g[3, :, 0] + ridge
-        a[:, 1, 2] = a[:, 2, 1] = g[4, :, 0]
-        a[:, 2, 2] = g[5, :, 0] + ridge
-        b = g[:3, :, 1:].transpose(1, 0, 2)                         # (127, 3, 2)
-        return np.linalg.solve(a, b)[:, 0, :]
+        m1, m2 = g[1, :, 0] / sw, g[2, :, 0] / sw
+        m11, m12, m22 = g[3, :, 0] / sw + self.field_ridge, g[4, :, 0] / sw, g[5, :, 0] / sw + self.field_ridge
+        c0, c1, c2 = m11 * m22 - m12 * m12, m12 * m2 - m1 * m22, m1 * m12 - m11 * m2
+        det = c0 + m1 * c1 + m2 * c2
+        return (c0[:, None] * g[0, :, 1:] + c1[:, None] * g[1, :, 1:] + c2[:, None] * g[2, :, 1:]) / (det * sw)[:, None]
 
     def _match_field(
         self, cents: np.ndarray, tree: cKDTree, start: np.ndarray
@@ -560,13 +571,15 @@ class PinTracker:
         """Step 5 of the class doc: assign the unresolved pins to the blobs no resolved pin
         holds, keep the unambiguous pairs, refit the field, repeat.
 
-        single: (K,) blobs of one pin's size. Returns (predicted positions (127, 2) px,
+        single: (K,) blobs of one pin's size that no resolved pin holds. Returns (predicted positions (127, 2) px,
         resolved mask (127,)); `blob` is updated in place."""
         ref = self._reference
         pred, resolved = pred.copy(), resolved.copy()
         for _ in range(self.max_iterations):
             pins = np.flatnonzero(~resolved)
-            free = np.setdiff1d(np.flatnonzero(single), blob[resolved])
+            held = np.zeros(len(cents), bool)
+            held[blob[resolved]] = True
+            free = np.flatnonzero(single & ~held)
             if not len(pins) or not len(free):
                 break
             d = np.linalg.norm(pred[pins, None, :] - cents[None, free, :], axis=2)  # (open pins, free blobs)
@@ -600,20 +613,26 @@ class PinTracker:
         if shift is not None:
             starts += [self._previous + (cents.mean(axis=0) - self._previous.mean(axis=0)), self._reference + shift]
         starts.append(self._reference)
+        expected = self._expected_areas(det)
         best = None
         for start in starts:
-            pred, conf, blob, loo = self._match_field(cents, tree, start)
-            score = (int(conf.sum()), -loo)
-            if best is None or score > best[0]:
-                best = (score, pred, conf, blob)
-            if score[0] == N_PINS:
+            pred, resolved, blob, loo = self._match_field(cents, tree, start)
+            score = (int(resolved.sum()), -loo)
+            if not resolved.all():
+                # Blobs of one pin's size, among those no resolved pin holds (the only ones
+                # step 5 looks at), by the expected area of their nearest pin.
+                single = np.ones(k, bool)
+                single[blob[resolved]] = False
+                loose = np.flatnonzero(single)
+                nearest_pin = np.argmin(np.linalg.norm(cents[loose, None, :] - pred[None, :, :], axis=2), axis=1)
+                single[loose] = areas[loose] <= self.merge_area_ratio * expected[nearest_pin]
+                pred, resolved = self._grow(cents, single, pred, resolved, blob)
+            if resolved.all():
+                best = (score, pred, resolved, blob)
                 break
+            if best is None or score > best[0]:
+                best = (score, pred, resolved, blob)
         _, pred, resolved, blob = best
-        expected = self._expected_areas(det)
-        if not resolved.all():
-            nearest_pin = cKDTree(pred).query(cents)[1]
-            single = areas <= self.merge_area_ratio * expected[nearest_pin]
-            pred, resolved = self._grow(cents, single, pred, resolved, blob)
         if resolved.all():
             # Every pin holds a blob of its own, matched unambiguously (ratio tests, or the
             # assignment's margin in step 5): that is the assignment.
