@@ -202,12 +202,15 @@ def test_missing_pins(model: PerceptionModel, heldout) -> None:
     assert not pred.ok.any() and all("too many missing" in r for r in pred.reason)
 
 
-def test_other_resolution_is_rescaled(model: PerceptionModel, heldout) -> None:
+@pytest.mark.parametrize("size", [(1280, 960), (480, 640), (120, 160)])
+def test_other_resolution_is_rescaled(model: PerceptionModel, heldout, size: tuple[int, int]) -> None:
+    """Another size or shape (portrait: the field of view spans the short side) of the
+    training camera gives the same predictions."""
     _, th, la, de = heldout
-    cam = CameraModel(width=1280, height=960)
+    cam = CameraModel(width=size[0], height=size[1])
     big = synthetic_tap_pins(th[:10], la[:10], de[:10], camera=cam)
     a = model.predict(heldout[0][:10])
-    b = model.predict(big, resolution=(1280, 960))
+    b = model.predict(big, resolution=size)
     np.testing.assert_allclose(b.theta_deg, a.theta_deg, atol=1e-6)
     np.testing.assert_allclose(b.lateral_mm, a.lateral_mm, atol=1e-6)
 

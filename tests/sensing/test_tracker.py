@@ -236,3 +236,38 @@ def test_twin_taps_tracked_against_true_projections(twin_taps) -> None:
         # The same frame tracked from a fresh reference gives the same answer.
         fresh = PinTracker(tracker.reference_pins_px)
         np.testing.assert_allclose(fresh.track(frame).pins_px, res.pins_px, atol=1e-9)
+
+
+# Camera shapes from 96×96 to 1280×960: square, landscape and portrait (DIGIT's 120×160).
+CAMERA_SHAPES = [(96, 96), (160, 120), (120, 160), (480, 640), (1280, 960), (960, 1280)]
+
+
+@pytest.mark.parametrize(("width", "height"), CAMERA_SHAPES)
+def test_every_camera_shape_tracks_all_pins(width: int, height: int) -> None:
+    """Rendered frames at any camera shape: the aperture fits the frame's short side, so all
+    127 pins are seen and tracked, at rest and pressed 4 mm onto the edge."""
+    from twin.runs.protocols import tap_moves
+    from twin.core.scenario import scenario_from_dict
+    from twin.runs.sim_env import SimEnvironment
+
+    scenario = scenario_from_dict({
+        "name": f"tracker_{width}x{height}", "object": {"name": "rectangle"}, "fidelity": "fast",
+        "effects": ["contact", "render"], "sensor": {"camera": {"width": width, "height": height}},
+        "protocol": {"kind": "taps", "orientations_deg": [-120.0], "lateral_mm": [4.0], "depths_mm": [4.0]},
+    })
+    with SimEnvironment(scenario) as env:
+        reference = env.reset()
+        for move in tap_moves(scenario.protocol):
+            env.move_to(move.pose, move.speed_mm_s)
+            if move.record:
+                break
+        pressed = env.observe()
+    assert pressed.frame.shape == (height, width, 3)
+    tracker = PinTracker(reference.frame)
+    spacing = tracker.spacing_px
+    assert _rms(tracker.reference_pins_px, reference.truth["pins_px"]) <= 0.05 * spacing
+    truth = pressed.truth["pins_px"]
+    assert np.max(np.linalg.norm(truth - reference.truth["pins_px"], axis=1)) > 0.3 * spacing  # the press moved pins
+    res = tracker.track(pressed.frame)
+    assert res.n_found == N_PINS and all(r == "" for r in res.reasons)
+    assert _rms(res.pins_px, truth) <= 0.05 * spacing

@@ -60,7 +60,7 @@ class Placement(StrictModel):
 class CameraSpec(StrictModel):
     width: int = bounded(64, 4096, "px", "image width", 640)
     height: int = bounded(48, 4096, "px", "image height", 480)
-    fov_y_deg: float = Field(default=56.0, gt=10, lt=150, description="vertical field of view (deg; (10, 150))")
+    fov_y_deg: float = Field(default=56.0, gt=10, lt=150, description="field of view across the frame's short side, the vertical one of a landscape frame (deg; (10, 150))")
     msaa: int = bounded(0, 16, "samples per px", "anti-aliasing", 0)
     noise_std: float = bounded(0, 50, "grey levels", "pixel noise sigma, with camera_noise", 2.0)
 

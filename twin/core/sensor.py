@@ -95,8 +95,10 @@ class CameraModel:
 
     Nominal camera (the defaults): the camera frame is the tool frame shifted back by
     `geometry.camera_to_apex` along z: z forward (towards the tip), u right (+x), v down
-    (+y); no distortion; intrinsics from the field of view, scaled with the resolution so
-    that the field of view stays the same. A calibrated camera (twin.core.calibration)
+    (+y); no distortion; intrinsics from the field of view across the frame's short side
+    (the height of a landscape frame, the width of a portrait one), scaled with the
+    resolution so that the field of view stays the same: the circular aperture fits the
+    short side whatever the frame's shape. A calibrated camera (twin.core.calibration)
     overrides the focal length (px) and principal point (px), adds distortion and moves the
     camera in the tool by `offset_mm` (mm, tool frame) and `rotation_deg` (deg, extrinsic
     XYZ, camera axes relative to the nominal ones).
@@ -104,8 +106,8 @@ class CameraModel:
 
     width: int = 640
     height: int = 480
-    fov_y_deg: float = 56.0       # vertical field of view (deg)
-    aperture_fraction: float = 0.94  # circular aperture radius / half the frame height
+    fov_y_deg: float = 56.0       # field of view across the short side (deg): the vertical one of a landscape frame
+    aperture_fraction: float = 0.94  # circular aperture radius / half the frame's short side
     geometry: TacTipGeometry = field(default_factory=TacTipGeometry)
     focal_override_px: float | None = None            # px; None = from fov_y_deg
     principal_point_px: tuple[float, float] | None = None   # px; None = frame centre
@@ -117,7 +119,20 @@ class CameraModel:
     def focal_px(self) -> float:
         if self.focal_override_px is not None:
             return float(self.focal_override_px)
-        return 0.5 * self.height / np.tan(np.radians(self.fov_y_deg) / 2)
+        return 0.5 * self.short_side_px / np.tan(np.radians(self.fov_y_deg) / 2)
+
+    @property
+    def short_side_px(self) -> int:
+        """The frame's short side (px): the height of a landscape or square frame."""
+        return min(self.width, self.height)
+
+    @property
+    def vertical_fov_deg(self) -> float:
+        """Vertical field of view (deg) of the nominal camera: `fov_y_deg` unless the frame
+        is portrait (what a GL camera, which takes the vertical one, is given)."""
+        if self.height <= self.width:
+            return self.fov_y_deg
+        return float(np.degrees(2.0 * np.arctan(np.tan(np.radians(self.fov_y_deg) / 2) * self.height / self.width)))
 
     @cached_property
     def intrinsics(self) -> np.ndarray:
@@ -177,16 +192,24 @@ class CameraModel:
         y = (pixels[:, 1] - nominal[1, 2]) * z / nominal[1, 1]
         return np.column_stack([x, y, points_tool[:, 2]])
 
-    def rescale_px(self, pins_px: np.ndarray, from_width: int) -> np.ndarray:
+    def rescale_px(self, pins_px: np.ndarray, from_width: int, from_height: int | None = None) -> np.ndarray:
         """Pixel coordinates measured at another resolution of this camera (same field of
-        view), at `from_width` px wide, moved to this one: u' = (u + 0.5)·r − 0.5 with
-        r = width / from_width (pixel centres at integer coordinates)."""
-        return (np.asarray(pins_px, float) + 0.5) * (self.width / float(from_width)) - 0.5
+        view across the short side), `from_width` × `from_height` px, moved to this one.
+        The same shape (or no height given): u' = (u + 0.5)·r − 0.5 with r = width /
+        from_width (pixel centres at integer coordinates). Another shape (a portrait frame
+        against a landscape one): scaled by the ratio of the short sides about the frame
+        centres ((W − 1)/2, (H − 1)/2), where the optical axis is."""
+        pins = np.asarray(pins_px, float)
+        if from_height is None or int(from_height) * self.width == int(from_width) * self.height:
+            return (pins + 0.5) * (self.width / float(from_width)) - 0.5
+        r = self.short_side_px / float(min(from_width, from_height))
+        centre_from = np.array([(from_width - 1) / 2, (from_height - 1) / 2])
+        return (pins - centre_from) * r + np.array([(self.width - 1) / 2, (self.height - 1) / 2])
 
     @property
     def aperture_radius_px(self) -> float:
         """Radius of the circular aperture of the camera mount (px), centred in the frame."""
-        return self.aperture_fraction * self.height / 2
+        return self.aperture_fraction * self.short_side_px / 2
 
     def pin_radius_px(self, depth_m: float) -> float:
         """Apparent radius (px) of a pin tip at a depth `depth_m` from the camera."""

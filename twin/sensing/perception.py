@@ -492,9 +492,8 @@ class PerceptionModel:
             pins = pins[None]
         if pins.shape[1:] != (N_PINS, 2):
             raise UserError(f"perception: pins must be (M, {N_PINS}, 2) px, got shape {pins.shape}")
-        if resolution is not None and int(resolution[0]) != int(self.resolution[0]):
-            # Pixel centres sit at integer coordinates: scale about the image corner (−0.5, −0.5).
-            pins = CameraModel(*self.resolution).rescale_px(pins, resolution[0])
+        if resolution is not None and (int(resolution[0]), int(resolution[1])) != tuple(self.resolution):
+            pins = CameraModel(*self.resolution).rescale_px(pins, int(resolution[0]), int(resolution[1]))
         return pins
 
     def project(self, pins_px: np.ndarray) -> np.ndarray:
@@ -667,7 +666,7 @@ class PerceptionModel:
         tracker flagged keep the tracker's last-known position. More than
         `max_missing_fraction` missing → ok False. No contact (‖p − p0‖ below the
         contact threshold) → ok False, reason "no contact"; outputs stay finite.
-        resolution: (W, H) of the input frames if not the model's (pins rescaled by width).
+        resolution: (W, H) of the input frames if not the model's (pins rescaled, CameraModel.rescale_px).
         """
         if not self.fitted:
             raise UserError("perception: the model is not fitted (call fit or load)")

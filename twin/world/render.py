@@ -44,7 +44,7 @@ def _pin_scene_xml(camera: CameraModel, lighting: bool, msaa: int) -> str:
     return f"""
 <mujoco model="tactip_inside_view">
   <visual>
-    <global offwidth="{camera.width}" offheight="{camera.height}" fovy="{camera.fov_y_deg}"/>
+    <global offwidth="{camera.width}" offheight="{camera.height}" fovy="{camera.vertical_fov_deg}"/>
     <quality offsamples="{msaa}" numslices="16" numstacks="8"/>
     <headlight active="0" ambient="0 0 0" diffuse="0 0 0" specular="0 0 0"/>
   </visual>
@@ -56,7 +56,7 @@ def _pin_scene_xml(camera: CameraModel, lighting: bool, msaa: int) -> str:
   </asset>
   <worldbody>
     {lights}
-    <camera name="inside" pos="0 0 0" quat="{_OPENCV_TO_MUJOCO_CAMERA_QUAT}" fovy="{camera.fov_y_deg}"/>
+    <camera name="inside" pos="0 0 0" quat="{_OPENCV_TO_MUJOCO_CAMERA_QUAT}" fovy="{camera.vertical_fov_deg}"/>
     <geom name="skin" type="mesh" mesh="skin" pos="0 0 {skin_depth}" material="skin"/>
     {pins}
   </worldbody>
