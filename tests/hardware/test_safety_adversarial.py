@@ -1,5 +1,6 @@
-"""Safety counted where it matters: ≥ 10,000 adversarial poses and speeds (NaN, ±inf,
-outside the box, too deep, extreme tilts, huge γ, bad speeds, and straight moves between
+"""Safety counted where it matters: ≥ 10,000 adversarial poses and speeds (NaN, ±inf, None,
+bools, strings, numbers float32 cannot carry, outside the box, too deep, extreme tilts,
+huge γ, bad speeds (too small to send or to move included), and straight moves between
 two legal poses whose slerped tilt leaves the α/β box) go through the hardware backend
 (HardwareEnvironment → RobotDriver → loopback socket) to the virtual controller, which
 records every move it receives. An independent oracle walks each recorded move's whole
@@ -19,7 +20,7 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from hardware.config import hardware_config_from_dict
 from hardware.env import HardwareEnvironment
-from hardware.protocol import Command, wire_to_pose
+from hardware.protocol import MIN_ANGULAR_SPEED_DEG_S, MIN_LINEAR_SPEED_MM_S, Command, wire_to_pose
 from hardware.robot import RobotCommandRefused
 from hardware.safety import SafetyLimits
 from hardware.virtual_controller import KinematicArm, VirtualRobotServer
@@ -51,8 +52,8 @@ def adversarial(rng: np.random.Generator, limits: SafetyLimits, at: Pose) -> tup
         v = {k: float(rng.uniform(*b)) for k, b in box.items()} | {"gamma": float(rng.uniform(-180, 180))}
         return v | fixed
 
-    kind = rng.choice(["legal", "tilt_arc", "non_finite", "outside", "too_deep", "extreme_tilt", "bad_speed",
-                       "huge_gamma", "on_a_face"], p=[0.06, 0.1, 0.18, 0.2, 0.1, 0.15, 0.13, 0.02, 0.06])
+    kind = rng.choice(["legal", "tilt_arc", "non_finite", "not_a_wire_number", "outside", "too_deep", "extreme_tilt",
+                       "bad_speed", "huge_gamma", "on_a_face"], p=[0.06, 0.1, 0.13, 0.05, 0.2, 0.1, 0.15, 0.13, 0.02, 0.06])
     speed = None
     if kind == "legal":
         v = legal()
@@ -62,6 +63,9 @@ def adversarial(rng: np.random.Generator, limits: SafetyLimits, at: Pose) -> tup
                   gamma=at.gamma + float(rng.choice([-1, 1]) * rng.uniform(60, 179)))
     elif kind == "non_finite":
         v = legal() | {str(rng.choice(["x", "y", "z", "alpha", "beta", "gamma"])): float(rng.choice([math.nan, math.inf, -math.inf]))}
+    elif kind == "not_a_wire_number":  # what float32 cannot carry, or not a number at all
+        bad = [None, True, False, "5", 10**400, 3.5e38, -1e300]
+        v = legal() | {str(rng.choice(["x", "y", "z", "alpha", "beta", "gamma"])): bad[int(rng.integers(len(bad)))]}
     elif kind == "outside":
         name = str(rng.choice(list(box)))
         lo, hi = box[name]
@@ -73,7 +77,9 @@ def adversarial(rng: np.random.Generator, limits: SafetyLimits, at: Pose) -> tup
         v = legal() | {str(rng.choice(["alpha", "beta"])): float(rng.choice([-1, 1]) * rng.uniform(20, 180))}
     elif kind == "bad_speed":
         v = legal(alpha=0.0, beta=0.0, gamma=at.gamma)
-        speed = float(rng.choice([math.nan, math.inf, -math.inf, -1.0, 0.0, 1e9, limits.max_linear_speed_mm_s * (1 + 1e-12), 251.0]))
+        bad = [math.nan, math.inf, -math.inf, -1.0, 0.0, 1e9, limits.max_linear_speed_mm_s * (1 + 1e-12), 251.0,
+               1e-300, 1e-40, 1e-30, 5e-3, "5", True, 10**400]  # too small to send, or to move, or no number
+        speed = bad[int(rng.integers(len(bad)))]
     elif kind == "huge_gamma":
         v = legal(alpha=0.0, beta=0.0, gamma=float(rng.choice([-1, 1]) * 10 ** rng.uniform(3, 12)))
     else:  # on_a_face: exactly on a limit (legal), the path from here may or may not stay inside
@@ -147,17 +153,17 @@ def test_no_move_outside_the_limits_reaches_the_controller(rig, capsys) -> None:
     assert len(moves) == sum(n for (_, how), n in outcomes.items() if how != "refused by the safety limits")
     bad = [(m, v) for m in moves if (v := path_violations(limits, wire_to_pose(m.start), wire_to_pose(m.end)))]
     speeds = [r.args for r in server.command_log if r.command is Command.SET_SPEED]
-    bad_speeds = [s for s in speeds if not (0 < s[0] <= limits.max_linear_speed_mm_s * (1 + 1e-6)
-                                            and 0 < s[1] <= limits.max_angular_speed_deg_s * (1 + 1e-6))]
+    bad_speeds = [s for s in speeds if not (MIN_LINEAR_SPEED_MM_S * (1 - 1e-6) <= s[0] <= limits.max_linear_speed_mm_s * (1 + 1e-6)
+                                            and MIN_ANGULAR_SPEED_DEG_S * (1 - 1e-6) <= s[1] <= limits.max_angular_speed_deg_s * (1 + 1e-6))]
     with capsys.disabled():
         print(f"\nsafety: {N_COMMANDS} adversarial commands in {elapsed:.1f} s; {len(moves)} moves and {len(speeds)} "
               f"speed changes reached the controller; outside the limits: {len(bad)} moves, {len(bad_speeds)} speeds")
         for key in sorted(outcomes):
-            print(f"  {key[0]:>13}: {key[1]:<28} {outcomes[key]}")
+            print(f"  {key[0]:>17}: {key[1]:<28} {outcomes[key]}")
     assert not bad, bad[:3]
     assert not bad_speeds, bad_speeds[:3]
     # every kind was tried, and the safety limits (not luck) stopped the dangerous ones
     assert outcomes["tilt_arc", "refused by the safety limits"] > 100 and outcomes["tilt_arc", "sent"] > 100
     assert outcomes["legal", "sent"] > 100 and outcomes["on_a_face", "sent"] > 100
-    for kind in ("non_finite", "outside", "too_deep", "extreme_tilt", "bad_speed"):
+    for kind in ("non_finite", "not_a_wire_number", "outside", "too_deep", "extreme_tilt", "bad_speed"):
         assert outcomes[kind, "sent"] == 0 and outcomes[kind, "refused by the safety limits"] > 200, kind
