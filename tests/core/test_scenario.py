@@ -58,8 +58,11 @@ def test_bad_scenario_names_file_field_value(case: str, tmp_path: Path, capsys) 
     assert "Traceback" not in captured.err and str(path) in captured.err
 
 
-def test_missing_file_is_user_error(tmp_path: Path) -> None:
-    assert main(["check", str(tmp_path / "nope.yaml")]) == 2
+def test_missing_file_is_user_error(tmp_path: Path, capsys) -> None:
+    missing = tmp_path / "nope.yaml"
+    assert main(["check", str(missing)]) == 2
+    err = capsys.readouterr().err
+    assert f"{missing}: no such scenario file" in err and "Traceback" not in err, err
 
 
 def test_user_outline_object_named_in_a_scenario(tmp_path: Path) -> None:

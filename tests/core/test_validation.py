@@ -105,5 +105,7 @@ def test_scenario_non_finite_values_are_refused_naming_the_field(where: dict, ba
     ("safety", {"max_depth_mm": math.nan}),
 ])
 def test_hardware_config_non_finite_values_are_refused(field: str, value: dict) -> None:
-    with pytest.raises(ValidationError):
+    with pytest.raises(ValidationError) as err:
         HardwareConfig.model_validate({field: value})
+    (error,) = err.value.errors()  # refused for the non-finite value, not for anything else
+    assert error["type"] == "finite_number" and error["loc"][:2] == (field, next(iter(value))), error

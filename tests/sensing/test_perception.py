@@ -23,8 +23,6 @@ from twin.sensing.perception import (
 from twin.core.sensor import N_PINS, CameraModel
 from twin.sensing.tracker import PinTracker, render_pins_frame
 
-pytestmark = pytest.mark.filterwarnings("ignore::sklearn.exceptions.ConvergenceWarning")
-
 FAST = GPConfig(n_restarts=0)
 
 
@@ -248,7 +246,7 @@ def test_tracker_to_perception_on_frames(model: PerceptionModel, heldout) -> Non
 
 def test_fit_rejects_bad_input(train) -> None:
     pins, th, la, de = train
-    with pytest.raises(UserError):
+    with pytest.raises(UserError, match=r"pins must be \(N, 127, 2\) px, got shape \(\d+, 100, 2\)"):
         PerceptionModel().fit(pins[:, :100], th, la, de, np.random.default_rng(0))
     with pytest.raises(UserError, match="no-contact"):
         PerceptionModel().fit(pins, th, np.minimum(la, 6.0), de, np.random.default_rng(0))
