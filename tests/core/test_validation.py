@@ -68,8 +68,6 @@ def _types_in(annotation):
     yield annotation
     for arg in getattr(annotation, "__args__", ()) or ():
         yield from _types_in(arg)
-    for arg in getattr(annotation, "__metadata__", ()) or ():
-        yield from ()
     origin = getattr(annotation, "__origin__", None)
     if origin is not None:
         yield from _types_in(origin)
