@@ -129,6 +129,12 @@ def _fds(pid: int) -> int:
     return len(os.listdir(f"/proc/{pid}/fd"))
 
 
+def _cpu_s(pid: int) -> float:
+    """CPU time (user + system, s) the process has used so far."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
 @pytest.fixture
 def served(tmp_path):
     """`twin serve-robot` in its own process: (process, port); its log (stderr) goes to a
@@ -347,18 +353,18 @@ def test_soak_extreme_float32_numbers(served, capsys) -> None:
     for _ in range(10):
         _extreme_connection(port, N_EXTREME_WARMUP // 10, rng, warmup)
     time.sleep(0.3)
-    rss0, fds0 = _rss_kb(proc.pid), _fds(proc.pid)
+    rss0, fds0, cpu0 = _rss_kb(proc.pid), _fds(proc.pid), _cpu_s(proc.pid)
     t0 = time.perf_counter()
     tally: Counter = Counter()
     for _ in range(N_EXTREME_CONNECTIONS):
         _extreme_connection(port, N_EXTREME_COMMANDS // N_EXTREME_CONNECTIONS, rng, tally)
-    elapsed = time.perf_counter() - t0
+    elapsed, server_cpu_s = time.perf_counter() - t0, _cpu_s(proc.pid) - cpu0
     time.sleep(0.3)
     rss1, fds1 = _rss_kb(proc.pid), _fds(proc.pid)
     assert proc.poll() is None and len(_ask_joints(port)) == 6      # alive, answering correctly
     with capsys.disabled():
         print(f"\nserve-robot extreme soak: {tally['commands']} requests over {N_EXTREME_CONNECTIONS} connections in "
-              f"{elapsed:.1f} s: {tally['refused']} refused, {tally['accepted']} accepted "
+              f"{elapsed:.1f} s (server CPU {server_cpu_s:.1f} s): {tally['refused']} refused, {tally['accepted']} accepted "
               f"({tally['MOVE_LINEAR carried out']} linear and {tally['MOVE_JOINTS carried out']} joint moves carried out); "
               f"accepted out of range {tally['accepted out of range']}, outside the joint limits "
               f"{tally['moves outside the joint limits']}, not where sent {tally['moves not where they were sent']}; "

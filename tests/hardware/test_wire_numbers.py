@@ -7,8 +7,11 @@ from __future__ import annotations
 
 import math
 import re
+import signal
 import socket
 import struct
+import subprocess
+import sys
 import time
 
 import numpy as np
@@ -172,7 +175,7 @@ def test_serve_robot_options_out_of_range_exit_2_with_one_line(capsys, option, v
     assert twin_main(["serve-robot", "--port", "0", option, value]) == 2
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
-    assert err.startswith("error: virtual robot: ") and re.search(match, err), err
+    assert "virtual robot: " in err and re.search(match, err), err
 
 
 def test_constructor_refuses_what_the_cli_cannot_send():
@@ -180,3 +183,17 @@ def test_constructor_refuses_what_the_cli_cannot_send():
         VirtualRobotServer("127.0.0.1", True)
     with pytest.raises(UserError, match=r"log limit = 2\.5 must be a count"):
         VirtualRobotServer("127.0.0.1", 0, log_limit=2.5)
+
+
+def test_serve_robot_exits_130_on_ctrl_c():
+    """README, exit codes: SIGINT 130 (SIGTERM's 143 is checked after every soak)."""
+    proc = subprocess.Popen([sys.executable, "-m", "twin.tools.cli", "serve-robot", "--port", "0"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert "listening on 127.0.0.1:" in proc.stdout.readline()
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=20)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130 and "Traceback" not in err, err
+
