@@ -39,9 +39,8 @@ import numpy as np
 
 from twin.core.errors import HardwareError
 
-#: V4L2 auto-exposure menu values as passed through by OpenCV's V4L2 backend
+#: V4L2 auto-exposure menu value for manual exposure, as passed through by OpenCV's V4L2 backend
 V4L2_EXPOSURE_MANUAL = 1
-V4L2_EXPOSURE_APERTURE_PRIORITY = 3
 
 
 @dataclass(frozen=True)

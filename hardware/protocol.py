@@ -157,11 +157,6 @@ def parse_command_code(code_bytes: bytes) -> Command:
         raise ProtocolError(f"unknown command code {code}") from None
 
 
-def request_payload_size(command: Command) -> int:
-    """Bytes that follow the code of a `command` request."""
-    return REQUEST_LAYOUT[Command(command)].size
-
-
 def decode_request_payload(command: Command, payload: bytes) -> tuple[float, ...]:
     """Arguments of a request from the bytes after its code."""
     layout = REQUEST_LAYOUT[Command(command)]
