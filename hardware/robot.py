@@ -274,7 +274,13 @@ class RobotDriver:
         reply_timeout_s: float = 5.0,
         move_timeout_factor: float = 2.0,
     ) -> None:
-        self.host, self.port = host, int(port)
+        if isinstance(port, bool) or not isinstance(port, int) or not 1 <= port <= 65535:
+            raise UserError(f"robot port = {show_value(port)} is not a TCP port (1-65535)")
+        for name, value in (("connect_timeout_s", connect_timeout_s), ("reply_timeout_s", reply_timeout_s),
+                            ("move_timeout_factor", move_timeout_factor)):
+            if not (isinstance(value, (int, float)) and not isinstance(value, bool) and 0 < value <= MAX_MOVE_TIMEOUT_S):
+                raise UserError(f"robot {name} = {show_value(value)} must be a number in (0, {MAX_MOVE_TIMEOUT_S:g}]")
+        self.host, self.port = host, port
         self.reply_timeout_s = float(reply_timeout_s)
         self.move_timeout_factor = float(move_timeout_factor)
         self._linear_speed_mm_s: float | None = None

@@ -87,7 +87,7 @@ class SafetyLimits(StrictModel):
         self._check_range(pose, "y", pose.y, self.y_mm, "mm", "safety.y_mm")
         if pose.z > self.max_depth_mm:
             raise SafetyError(
-                f"pose {format_pose(pose)}: z = {pose.z!r} mm is deeper than the max indentation depth "
+                f"pose {format_pose(pose)}: z = {float(pose.z)!r} mm is deeper than the max indentation depth "
                 f"{self.max_depth_mm} mm (safety.max_depth_mm; +z points into the object)"
             )
         self._check_range(pose, "z", pose.z, (self.z_mm[0], self.z_mm[1]), "mm", "safety.z_mm")
@@ -106,9 +106,9 @@ class SafetyLimits(StrictModel):
                 continue
             wire_number(name, value, unit, refuse_underflow=True)
             if not value > 0.0:
-                raise SafetyError(f"{name} = {value!r} {unit} must be > 0")
+                raise SafetyError(f"{name} = {float(value)!r} {unit} must be > 0")
             if value > limit:
-                raise SafetyError(f"{name} = {value!r} {unit} exceeds the limit {limit} {unit} ({field})")
+                raise SafetyError(f"{name} = {float(value)!r} {unit} exceeds the limit {limit} {unit} ({field})")
 
     def check_path(self, start: Pose, end: Pose) -> None:
         """Raise SafetyError unless the straight move start → end stays inside the limits
@@ -152,9 +152,9 @@ class SafetyLimits(StrictModel):
     def _check_range(pose: Pose, name: str, value: float, bounds: tuple[float, float], unit: str, field: str) -> None:
         lo, hi = bounds
         if value < lo:
-            raise SafetyError(f"pose {format_pose(pose)}: {name} = {value!r} {unit} is below the limit {lo} {unit} ({field})")
+            raise SafetyError(f"pose {format_pose(pose)}: {name} = {float(value)!r} {unit} is below the limit {lo} {unit} ({field})")
         if value > hi:
-            raise SafetyError(f"pose {format_pose(pose)}: {name} = {value!r} {unit} is above the limit {hi} {unit} ({field})")
+            raise SafetyError(f"pose {format_pose(pose)}: {name} = {float(value)!r} {unit} is above the limit {hi} {unit} ({field})")
 
 
 #: path sampling of `check_path`: every PATH_STEP_DEG of rotation; a sampled α/β within

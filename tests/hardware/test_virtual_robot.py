@@ -248,7 +248,7 @@ def test_hardware_environment_with_virtual_robot_and_video(server, tmp_path):
         assert server.speed[0] == pytest.approx(40)
 
         n_commands = len(server.command_log)
-        with pytest.raises(SafetyError, match=r"x = 81 mm is above the limit 80.0 mm \(safety.x_mm\)"):
+        with pytest.raises(SafetyError, match=r"x = 81.0 mm is above the limit 80.0 mm \(safety.x_mm\)"):
             env.move_to(Pose(81, 0, 0))
         with pytest.raises(SafetyError, match="max indentation depth"):
             env.move_to(Pose(0, 0, 6.5))

@@ -75,6 +75,23 @@ def test_the_driver_refuses_a_number_the_wire_cannot_carry_by_name_and_sends_not
     assert robot.get_pose().x == pytest.approx(1, abs=1e-3)
 
 
+@pytest.mark.parametrize("kwargs, match", [
+    ({"port": 70000}, r"robot port = 70000 is not a TCP port"), ({"port": True}, r"robot port = True is not a TCP port"),
+    ({"reply_timeout_s": math.nan}, r"robot reply_timeout_s = nan must be a number in \(0, 1e\+06\]"),
+    ({"connect_timeout_s": -1.0}, r"robot connect_timeout_s = -1 must be"),
+])
+def test_the_driver_refuses_an_address_or_timeout_it_cannot_use(kwargs, match):
+    with pytest.raises(UserError, match=match):
+        RobotDriver(**{"host": "127.0.0.1", "port": 1, "client": "native"} | kwargs)
+
+
+def test_safety_messages_show_numpy_numbers_as_numbers():
+    from hardware.safety import SafetyLimits
+
+    with pytest.raises(SafetyError, match=r": x = 81\.0 mm is above the limit 80\.0 mm \(safety\.x_mm\)$"):
+        SafetyLimits().check_pose(Pose(np.float64(81.0), np.float32(0), 0))
+
+
 def test_a_tiny_coordinate_goes_out_as_the_zero_it_is(server, robot):
     robot.move_linear(Pose(1e-40, 0, -10))
     x = server.command_log[-1].args[0]
