@@ -16,6 +16,8 @@ import time
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from hardware.protocol import Command, encode_request, pose_to_wire
 from hardware.robot import RobotDriver
@@ -152,6 +154,31 @@ def test_every_field_out_of_range_gets_error_naming_it_and_changes_nothing(serve
         if command is not Command.MOVE_CIRCULAR:   # the same request in range is carried out
             assert _ask(sock, encode_request(command, *_valid_args(command, here))) == b"\x00\x01"
     assert server.internal_faults == 0
+
+
+@pytest.fixture(scope="module")
+def shared_server():
+    with VirtualRobotServer("127.0.0.1", 0, KinematicArm()) as srv, \
+            socket.create_connection(("127.0.0.1", srv.port), timeout=10) as sock:
+        yield srv, sock
+
+
+@settings(max_examples=600, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.sampled_from(list(FIELD_RANGES)).flatmap(
+    lambda c: st.tuples(st.just(c), st.lists(st.integers(0, 2**32 - 1), min_size=len(FIELD_RANGES[c]),
+                                             max_size=len(FIELD_RANGES[c])))))
+def test_any_bit_pattern_in_any_field_is_answered_and_none_out_of_range_is_accepted(shared_server, request_bits):
+    """Every 32-bit pattern is a float32 (NaN payloads, denormals, ±0, ±inf, ±max alike)."""
+    server, sock = shared_server
+    command, bits = request_bits
+    words = [struct.pack(">H", b & 0xFFFF) if command is Command.SET_ZONE and i == 0 else struct.pack(">I", b)
+             for i, b in enumerate(bits)]
+    values = [struct.unpack(">H" if len(w) == 2 else ">f", w)[0] for w in words]
+    in_range = all(float(np.float32(lo)) <= v <= float(np.float32(hi)) for v, (_, lo, hi, _) in zip(values, FIELD_RANGES[command]))
+    status = _ask(sock, struct.pack(">H", int(command)) + b"".join(words))
+    assert status in (b"\x00\x00", b"\x00\x01")
+    assert in_range or status == b"\x00\x00", (command.name, values)
+    assert server.internal_faults == 0, server.last_error
 
 
 def test_every_field_at_its_bounds_passes_the_range_check():
