@@ -48,11 +48,15 @@ def test_imports_sit_at_module_top() -> None:
     assert not inside, "imports inside functions:\n" + "\n".join(inside)
 
 
-@pytest.mark.parametrize("module", ["hardware.safety", "twin.core.scenario", "twin.core.calibration"])
-def test_layers_hold_at_run_time(module: str) -> None:
+#: every twin.core module, imported together
+CORE = ", ".join(f"twin.core.{p.stem}" for p in sorted((ROOT / "twin" / "core").glob("*.py")) if p.stem != "__init__")
+
+
+@pytest.mark.parametrize("modules", ["hardware.safety", CORE], ids=["hardware.safety", "twin.core"])
+def test_layers_hold_at_run_time(modules: str) -> None:
     """Importing a low module loads no layer above it and none of the simulator's libraries
-    (twin's package import is lazy: twin/__init__.py)."""
-    code = f"import sys, {module}; print(*sys.modules)"
+    (twin's package import is lazy: twin/__init__.py), so no GL selection or gym registration."""
+    code = f"import sys, {modules}; print(*sys.modules)"
     result = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr[-3000:]
     loaded = set(result.stdout.split())
