@@ -13,11 +13,15 @@ import threading
 import time
 from pathlib import Path
 
-from twin.core.errors import Terminated, TwinError, UserError
+from twin.core.errors import Terminated, UserError
+from twin.tools.boundary import OneLineParser, bounded_float, bounded_int, guarded
 from twin.runs.parallel import one_blas_thread
-from twin.core.scenario import load_scenario
+from twin.core.scenario import Scenario, load_scenario
+from twin.control.controllers import load_controller
+from twin.sensing.perception import PerceptionModel
+from hardware.config import load_hardware_config
 from twin.core.scenario import START_POSE
-from twin.world.scene import build_scene
+from twin.world.scene import build_scene, load_scenario_stimulus
 from twin.runs.sim_env import check_reachable, render_scenario_view
 from twin.runs.run import resume_run, run_scenario
 from twin.runs.lab_recording import import_lab_recording, with_taps_from
@@ -34,10 +38,28 @@ from twin.tools.video import write_compare_video, write_run_video
 from twin.tools.view import view_scenario
 
 
+def _check_named_files(scenario: Scenario) -> None:
+    """Load every file `scenario` names, without simulating: its object's STL or outline,
+    its calibration, hardware config, perception model and controller plug-in (imported
+    and constructed: a plug-in runs as the user's code). UserError naming the first that fails."""
+    load_scenario_stimulus(scenario)
+    scenario.calibration()
+    if scenario.hardware_config is not None:
+        load_hardware_config(scenario.resolve(scenario.hardware_config))
+    if scenario.protocol.kind == "contour":
+        if scenario.protocol.model is not None:
+            path = scenario.resolve(scenario.protocol.model)
+            if not path.is_file():
+                raise UserError(f"{scenario.source}: field 'protocol.model': no such model file {path}")
+            PerceptionModel.load(path)
+        load_controller(scenario.protocol.controller, scenario.protocol, scenario.source_dir)
+
+
 def _cmd_check(args: argparse.Namespace) -> int:
 
     for path in args.scenarios:
         scenario = load_scenario(path)
+        _check_named_files(scenario)
         reach = ""
         if args.compile and scenario.backend == "sim":
             reach = f", {check_reachable(scenario, build_scene(scenario, START_POSE))} poses in reach"
@@ -182,6 +204,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     settings = load_settings(Path(args.settings) if args.settings else None)
     r = calibrate_and_report([Path(r) for r in args.runs], load_scenario(args.scenario), Path(args.out), settings,
                              workers=args.workers, cluster=args.cluster, progress=not args.quiet)
+    _warn_unfinished(r["unfinished"])
     print(f"{r['status']} ({r['stop_reason']}); pin RMS {r['before']['overall']:.3f} -> {r['after']['overall']:.3f} px")
     for name, u in r["uncertainty"]["parameters"].items():
         flag = "" if u["identifiable"] else f"  NOT IDENTIFIABLE ({'; '.join(u['not_identifiable_because'])}): left at the default"
@@ -211,8 +234,15 @@ def _cmd_bench(args: argparse.Namespace) -> int:
                      cluster=args.cluster)
 
 
+#: argument types: a seed as the scenario schema bounds it, local processes, a count, seconds
+SEED = bounded_int(0, 2**32 - 1, "")
+WORKERS = bounded_int(1, 4096, "processes")
+COUNT = bounded_int(1, 10**9, "")
+TIMEOUT = bounded_float(0, 1e6, "s", open_lo=True)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="twin", description="TacTip digital twin (Aquilina et al., ICRA 2019)")
+    parser = OneLineParser(prog="twin", description="TacTip digital twin (Aquilina et al., ICRA 2019)")
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("check", help="validate scenario files (and compile their scenes)")
@@ -231,16 +261,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--resume", default=None, metavar="DIR",
                    help="continue an interrupted or killed run after its last complete sample (same scenario and seed)")
     p.add_argument("--out", default=None, help="run directory (default runs/<name>_seed<N>)")
-    p.add_argument("--seed", type=int, default=None)
+    p.add_argument("--seed", type=SEED, default=None)
     p.add_argument("--backend", choices=("sim", "hardware"), default=None)
     p.add_argument("--hardware-config", default=None, help="robot/camera config for --backend hardware")
-    p.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
+    p.add_argument("--workers", type=WORKERS, default=None, help="local processes (default: all cores)")
     p.add_argument("--cluster", default=None, help="Ray address ('local' starts one); needs the ray extra")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--video", action="store_true", help="also write RUN/video.mp4: frame, pins, rig and path per sample")
     p.add_argument("--taps-from", default=None, metavar="RUN",
                    help="sheared_taps scenarios: replay the taps of RUN (an imported lab recording) in order")
-    p.add_argument("--first-taps", type=int, default=None, metavar="N", help="with --taps-from: only the first N taps")
+    p.add_argument("--first-taps", type=COUNT, default=None, metavar="N", help="with --taps-from: only the first N taps")
     p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser("import-lab", help="import a recording in the lab's format (frames, targets CSV, init_0.png) "
@@ -249,11 +279,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--targets", required=True, help="the targets CSV (image_name, pose_1..6, move_1..6)")
     p.add_argument("--out", required=True, help="run directory to write")
     p.add_argument("--init", default=None, help="the no-contact frame (default FOLDER/init_0.png or init.png)")
-    p.add_argument("--depth-mm", type=float, default=3.0,
+    p.add_argument("--depth-mm", type=bounded_float(-50, 50, "mm"), default=3.0,
                    help="the taps' depth at pose_3 = 0, which the lab does not record (mm; default 3)")
     p.add_argument("--object-side", default="+y", help="the lab's y side the object lies on: +y (default, the "
                                                        "DigiTac edge set) or -y")
-    p.add_argument("--limit", type=int, default=None, metavar="N", help="only the first N targets")
+    p.add_argument("--limit", type=COUNT, default=None, metavar="N", help="only the first N targets")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_import_lab)
 
@@ -264,7 +294,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("view", help="run a scenario in MuJoCo's interactive viewer (needs a display)")
     p.add_argument("scenario")
-    p.add_argument("--seed", type=int, default=None)
+    p.add_argument("--seed", type=SEED, default=None)
     p.add_argument("--no-wait", action="store_true", help="close the window when the scenario ends")
     p.set_defaults(func=_cmd_view)
 
@@ -274,18 +304,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--test", required=True, help="multi-directional slides run directory, or a held-out tap run "
                                                  "(scenarios/taps_heldout.yaml)")
     p.add_argument("--out", required=True)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=SEED, default=0)
     p.set_defaults(func=_cmd_evaluate)
 
     p = sub.add_parser("serve-robot", help="answer the IRB120's RAPID socket protocol with the simulated arm")
     p.add_argument("--host", default="127.0.0.1")
-    p.add_argument("--port", type=int, default=5000)
-    p.add_argument("--realtime", type=float, default=0.0, help="1 = moves take their real duration; 0 = instant")
-    p.add_argument("--idle-timeout", type=float, default=300.0, metavar="S",
+    p.add_argument("--port", type=bounded_int(0, 65535, "(TCP port)"), default=5000)
+    p.add_argument("--realtime", type=bounded_float(0, 1000, "(time scale)"), default=0.0, help="1 = moves take their real duration; 0 = instant")
+    p.add_argument("--idle-timeout", type=TIMEOUT, default=300.0, metavar="S",
                    help="drop a client that sends nothing for S seconds (default 300)")
-    p.add_argument("--stall-timeout", type=float, default=5.0, metavar="S",
+    p.add_argument("--stall-timeout", type=TIMEOUT, default=5.0, metavar="S",
                    help="drop a client that stops S seconds into a command (default 5)")
-    p.add_argument("--log-limit", type=int, default=10_000, metavar="N",
+    p.add_argument("--log-limit", type=bounded_int(1, 10_000_000, "commands"), default=10_000, metavar="N",
                    help="keep the last N commands and moves in memory (default 10000)")
     p.set_defaults(func=_cmd_serve_robot)
 
@@ -303,7 +333,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="directory for calibration.yaml, the report and the checkpoint")
     p.add_argument("--settings", default=None, help="fitted parameters, bounds, priors, weights, optimiser "
                    "(merged over assets/tactip/calibration_settings.yaml)")
-    p.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
+    p.add_argument("--workers", type=WORKERS, default=None, help="local processes (default: all cores)")
     p.add_argument("--cluster", default=None, help="Ray address ('local' starts one); needs the ray extra")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_calibrate)
@@ -318,7 +348,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("demo", help="the main job: the six-object contour-following demo")
     p.add_argument("--out", default="out/demo")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=SEED, default=0)
     p.add_argument("--video", action="store_true", help="also write OUT/<run>/video.mp4 for each object")
     p.set_defaults(func=_cmd_demo)
 
@@ -327,14 +357,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="one section (default: all; 'sweep' = the fidelity sweep: CSV, Pareto plot, markdown table)")
     p.add_argument("--quick", action="store_true", help="small sections and the quick sweep (< 2 min on 2 cores)")
     p.add_argument("--out", default=None, help="directory for the CSVs and the sweep's files (sweep default: out/bench)")
-    p.add_argument("--workers", type=int, default=None, help="sweep: local processes (default: all cores)")
+    p.add_argument("--workers", type=WORKERS, default=None, help="sweep: local processes (default: all cores)")
     p.add_argument("--cluster", default=None, help="sweep: Ray address ('local' starts one); needs the ray extra")
     p.set_defaults(func=_cmd_bench)
     return parser
-
-
-#: exit codes (README "What you can run")
-EXIT_OK, EXIT_FAILED, EXIT_USER_ERROR, EXIT_SIGINT, EXIT_SIGTERM = 0, 1, 2, 130, 143
 
 
 def _raise_terminated(signum, frame) -> None:
@@ -342,27 +368,20 @@ def _raise_terminated(signum, frame) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    one_blas_thread()
+    """Run one command; its exit code (twin.tools.boundary: 0, 1, 2, 130, 143)."""
     main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _raise_terminated) if main_thread else None
     try:
-        return int(args.func(args) or 0)
-    except Terminated:
-        print("stopped by SIGTERM; everything recorded so far is kept", file=sys.stderr)
-        return EXIT_SIGTERM
-    except UserError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return EXIT_USER_ERROR
-    except TwinError as err:
-        print(f"failed: {type(err).__name__}: {err}", file=sys.stderr)
-        return EXIT_FAILED
-    except KeyboardInterrupt:
-        print("interrupted; everything recorded so far is kept", file=sys.stderr)
-        return EXIT_SIGINT
+        return guarded(lambda: _run(argv))
     finally:
         if main_thread:
             signal.signal(signal.SIGTERM, previous)
+
+
+def _run(argv: list[str] | None) -> int:
+    args = build_parser().parse_args(argv)
+    one_blas_thread()
+    return args.func(args)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,129 @@
+"""The command line's one error boundary: every way a command can end becomes an exit
+code and one line on stderr, never a traceback.
+
+| ends with                                   | exit | stderr                                          |
+|---------------------------------------------|------|-------------------------------------------------|
+| success                                     | 0    |                                                 |
+| a user's mistake (UserError, bad argument,  | 2    | `error: ` + the file, field or value            |
+| a path that cannot be written or read)      |      |                                                 |
+| a failed run (TwinError), a full disk       | 1    | `failed: ` + what failed                        |
+| an internal fault (any other exception)     | 1    | `internal error: ` + its type, and the log file |
+|                                             |      | that holds its traceback (LOG_ENV or the cache) |
+| Ctrl-C / SIGTERM                            | 130 / 143 | what was kept                              |
+"""
+from __future__ import annotations
+
+import argparse
+import errno
+import math
+import os
+import sys
+import time
+import traceback
+from collections.abc import Callable
+from pathlib import Path
+
+from twin.core.errors import Terminated, TwinError, UserError
+from twin.core.resources import cache_dir
+
+#: exit codes (README "What you can run")
+EXIT_OK, EXIT_FAILED, EXIT_USER_ERROR, EXIT_SIGINT, EXIT_SIGTERM = 0, 1, 2, 130, 143
+#: where internal faults' tracebacks go: this folder, else cache_dir()/logs
+LOG_ENV = "TWIN_LOG_DIR"
+#: OSErrors that say the path the user gave is wrong (exit 2); the others (a full disk, an
+#: I/O error) are the machine's (exit 1)
+_USER_PATH_ERRORS = {errno.ENOENT, errno.ENOTDIR, errno.EISDIR, errno.EACCES, errno.EPERM, errno.EROFS, errno.EEXIST,
+                     errno.ENAMETOOLONG, errno.ELOOP, errno.EINVAL, errno.ENXIO, errno.ENODEV, errno.ETXTBSY}
+#: the longest value quoted back in a message (characters)
+_QUOTE_MAX = 60
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """An ArgumentParser whose mistakes are a UserError (one line, exit 2), not usage and exit."""
+
+    def error(self, message: str):
+        raise UserError(f"{self.prog}: {message}")
+
+
+def quoted(value: object) -> str:
+    """`value` as a message quotes it: repr, cut to _QUOTE_MAX characters."""
+    text = repr(value)
+    return text if len(text) <= _QUOTE_MAX else text[:_QUOTE_MAX - 1] + "…"
+
+
+def bounded_int(lo: int, hi: int, unit: str) -> Callable[[str], int]:
+    """An argparse type: an integer in [lo, hi] `unit`."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{quoted(text)} is not an integer") from None
+        if not lo <= value <= hi:
+            raise argparse.ArgumentTypeError(f"{value} is outside [{lo}, {hi}] {unit}".rstrip())
+        return value
+    parse.__name__ = f"integer in [{lo}, {hi}]"
+    return parse
+
+
+def bounded_float(lo: float, hi: float, unit: str, open_lo: bool = False) -> Callable[[str], float]:
+    """An argparse type: a finite number in [lo, hi] (or (lo, hi]) `unit`."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{quoted(text)} is not a number") from None
+        if not math.isfinite(value) or value > hi or value < lo or (open_lo and value == lo):
+            raise argparse.ArgumentTypeError(f"{value} is outside {'(' if open_lo else '['}{lo:g}, {hi:g}] {unit}")
+        return value
+    parse.__name__ = f"number in [{lo:g}, {hi:g}]"
+    return parse
+
+
+def guarded(call: Callable[[], int | None]) -> int:
+    """Run a command; return its exit code, every ending mapped as the module says."""
+    try:
+        return int(call() or 0)
+    except Terminated:
+        print("stopped by SIGTERM; everything recorded so far is kept", file=sys.stderr)
+        return EXIT_SIGTERM
+    except KeyboardInterrupt:
+        print("interrupted; everything recorded so far is kept", file=sys.stderr)
+        return EXIT_SIGINT
+    except UserError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return EXIT_USER_ERROR
+    except TwinError as err:
+        print(f"failed: {type(err).__name__}: {err}", file=sys.stderr)
+        return EXIT_FAILED
+    except OSError as err:
+        user = err.errno in _USER_PATH_ERRORS
+        where = f"{err.filename}: " if err.filename else ""
+        print(f"{'error' if user else 'failed'}: {where}{err.strerror or err}", file=sys.stderr)
+        return EXIT_USER_ERROR if user else EXIT_FAILED
+    except SystemExit as stop:  # sys.exit() called by code the command ran (a plug-in controller)
+        print(f"error: the command was ended from inside by sys.exit({quoted(stop.code)}) (a plug-in?); "
+              "nothing after it ran", file=sys.stderr)
+        return EXIT_USER_ERROR
+    except Exception as err:  # noqa: BLE001  (the boundary: an internal fault, its traceback to the log)
+        print(f"internal error: {type(err).__name__}: {_first_line(err)} ({_log_traceback()})", file=sys.stderr)
+        return EXIT_FAILED
+
+
+def _first_line(err: BaseException) -> str:
+    text = str(err).strip().splitlines()
+    line = text[0] if text else ""
+    return line if len(line) <= 200 else line[:199] + "…"
+
+
+def _log_traceback() -> str:
+    """Write the exception being handled, with its traceback, to a new log file; "traceback
+    in FILE", or why it could not be written."""
+    folder = Path(os.environ.get(LOG_ENV) or cache_dir() / "logs")
+    path = folder / f"twin-{time.strftime('%Y%m%d-%H%M%S')}-{os.getpid()}.log"
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with open(path, "a") as log:
+            log.write(f"twin {' '.join(sys.argv[1:])}\n{traceback.format_exc()}\n")
+    except OSError as err:
+        return f"no log: {folder} cannot be written ({err.strerror})"
+    return f"traceback in {path}"
