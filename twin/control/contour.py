@@ -31,6 +31,14 @@ COVERAGE_RADIUS_MM = 5.0  # a contour point is covered when the path passes this
 LOST_DISTANCE_MM = 30.0  # farther than this from the contour, the run stops: contour lost
 
 
+def _finite(pose: Pose) -> bool:
+    """True if every coordinate of `pose` is a finite number."""
+    try:
+        return bool(np.all(np.isfinite(np.asarray(pose.as_array(), float))))
+    except (TypeError, ValueError):
+        return False
+
+
 @dataclass
 class ContourStep:
     """One step of contour following: the observation, its pins and the percept labels."""
@@ -65,9 +73,25 @@ class ContourFollower:
         self.env, self.scenario, self.model, self.stimulus, self.clock = env, scenario, model, stimulus, clock
         spec = scenario.protocol.controller if controller is None else controller
         self.controller = load_controller(spec, scenario.protocol, scenario.source_dir)
+        self._controller_name = spec if isinstance(spec, str) else type(spec).__name__
         self.stop_reason = "not started"
         #: (127, 2) px: the pins at rest (the tracker's reference), once iteration has begun
         self.rest_pins_px: np.ndarray | None = None
+
+    def _ask_controller(self, method: str, argument):
+        """The controller's `method`(argument); a controller that raises (or calls
+        sys.exit), or whose next_pose returns anything but a finite Pose, is a UserError
+        naming it (the run stops, its samples kept)."""
+        try:
+            answer = getattr(self.controller, method)(argument)
+        except (Exception, SystemExit) as err:  # noqa: BLE001  (a plug-in is the user's code: its faults are named)
+            text = str(err).splitlines()[0][:120] if str(err).strip() else ""
+            raise UserError(f"controller {self._controller_name!r}: {method}() raised {type(err).__name__}"
+                            f"{': ' + text if text else ''}") from None
+        if method == "next_pose" and not (isinstance(answer, Pose) and _finite(answer)):
+            got = type(answer).__name__ if not isinstance(answer, Pose) else "a Pose with NaN or ±inf"
+            raise UserError(f"controller {self._controller_name!r}: next_pose() must return a finite Pose, got {got}")
+        return answer
 
     def __iter__(self) -> Iterator[ContourStep]:
         env, p, stimulus, clock = self.env, self.scenario.protocol, self.stimulus, self.clock
@@ -80,7 +104,7 @@ class ContourFollower:
         env.move_to(hover_over(start.x, start.y, p.orientation_deg), p.speed_mm_s)
         with clock("physics"):
             env.move_to(start, p.speed_mm_s)
-        self.controller.reset(start)
+        self._ask_controller("reset", start)
         travelled, target = 0.0, start
         trace = object_to_work_xy(stimulus.trace_path(1.0))
         covered = np.zeros(len(trace), bool)
@@ -116,7 +140,7 @@ class ContourFollower:
             if abs(labels["true_lateral_mm"]) > LOST_DISTANCE_MM:
                 self.stop_reason = f"lost the contour ({labels['true_lateral_mm']:.1f} mm from it)"
                 break
-            target = self.controller.next_pose(percept)
+            target = self._ask_controller("next_pose", percept)
             try:
                 with clock("physics"):
                     env.move_to(target, p.speed_mm_s)

@@ -108,18 +108,23 @@ def load_controller(spec: "str | Controller", protocol, base_dir: Path | None = 
     if not path.is_file():
         raise UserError(f"controller {spec!r}: file {path} not found")
     module_spec = importlib.util.spec_from_file_location(f"user_controller_{path.stem}", path)
+    if module_spec is None or path.suffix != ".py":
+        raise UserError(f"controller {spec!r}: {path} is not a Python file (.py)")
     module = importlib.util.module_from_spec(module_spec)
     try:
         module_spec.loader.exec_module(module)
-    except Exception as err:
+    except (Exception, SystemExit) as err:  # noqa: BLE001  (the user's module: its faults are named)
         raise UserError(f"controller {spec!r}: {path} failed to import: {type(err).__name__}: {err}") from None
     cls = getattr(module, cls_name, None)
     if cls is None:
         raise UserError(f"controller {spec!r}: {path} has no {cls_name!r}")
     try:
-        controller = cls(**kwargs)
-    except TypeError:
-        controller = cls()
+        try:
+            controller = cls(**kwargs)
+        except TypeError:
+            controller = cls()
+    except (Exception, SystemExit) as err:  # noqa: BLE001  (the user's class: its faults are named)
+        raise UserError(f"controller {spec!r}: {cls_name}() raised {type(err).__name__}") from None
     for method in ("reset", "next_pose"):
         if not callable(getattr(controller, method, None)):
             raise UserError(f"controller {spec!r}: {cls_name} has no method {method}()")
