@@ -203,6 +203,21 @@ def test_not_converged_keeps_the_best_point_and_resumes(real, tmp_path) -> None:
     assert (tmp_path / "whole" / "history.jsonl").read_text() == (tmp_path / "cal" / "history.jsonl").read_text()
 
 
+def test_a_partial_run_is_calibrated_with_a_warning(real, tmp_path, capsys) -> None:
+    cut = tmp_path / "cut"
+    shutil.copytree(real["runs"][0], cut)
+    lines = (cut / "samples.jsonl").read_text().splitlines(keepends=True)
+    (cut / "samples.jsonl").write_text("".join(lines[:2]) + lines[2][:30])  # 2 of 4 samples and a torn line
+    meta = json.loads((cut / "run.json").read_text())
+    (cut / "run.json").write_text(json.dumps({**meta, "status": "interrupted"}))
+    camera = {"parameters": {"camera.focal_px": {"fit": True}, "camera.k1": {"fit": False},
+                             "material.young_kpa": {"fit": False}, "tcp.z_mm": {"fit": False}}}
+    args = ["calibrate", str(cut), str(real["runs"][1]), "--scenario", str(real["root"] / "twin.yaml"), "--out",
+            str(tmp_path / "cal"), "--settings", str(_settings(tmp_path, camera)), "--workers", "1", "--quiet"]
+    assert main(args) == 0
+    assert f"warning: {cut}: run did not finish (interrupted; 2 samples)" in capsys.readouterr().err
+
+
 def test_a_planted_checkpoint_is_never_unpickled(real, tmp_path, capsys) -> None:
     out = tmp_path / "cal"
     out.mkdir()

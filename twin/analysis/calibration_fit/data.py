@@ -31,6 +31,7 @@ class Data:
     chunks: list[tuple[int, list]]  # (run number, moves) to simulate
     weights: np.ndarray       # (N,) per-frame weight of its group
     sim_index: list[np.ndarray] = field(default_factory=list)  # per run: recorded sample -> simulated row
+    unfinished: list[str] = field(default_factory=list)  # a line per run that did not finish (Run.unfinished_note)
 
 
 def _group(scenario: Scenario, sample: dict) -> int:
@@ -68,7 +69,8 @@ def load_data(run_dirs: list[Path], scenario: Scenario, weights: Weights) -> Dat
         records.append(run)
     group = np.array(group)
     data = Data(list(run_dirs), np.concatenate(pins), group, np.array(run_index), chunks,
-                np.array([getattr(weights, g) for g in GROUPS])[group])
+                np.array([getattr(weights, g) for g in GROUPS])[group],
+                unfinished=[n for n in (run.unfinished_note() for run in records) if n])
     # pair each recorded sample with its simulated row by target pose (twin compare's pairing)
     for r, run in enumerate(records):
         targets = [m.pose.as_array() for rr, c in chunks if rr == r for m in c if m.record]

@@ -113,6 +113,7 @@ def _calibrate(run_dirs: list[Path], scenario: Scenario, out: Path, settings: Ca
         "simulated_frames_per_s": ev.simulations * len(data.pins) / max(ev.sim_seconds, 1e-9),
         "evaluations_per_s": ev.simulations / max(ev.sim_seconds, 1e-9),
         "wall_time_s": time.perf_counter() - wall, "workers": pool.workers, "cluster": pool.cluster,
+        "unfinished": data.unfinished,
     }
     (out / "report.json").write_text(json.dumps(result, indent=1, default=float))
     return result
