@@ -58,3 +58,26 @@ def test_bad_specs_are_user_errors_naming_the_spec(tmp_path: Path, source, spec,
 def test_object_without_methods_is_refused() -> None:
     with pytest.raises(UserError, match="needs reset\\(start\\) and next_pose\\(percept\\)"):
         load_controller(object(), PROTOCOL)
+
+
+@pytest.mark.parametrize("answer, message", [
+    ("raise RuntimeError('boom')", r"next_pose\(\) raised RuntimeError: boom"),
+    ("import sys; sys.exit(0)", r"next_pose\(\) raised SystemExit"),
+    ("return 'abc'", r"next_pose\(\) must return a finite Pose, got str"),
+    ("return None", r"next_pose\(\) must return a finite Pose, got NoneType"),
+    ("return Pose(float('nan'), 0, 0, 0, 0, 0)", r"next_pose\(\) must return a finite Pose, got a Pose with NaN"),
+    ("return Pose(None, 0, 0, 0, 0, 0)", r"next_pose\(\) must return a finite Pose, got a Pose with NaN"),
+])
+def test_a_plug_in_that_fails_at_run_time_is_named(tmp_path: Path, answer: str, message: str) -> None:
+    """The contour loop asks its controller through ContourFollower._ask_controller: a
+    plug-in's exception, sys.exit or a non-finite answer is a UserError naming it."""
+    from twin.control.contour import ContourFollower
+    from twin.core.scenario import scenario_from_dict
+
+    (tmp_path / "bad.py").write_text("from twin.core.poses import Pose\nclass C:\n    def reset(self, start): pass\n"
+                                     f"    def next_pose(self, percept):\n        {answer}\n")
+    scenario = scenario_from_dict({"name": "plug_in", "object": {"name": "rectangle"},
+                                   "protocol": {"kind": "contour", "controller": "bad.py:C"}}, str(tmp_path / "s.yaml"))
+    follower = ContourFollower(None, scenario, model=None)
+    with pytest.raises(UserError, match=r"controller 'bad.py:C': " + message):
+        follower._ask_controller("next_pose", None)

@@ -67,9 +67,25 @@ MAX_YAML_BYTES = 4 * 2**20
 MAX_YAML_NODES = 200_000
 
 
+#: The deepest a YAML document may nest (levels); the shipped ones nest 4.
+MAX_YAML_DEPTH = 64
+
+
 class _BoundedLoader(yaml.SafeLoader):
-    """yaml.SafeLoader refusing a document of more than MAX_YAML_NODES nodes counted with
-    its aliases expanded (each aliased node counted where it is used)."""
+    """yaml.SafeLoader refusing a document nested deeper than MAX_YAML_DEPTH or of more
+    than MAX_YAML_NODES nodes counted with its aliases expanded (each aliased node counted
+    where it is used)."""
+
+    _depth = 0
+
+    def compose_node(self, parent, index):
+        self._depth += 1
+        try:
+            if self._depth > MAX_YAML_DEPTH:
+                raise yaml.YAMLError(f"nested deeper than {MAX_YAML_DEPTH} levels")
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
 
     def get_single_node(self):
         node = super().get_single_node()

@@ -79,6 +79,33 @@ def bounded_float(lo: float, hi: float, unit: str, open_lo: bool = False) -> Cal
     return parse
 
 
+def output_file(path: Path, what: str, suffix: str) -> Path:
+    """`path` if a `suffix` file can be written there (checked before any work: the suffix,
+    a folder that exists, no link, not a folder itself); UserError naming it otherwise. A
+    probe file is created and removed where none exists yet."""
+    if "\0" in str(path):
+        raise UserError(f"{what} {quoted(str(path))}: a path cannot hold a NUL character")
+    if path.suffix.lower() != suffix:
+        raise UserError(f"{what} {path}: name a {suffix} file")
+    if path.is_symlink():
+        raise UserError(f"{what} {path}: is a symbolic link; name the file itself")
+    if path.is_dir():
+        raise UserError(f"{what} {path}: is a folder; name a file")
+    if not path.parent.is_dir():
+        raise UserError(f"{what} {path}: its folder {path.parent} does not exist (or is not a folder)")
+    if path.exists():
+        if not path.is_file() or not os.access(path, os.W_OK):
+            raise UserError(f"{what} {path}: exists and cannot be overwritten")
+        return path
+    try:
+        with open(path, "xb"):
+            pass
+        path.unlink()
+    except OSError as err:
+        raise UserError(f"{what} {path}: cannot be written ({err.strerror})") from None
+    return path
+
+
 def guarded(call: Callable[[], int | None]) -> int:
     """Run a command; return its exit code, every ending mapped as the module says."""
     try:
@@ -100,13 +127,23 @@ def guarded(call: Callable[[], int | None]) -> int:
         where = f"{err.filename}: " if err.filename else ""
         print(f"{'error' if user else 'failed'}: {where}{err.strerror or err}", file=sys.stderr)
         return EXIT_USER_ERROR if user else EXIT_FAILED
+    except ValueError as err:
+        if "null byte" not in str(err):  # os and pathlib refuse a NUL in a path with a ValueError
+            return _internal(err)
+        print("error: a path or name given holds a NUL character", file=sys.stderr)
+        return EXIT_USER_ERROR
     except SystemExit as stop:  # sys.exit() called by code the command ran (a plug-in controller)
         print(f"error: the command was ended from inside by sys.exit({quoted(stop.code)}) (a plug-in?); "
               "nothing after it ran", file=sys.stderr)
         return EXIT_USER_ERROR
     except Exception as err:  # noqa: BLE001  (the boundary: an internal fault, its traceback to the log)
-        print(f"internal error: {type(err).__name__}: {_first_line(err)} ({_log_traceback()})", file=sys.stderr)
-        return EXIT_FAILED
+        return _internal(err)
+
+
+def _internal(err: BaseException) -> int:
+    """Report an internal fault: one line, its traceback to a log file; EXIT_FAILED."""
+    print(f"internal error: {type(err).__name__}: {_first_line(err)} ({_log_traceback()})", file=sys.stderr)
+    return EXIT_FAILED
 
 
 def _first_line(err: BaseException) -> str:

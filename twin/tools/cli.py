@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 from twin.core.errors import Terminated, UserError
-from twin.tools.boundary import OneLineParser, bounded_float, bounded_int, guarded
+from twin.tools.boundary import OneLineParser, bounded_float, bounded_int, guarded, output_file
 from twin.runs.parallel import one_blas_thread
 from twin.core.scenario import Scenario, load_scenario
 from twin.control.controllers import load_controller
@@ -55,11 +55,18 @@ def _check_named_files(scenario: Scenario) -> None:
         load_controller(scenario.protocol.controller, scenario.protocol, scenario.source_dir)
 
 
+def _checked_scenario(path: str) -> Scenario:
+    """The scenario at `path` with every file it names loaded (`_check_named_files`): a
+    command fails on them before it simulates."""
+    scenario = load_scenario(path)
+    _check_named_files(scenario)
+    return scenario
+
+
 def _cmd_check(args: argparse.Namespace) -> int:
 
     for path in args.scenarios:
-        scenario = load_scenario(path)
-        _check_named_files(scenario)
+        scenario = _checked_scenario(path)
         reach = ""
         if args.compile and scenario.backend == "sim":
             reach = f", {check_reachable(scenario, build_scene(scenario, START_POSE))} poses in reach"
@@ -70,7 +77,8 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
 def _cmd_render(args: argparse.Namespace) -> int:
 
-    out = render_scenario_view(load_scenario(args.scenario), Path(args.out), view=args.view)
+    scenario = _checked_scenario(args.scenario)
+    out = render_scenario_view(scenario, output_file(Path(args.out), "twin render --out", ".png"), view=args.view)
     print(f"wrote {out}")
     return 0
 
@@ -79,7 +87,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     if args.scenario is None and args.resume is None:
         raise UserError("twin run: give a SCENARIO to run, or --resume DIR to continue a run")
-    scenario = None if args.scenario is None else load_scenario(args.scenario)
+    scenario = None if args.scenario is None else _checked_scenario(args.scenario)
     if scenario is not None and args.backend:
         scenario = scenario.with_changes(backend=args.backend)
     if scenario is not None and args.taps_from:
@@ -126,13 +134,14 @@ def _cmd_import_lab(args: argparse.Namespace) -> int:
 
 def _cmd_video(args: argparse.Namespace) -> int:
 
-    print(f"wrote {write_run_video(Path(args.run), Path(args.out) if args.out else None)}")
+    out = output_file(Path(args.out), "twin video --out", ".mp4") if args.out else None
+    print(f"wrote {write_run_video(Path(args.run), out)}")
     return 0
 
 
 def _cmd_view(args: argparse.Namespace) -> int:
 
-    shown = view_scenario(load_scenario(args.scenario), seed=args.seed, wait=not args.no_wait)
+    shown = view_scenario(_checked_scenario(args.scenario), seed=args.seed, wait=not args.no_wait)
     print(f"showed {shown} samples")
     return 0
 
@@ -202,7 +211,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 def _cmd_calibrate(args: argparse.Namespace) -> int:
 
     settings = load_settings(Path(args.settings) if args.settings else None)
-    r = calibrate_and_report([Path(r) for r in args.runs], load_scenario(args.scenario), Path(args.out), settings,
+    r = calibrate_and_report([Path(r) for r in args.runs], _checked_scenario(args.scenario), Path(args.out), settings,
                              workers=args.workers, cluster=args.cluster, progress=not args.quiet)
     _warn_unfinished(r["unfinished"])
     print(f"{r['status']} ({r['stop_reason']}); pin RMS {r['before']['overall']:.3f} -> {r['after']['overall']:.3f} px")
