@@ -1,4 +1,4 @@
-"""TacTip digital twin: the public API (README "Scripting the twin").
+"""TacTip digital twin: the public API (docs/scripting.md).
 
     import twin
     scenario = twin.load_scenario("contour_small_circle")   # a shipped scenario, or a path
