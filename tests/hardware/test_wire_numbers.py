@@ -206,20 +206,17 @@ def test_the_first_round_crashes_are_refused_and_the_server_stays_up():
         assert len(_ask(sock, encode_request(Command.GET_JOINTS), 26)) == 26
 
 
-@pytest.mark.parametrize("option, value, match", [
-    ("--port", "70000", r"port = 70000 is not a TCP port"),
-    ("--port", "-1", r"port = -1 is not a TCP port"),
-    ("--log-limit", "-1", r"log limit = -1 must be a count"),
-    ("--realtime", "nan", r"realtime factor = nan must be in \[0, 1000\]"),
-    ("--realtime", "1e308", r"realtime factor = 1e\+308 must be in \[0, 1000\]"),
-    ("--realtime", "-1", r"realtime factor = -1\.0 must be in \[0, 1000\]"),
-    ("--idle-timeout", "inf", r"idle_timeout_s must be a positive number of seconds, got inf"),
+@pytest.mark.parametrize("option, value, shown", [
+    ("--port", "70000", "70000"), ("--port", "-1", "-1"), ("--log-limit", "-1", "-1"), ("--realtime", "nan", "nan"),
+    ("--realtime", "1e308", "1e+308"), ("--realtime", "-1", "-1"), ("--idle-timeout", "inf", "inf"),
 ])
-def test_serve_robot_options_out_of_range_exit_2_with_one_line(capsys, option, value, match):
+def test_serve_robot_options_out_of_range_exit_2_with_one_line_naming_them(capsys, option, value, shown):
     assert twin_main(["serve-robot", "--port", "0", option, value]) == 2
     err = capsys.readouterr().err
-    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
-    assert "virtual robot: " in err and re.search(match, err), err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in err, err
+    words = lines[0].replace("-", " ").replace("_", " ")
+    assert option.lstrip("-").replace("-", " ") in words and shown in lines[0], err
 
 
 def test_constructor_refuses_what_the_cli_cannot_send():
