@@ -35,6 +35,7 @@ from hardware.protocol import (
     pose_to_wire,
 )
 from hardware.virtual_controller import FIELD_RANGES, KinematicArm, VirtualRobotServer
+from tests.hardware.loopback import free_port
 from twin.core.poses import Pose
 from twin.world.kinematics import Irb120Kinematics
 
@@ -141,7 +142,7 @@ def served(tmp_path):
     file, which a pipe nobody reads during the soak could not take."""
     log_path = tmp_path / "serve-robot.log"
     with log_path.open("w") as log_file:
-        proc = subprocess.Popen([sys.executable, "-m", "twin.tools.cli", "serve-robot", "--port", "0",
+        proc = subprocess.Popen([sys.executable, "-m", "twin.tools.cli", "serve-robot", "--port", str(free_port()),
                                  "--stall-timeout", "0.2", "--idle-timeout", "1", "--log-limit", str(LOG_LIMIT)],
                                 stdout=subprocess.PIPE, stderr=log_file, text=True)
     try:

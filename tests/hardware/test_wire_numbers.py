@@ -24,6 +24,7 @@ from hardware.robot import RobotDriver
 from hardware.virtual_controller import FIELD_RANGES, KinematicArm, VirtualRobotServer
 from twin.core.errors import SafetyError, UserError
 from twin.core.poses import Pose
+from tests.hardware.loopback import free_port
 from twin.tools.cli import main as twin_main
 
 TCP = Pose(0, 0, 101.0, 0, 0, 0)
@@ -211,7 +212,7 @@ def test_the_first_round_crashes_are_refused_and_the_server_stays_up():
     ("--realtime", "1e308", "1e+308"), ("--realtime", "-1", "-1"), ("--idle-timeout", "inf", "inf"),
 ])
 def test_serve_robot_options_out_of_range_exit_2_with_one_line_naming_them(capsys, option, value, shown):
-    assert twin_main(["serve-robot", "--port", "0", option, value]) == 2
+    assert twin_main(["serve-robot", "--port", str(free_port()), option, value]) == 2
     err = capsys.readouterr().err
     lines = err.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in err, err
@@ -228,7 +229,7 @@ def test_constructor_refuses_what_the_cli_cannot_send():
 
 def test_serve_robot_exits_130_on_ctrl_c():
     """README, exit codes: SIGINT 130 (SIGTERM's 143 is checked after every soak)."""
-    proc = subprocess.Popen([sys.executable, "-m", "twin.tools.cli", "serve-robot", "--port", "0"],
+    proc = subprocess.Popen([sys.executable, "-m", "twin.tools.cli", "serve-robot", "--port", str(free_port())],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         assert "listening on 127.0.0.1:" in proc.stdout.readline()
