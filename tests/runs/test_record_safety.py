@@ -54,6 +54,20 @@ def test_each_line_follows_its_frame(tmp_path: Path) -> None:
     assert sorted(p.name for p in out.iterdir()) == ["frames", "run.json", "samples.jsonl"]  # no temporary files
 
 
+def test_resume_removes_what_a_killed_writer_left(tmp_path: Path) -> None:
+    rng = np.random.default_rng(5)
+    out = tmp_path / "run"
+    _record(out, 2, rng)
+    meta = json.loads((out / "run.json").read_text())
+    (out / "run.json").write_text(json.dumps({**meta, "status": "interrupted"}))
+    leftovers = [out / "frames" / ".000002.png.4242.tmp", out / ".run.json.4242.tmp"]
+    for leftover in leftovers:
+        leftover.write_bytes(b"half")
+    with RunRecorder.resume(out) as rec:
+        assert rec.count == 2
+    assert not any(p.exists() for p in leftovers) and load_run(out).meta["status"] == "completed"
+
+
 @pytest.fixture
 def tiny_disk(tmp_path: Path):
     """A 512 KiB tmpfs (root only): a disk that fills up."""

@@ -28,6 +28,7 @@ import yaml
 from pydantic import Field, field_validator
 
 from twin.core.errors import UserError
+from twin.core.files import replace_file
 from twin.core.sensor import N_PINS, CameraModel
 from twin.core.validation import StrictModel, bounded, bounded_list, read_yaml, validate_mapping
 
@@ -124,5 +125,5 @@ def load_calibration(path: str | Path) -> Calibration:
 def write_calibration(calibration: Calibration, path: Path) -> Path:
     """Write `calibration` as YAML (readable by load_calibration)."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(yaml.safe_dump(calibration.model_dump(), sort_keys=False))
+    replace_file(path, yaml.safe_dump(calibration.model_dump(), sort_keys=False))
     return path

@@ -14,6 +14,7 @@ import numpy as np
 from tqdm import tqdm
 
 from twin.control.contour import ContourFollower
+from twin.core.files import replace_file
 from twin.core.poses import work_to_object_xy
 from twin.core.scenario import Scenario
 from twin.runs.backends import make_environment
@@ -54,7 +55,7 @@ def run_contour(scenario: Scenario, out: Path, seed: int | None = None, progress
     finally:
         env.close()
     metrics = contour_metrics(load_run(out), stimulus)
-    (Path(out) / "metrics.json").write_text(json.dumps(metrics, indent=1))
+    replace_file(Path(out) / "metrics.json", json.dumps(metrics, indent=1))
     plot_contour(load_run(out), stimulus, Path(out) / "contour.png")
     return Path(out)
 

@@ -43,6 +43,7 @@ import numpy as np
 
 from twin.core.environment import Observation
 from twin.core.errors import UserError
+from twin.core.files import remove_leftovers, replace_file
 from twin.core.poses import Pose
 
 FORMAT_VERSION = 1
@@ -177,9 +178,11 @@ class RunRecorder:
         keep = len(run.samples)
         while keep and run.samples[keep - 1]["frame"] is not None and not (self.out_dir / run.samples[keep - 1]["frame"]).is_file():
             keep -= 1
+        for folder in (self.out_dir, self.frames_dir):
+            remove_leftovers(folder)  # what a killed writer left half-written
         path = self.out_dir / "samples.jsonl"
         lines = path.read_bytes().split(b"\n") if path.exists() else []
-        _replace(path, b"".join(line + b"\n" for line in lines[:keep]))
+        replace_file(path, b"".join(line + b"\n" for line in lines[:keep]))
         self.meta = run.meta
         self.meta.setdefault("resumes", []).append({"at_sample": keep, "previous_status": run.state,
                                                     "time": time.strftime("%Y-%m-%dT%H:%M:%S%z")})
@@ -191,7 +194,7 @@ class RunRecorder:
         self.count = keep
 
     def _write_meta(self) -> None:
-        _replace(self.out_dir / "run.json", json.dumps(jsonable(self.meta), indent=1).encode())
+        replace_file(self.out_dir / "run.json", json.dumps(jsonable(self.meta), indent=1).encode())
 
     def set_rest_pins(self, pins_px: np.ndarray | None) -> None:
         """Record the run's pins at rest (127×2 px) once, in run.json at once (an
@@ -302,19 +305,6 @@ def _append(fd: int, data: bytes) -> None:
         raise
 
 
-def _replace(path: Path, data: bytes) -> None:
-    """Write `path` under a temporary name, then rename: the file is whole or as before."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, "wb") as fh:
-            fh.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
-        raise
-
-
 def _complete_lines(path: Path) -> int:
     """Complete (newline-ended) lines of `path`; 0 if it cannot be read."""
     try:
@@ -339,7 +329,7 @@ def _write_png(path: Path, bgr: np.ndarray) -> None:
     ok, png = cv2.imencode(".png", bgr, [cv2.IMWRITE_PNG_COMPRESSION, 1])
     if not ok:
         raise OSError(f"could not encode the frame {path}")
-    _replace(path, png.tobytes())
+    replace_file(path, png.tobytes())
 
 
 def _this_process() -> dict:

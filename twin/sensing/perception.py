@@ -80,9 +80,9 @@ from __future__ import annotations
 
 import warnings
 
+import io
 import json
 import math
-import os
 import time
 import zipfile
 from dataclasses import asdict, dataclass, field
@@ -96,6 +96,7 @@ from sklearn.gaussian_process import GaussianProcessRegressor
 from sklearn.gaussian_process.kernels import ConstantKernel, Kernel, Matern, WhiteKernel
 
 from twin.core.errors import UserError
+from twin.core.files import replace_file
 from twin.core.poses import wrap_deg
 from twin.core.sensor import N_PINS, CameraModel
 from twin.core.validation import StrictModel, bounded, bounded_list, validate_mapping
@@ -760,15 +761,9 @@ class PerceptionModel:
             arrays[f"gp_{k}_theta"] = g.kernel_.theta
         for k, a in self._train.items():
             arrays[f"train_{k}"] = np.asarray(a)
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        try:  # under a temporary name, then renamed: a model file that exists is whole
-            with tmp.open("wb") as fh:
-                np.savez(fh, **arrays)
-            os.replace(tmp, path)
-        except BaseException:
-            tmp.unlink(missing_ok=True)
-            raise
-        return path
+        packed = io.BytesIO()
+        np.savez(packed, **arrays)
+        return replace_file(path, packed.getvalue())
 
     @classmethod
     def load(cls, path: str | Path) -> PerceptionModel:

@@ -14,6 +14,7 @@ from tqdm import tqdm
 from twin.analysis.calibration_fit.evaluator import Evaluator
 from twin.analysis.calibration_fit.settings import CalibrationSettings
 from twin.core.errors import UserError
+from twin.core.files import replace_file
 from twin.core.scenario import Scenario
 
 
@@ -34,10 +35,7 @@ CHECKPOINT_FORMAT = "twin calibration checkpoint 1"
 
 def _save_checkpoint(out: Path, state: dict) -> None:
     """Write the state (all but the search object) under a temporary name, then rename."""
-    data = {"format": CHECKPOINT_FORMAT, **{k: v for k, v in state.items() if k != "es"}}
-    tmp = out / f".{CHECKPOINT}.tmp"
-    tmp.write_text(json.dumps(data))
-    tmp.replace(out / CHECKPOINT)
+    replace_file(out / CHECKPOINT, json.dumps({"format": CHECKPOINT_FORMAT, **{k: v for k, v in state.items() if k != "es"}}))
 
 
 def _load_checkpoint(path: Path) -> dict:
