@@ -5,6 +5,7 @@ every request before computing with it and answers ERROR, changing nothing and s
 `twin serve-robot`'s own options are refused with one line and exit 2."""
 from __future__ import annotations
 
+import logging
 import math
 import re
 import signal
@@ -239,3 +240,23 @@ def test_serve_robot_exits_130_on_ctrl_c():
         proc.kill()
     assert proc.returncode == 130 and "Traceback" not in err, err
 
+
+
+class _FaultyArm(KinematicArm):
+    """A backend with a bug in its linear moves (the `ArmBackend` a MuJoCo scene plugs in
+    could have one): the server must survive it."""
+
+    def move_linear(self, tool2world, tool2flange, linear_speed_m_s, angular_speed_rad_s) -> float:
+        return 1 / 0
+
+
+def test_a_fault_the_ranges_miss_is_answered_error_logged_in_one_line_and_the_server_serves_on(caplog):
+    with VirtualRobotServer("127.0.0.1", 0, _FaultyArm()) as server, \
+            socket.create_connection(("127.0.0.1", server.port), timeout=5) as sock:
+        here = _ask(sock, encode_request(Command.GET_POSE), 30)[2:]
+        assert _ask(sock, struct.pack(">H", int(Command.MOVE_LINEAR)) + here) == b"\x00\x00"
+        assert _ask(sock, encode_request(Command.GET_JOINTS), 26)[:2] == b"\x00\x01"
+    assert server.internal_faults == 1
+    assert server.last_error == "internal fault on MOVE_LINEAR: ZeroDivisionError: division by zero"
+    faults = [r.getMessage() for r in caplog.records if r.levelno >= logging.ERROR]
+    assert faults == [f"virtual robot {server.address}: {server.last_error} (answered ERROR, still serving)"]
