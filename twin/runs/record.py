@@ -240,7 +240,10 @@ class RunRecorder:
             if written is not None:
                 written.result()
             with _signals_held():  # a Ctrl-C or SIGTERM lands after a whole line, not inside it
-                _append(self._samples, line)
+                try:
+                    _append(self._samples, line)
+                except OSError as err:  # named: the descriptor's error does not say which file
+                    raise OSError(err.errno, err.strerror, str(self.out_dir / "samples.jsonl")) from None
                 self._pending.pop(0)
 
     def close(self, status: str = "completed", error: str | None = None, summary: dict | None = None) -> None:
