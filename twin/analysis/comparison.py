@@ -1,7 +1,7 @@
 """`twin compare`'s figures: sample-by-sample comparison of two recorded runs of one
 scenario — sim vs sim (two fidelity levels) or sim vs real (sim-to-real): which samples
 pair up, pin differences and correlation, image SSIM, path distance, perception error, and
-each run's orientation signal or along-edge drag. Text and plots: twin.tools.comparison_report."""
+each run's orientation signal or along-edge drag, and two tap runs' edge figures. Text and plots: twin.tools.comparison_report."""
 from __future__ import annotations
 
 import json
@@ -11,9 +11,10 @@ import cv2
 import numpy as np
 from skimage.metrics import structural_similarity
 
+from twin.analysis.edge_imprint import edge_figures
 from twin.analysis.evaluation import along_edge_drag_px, orientation_signal_px
 from twin.core.errors import UserError
-from twin.runs.record import Run, load_run
+from twin.runs.record import Run, jsonable, load_run
 from twin.sensing.perception import PerceptionModel, angle_error_deg
 
 POSE_DECIMALS = 3  # targets are paired when equal to 1e-3 mm / deg
@@ -86,7 +87,12 @@ def perception_error(run: Run, model) -> dict | None:
             "ok_fraction": float(np.mean(pred.ok))}
 
 
-def compare_runs(dir_a: Path, dir_b: Path, out: Path, max_ssim_frames: int = 200, model_path: Path | None = None) -> dict:
+#: tap protocols on the straight edge whose runs compare by the edge figures even unpaired
+EDGE_TAP_KINDS = ("taps", "sheared_taps")
+
+
+def compare_runs(dir_a: Path, dir_b: Path, out: Path, max_ssim_frames: int = 200, model_path: Path | None = None,
+                 slides_a: Path | None = None, slides_b: Path | None = None) -> dict:
     """Pair the runs' samples by target pose and write comparison.json to `out` (the plots:
     twin.tools.comparison_report).
 
@@ -94,11 +100,15 @@ def compare_runs(dir_a: Path, dir_b: Path, out: Path, max_ssim_frames: int = 200
     (taps, slides) are scored with the model file `model_path` when given. Tap runs also
     get each run's orientation signal per lateral position and slide runs each run's
     along-edge drag (twin.analysis.evaluation), the two figures Table I's along-edge cells
-    weigh, side by side for a sim and a real sensor."""
+    weigh, side by side for a sim and a real sensor. Two tap runs (plain or sheared, e.g. an
+    imported lab recording beside the twin's taps) also get the edge figures
+    (twin.analysis.edge_imprint; `slides_a`, `slides_b`: a plain tap run's slides run for
+    the along-edge drag), and compare by those alone when they share no target pose."""
     a, b = load_run(dir_a), load_run(dir_b)
     name_a, name_b = a.meta["scenario"]["name"], b.meta["scenario"]["name"]
-    kind = a.meta["scenario"]["protocol"]["kind"]
-    if kind != b.meta["scenario"]["protocol"]["kind"]:
+    kind, kind_b = a.meta["scenario"]["protocol"]["kind"], b.meta["scenario"]["protocol"]["kind"]
+    edge_taps = kind in EDGE_TAP_KINDS and kind_b in EDGE_TAP_KINDS
+    if kind != kind_b and not edge_taps:
         raise UserError(f"{dir_a} ({kind}) and {dir_b} ({b.meta['scenario']['protocol']['kind']}) are different protocols")
     result: dict = {"run_a": str(dir_a), "run_b": str(dir_b), "backend_a": a.meta["backend"], "backend_b": b.meta["backend"],
                     "fidelity_a": a.meta["scenario"]["fidelity"], "fidelity_b": b.meta["scenario"]["fidelity"],
@@ -118,6 +128,14 @@ def compare_runs(dir_a: Path, dir_b: Path, out: Path, max_ssim_frames: int = 200
         result["orientation_signal_px"] = {"a": orientation_signal_px(a), "b": orientation_signal_px(b)}
     elif kind == "slides":  # how far each sensor's skin is dragged along the edge
         result["along_edge_drag_px"] = {"a": along_edge_drag_px(a), "b": along_edge_drag_px(b)}
+    if edge_taps:  # what each sensor's taps carry of the edge, and how a slide drags its pins
+        result["edge_figures"] = {tag: edge_figures(run, None if slides is None else load_run(slides))
+                                  for tag, run, slides in (("a", a, slides_a), ("b", b, slides_b))}
+        if kind != kind_b or not pair_samples(a, b):
+            result.update(pairing=None, n_pairs=0, n_a=len(a.samples), n_b=len(b.samples))
+            out.mkdir(parents=True, exist_ok=True)
+            (out / "comparison.json").write_text(json.dumps(jsonable(result), indent=1, default=float))
+            return result
     pairs, result["pairing"] = paired_runs(a, b)
     ia, ib, diff = pin_differences(a, b, pairs)
     disp_a, disp_b = displacements(a)[ia], displacements(b)[ib]
@@ -138,5 +156,5 @@ def compare_runs(dir_a: Path, dir_b: Path, out: Path, max_ssim_frames: int = 200
             ssims.append(_ssim(fa, fb))
     result["ssim"] = {"mean": float(np.mean(ssims)), "min": float(np.min(ssims)), "frames": len(ssims)} if ssims else None
     out.mkdir(parents=True, exist_ok=True)
-    (out / "comparison.json").write_text(json.dumps(result, indent=1, default=float))
+    (out / "comparison.json").write_text(json.dumps(jsonable(result), indent=1, default=float))
     return result

@@ -157,7 +157,8 @@ def import_lab_recording(folder: Path, targets_csv: Path, out: Path, *, init: Pa
     if reference is None:
         raise UserError(f"{init_path}: not a readable image")
     tracker = PinTracker(reference)
-    scenario = lab_scenario(targets, reference.shape, depth_mm, object_side, folder.name, str(Path(targets_csv)))
+    name = Path(targets_csv).resolve().parent.name  # the set's folder (frames may sit in a subfolder)
+    scenario = lab_scenario(targets, reference.shape, depth_mm, object_side, name, str(Path(targets_csv)))
     frames = [m for m in sheared_tap_moves(scenario.protocol) if m.record]  # the no-contact frame, then the taps
     files = [init_path, *(folder / name for name in targets.image_names)]
     camera = camera_for_frame(reference.shape[1], reference.shape[0])

@@ -29,6 +29,7 @@ from twin.tools.evaluation_report import (evaluate_and_report, format_along_edge
                                           format_orientation_signal, format_table)
 from hardware.virtual_controller import serve_robot
 from twin.tools.comparison_report import compare_and_report
+from twin.tools.edge_figures_report import format_edge_figures
 from twin.tools.shear_report import write_shear_figure
 from twin.tools.demo import run_demo
 from twin.tools.bench import run_bench
@@ -160,6 +161,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         for name in result["lateral_rms_mm"]:
             print(f"{name}, all held-out taps: θ RMS {result['orientation_rms_deg'][name]:.2f}°, "
                   f"lateral RMS {result['lateral_rms_mm'][name]:.2f} mm")
+        if "edge_figures" in result:
+            print(format_edge_figures([result["edge_figures"]]))
         print(f"wrote {args.out}/heldout.csv and heldout.json")
         return 0
     print(format_table(result["table_i_rms_orientation_deg"]))
@@ -182,14 +185,19 @@ def _cmd_serve_robot(args: argparse.Namespace) -> int:
 def _cmd_compare(args: argparse.Namespace) -> int:
 
     r = compare_and_report(Path(args.run_a), Path(args.run_b), Path(args.out),
-                           model_path=Path(args.model) if args.model else None)
+                           model_path=Path(args.model) if args.model else None,
+                           slides_a=Path(args.slides_a) if args.slides_a else None,
+                           slides_b=Path(args.slides_b) if args.slides_b else None)
     _warn_unfinished(r["unfinished"])
-    print(f"{r['n_pairs']} paired samples ({r['pairing']})")
-    print(f"pin RMS difference: {r['pin_rms_difference_px']:.3f} px")
-    c = r["pin_displacement_correlation"]
-    if c["mean"] is not None:
-        print(f"per-pin displacement correlation: mean {c['mean']:.3f}, min {c['min']:.3f} over {c['pins']} pins")
-    if r["ssim"]:
+    if not r["n_pairs"]:
+        print("no paired samples (the runs share no target pose): compared by their edge figures")
+    else:
+        print(f"{r['n_pairs']} paired samples ({r['pairing']})")
+        print(f"pin RMS difference: {r['pin_rms_difference_px']:.3f} px")
+        c = r["pin_displacement_correlation"]
+        if c["mean"] is not None:
+            print(f"per-pin displacement correlation: mean {c['mean']:.3f}, min {c['min']:.3f} over {c['pins']} pins")
+    if r.get("ssim"):
         print(f"image SSIM: mean {r['ssim']['mean']:.3f}, min {r['ssim']['min']:.3f} over {r['ssim']['frames']} frames")
     for tag in ("a", "b"):
         perc = r.get(f"perception_{tag}") or (r.get(f"metrics_{tag}") or None)
@@ -202,6 +210,9 @@ def _cmd_compare(args: argparse.Namespace) -> int:
             print(format_orientation_signal(r["orientation_signal_px"][tag], f"run {tag.upper()}:"))
         if "along_edge_drag_px" in r:
             print(format_along_edge_drag(r["along_edge_drag_px"][tag], f"run {tag.upper()}: along-edge"))
+    if "edge_figures" in r:
+        print(format_edge_figures([r["edge_figures"]["a"], r["edge_figures"]["b"]],
+                                  [f"A: {r['edge_figures']['a']['name']}", f"B: {r['edge_figures']['b']['name']}"]))
     print(f"wrote {args.out}/comparison.json and plots")
     if args.video:
         print(f"wrote {write_compare_video(Path(args.run_a), Path(args.run_b), Path(args.out) / 'comparison.mp4')}")
@@ -334,6 +345,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True)
     p.add_argument("--model", default=None, help="perception model file to score labelled runs (taps, slides)")
     p.add_argument("--video", action="store_true", help="also write OUT/comparison.mp4: the paired samples side by side")
+    p.add_argument("--slides-a", default=None, metavar="RUN",
+                   help="a plain tap run A's slides run: its along-edge drag in the edge figures")
+    p.add_argument("--slides-b", default=None, metavar="RUN", help="the same for run B")
     p.set_defaults(func=_cmd_compare)
 
     p = sub.add_parser("calibrate", help="fit the twin's camera, rest pins, dome material, friction and TCP to recorded runs")

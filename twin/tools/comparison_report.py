@@ -14,9 +14,14 @@ from twin.runs.record import Run, load_run
 
 
 def compare_and_report(dir_a: Path, dir_b: Path, out: Path, max_ssim_frames: int = 200,
-                       model_path: Path | None = None) -> dict:
-    """`twin compare`: comparison.json (twin.analysis.comparison.compare_runs) and its plots in `out`."""
-    result = compare_runs(dir_a, dir_b, out, max_ssim_frames=max_ssim_frames, model_path=model_path)
+                       model_path: Path | None = None, slides_a: Path | None = None,
+                       slides_b: Path | None = None) -> dict:
+    """`twin compare`: comparison.json (twin.analysis.comparison.compare_runs) and its plots in
+    `out` (no plots for runs compared by their edge figures alone, which share no sample)."""
+    result = compare_runs(dir_a, dir_b, out, max_ssim_frames=max_ssim_frames, model_path=model_path,
+                          slides_a=slides_a, slides_b=slides_b)
+    if not result["n_pairs"]:
+        return result
     a, b = load_run(dir_a), load_run(dir_b)
     ia, ib, diff = pin_differences(a, b, paired_runs(a, b)[0])
     _plot(a, b, ia, ib, diff, out, result["protocol"])

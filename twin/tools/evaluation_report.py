@@ -3,13 +3,15 @@ held-out errors, the orientation signal and the along-edge drag as text, and the
 figures (Figs. 5–6)."""
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import matplotlib
 import matplotlib.pyplot as plt
 
+from twin.analysis.edge_imprint import edge_figures
 from twin.analysis.evaluation import DIRECTIONS, PAPER_TABLE_I, evaluate, pca_projections
-from twin.runs.record import load_run
+from twin.runs.record import jsonable, load_run
 
 
 def _fmt(v) -> str:
@@ -81,8 +83,15 @@ def write_pca_figures(train_dir: Path, test_dir: Path, out: Path) -> list[Path]:
 
 def evaluate_and_report(train_dir: Path, test_dir: Path, out: Path, seed: int = 0) -> dict:
     """`twin evaluate`: the evaluation's results and models in `out`
-    (twin.analysis.evaluation.evaluate), and for a slides run the PCA figures."""
+    (twin.analysis.evaluation.evaluate), and for a slides run the PCA figures. A sheared-tap
+    training run (an imported lab recording, or the twin's) also gets its edge figures
+    (twin.analysis.edge_imprint: the drag separated from the orientation) in
+    out/edge_figures.json and the result's "edge_figures"."""
     result = evaluate(train_dir, test_dir, out, seed=seed)
     if "table_i_rms_orientation_deg" in result:
         write_pca_figures(train_dir, test_dir, out)
+    train = load_run(train_dir)
+    if train.meta["scenario"]["protocol"]["kind"] == "sheared_taps":
+        result["edge_figures"] = edge_figures(train)
+        (out / "edge_figures.json").write_text(json.dumps(jsonable(result["edge_figures"]), indent=1))
     return result

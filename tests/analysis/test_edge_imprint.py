@@ -1,0 +1,192 @@
+"""The edge figures (twin.analysis.edge_imprint) on synthetic runs whose pins are built
+from known fields, so every figure has a value worked out beforehand."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from twin.analysis import edge_imprint as E
+from twin.core.scenario import ShearedTapProtocol
+from twin.runs.protocols import drawn_sheared_taps
+from twin.runs.record import Run
+from twin.sensing.tracker import template_pins_px
+
+REST = template_pins_px()
+#: the orientation signal's size per lateral bin (× its value at l = 0): the edge fades onto the object
+FADE = {-2.0: 0.4, -1.0: 0.7, 0.0: 1.0, 1.0: 1.2, 2.0: 1.3}
+K_DEG_PER_MM = 6.0  # the along-edge drag's part along the orientation field at l = 0, deg of θ per mm
+
+
+def _fields(seed: int = 1) -> dict[str, np.ndarray]:
+    """Fixed displacement fields (127, 2) px: θ (per 45°), along-edge drag (per mm) = a
+    part along θ's field plus a rigid shift orthogonal to it, across-edge drag, twist, depth."""
+    rng = np.random.default_rng(seed)
+    theta = rng.normal(0, 1.0, REST.shape)
+    shift = np.tile([1.0, -0.5], (127, 1))
+    shift -= (shift.ravel() @ theta.ravel()) / (theta.ravel() @ theta.ravel()) * theta  # orthogonal to θ's field
+    return {"theta": theta, "shift": shift, "along": K_DEG_PER_MM / 45.0 * theta + shift,
+            "across": rng.normal(0, 1.0, REST.shape), "twist": rng.normal(0, 0.3, REST.shape),
+            "depth": rng.normal(0, 0.5, REST.shape)}
+
+
+def sheared_run(n: int = 1500, seed: int = 0, noise_px: float = 0.01) -> Run:
+    """A sheared-taps run (lateral −2.5 … 2.5 mm) with pins = rest + the fields × the tap's values."""
+    protocol = ShearedTapProtocol(taps=n, seed=seed, lateral_range_mm=[-2.5, 2.5])
+    f = _fields()
+    rng = np.random.default_rng(seed + 1)
+    samples = []
+    for k, tap in enumerate(drawn_sheared_taps(protocol)):
+        fade = FADE[float(np.round(tap.lateral_mm)) + 0.0]
+        pins = (REST + fade * tap.theta_deg / 45.0 * f["theta"] + tap.slide_along_mm / fade * f["along"]
+                + tap.slide_lateral_mm * f["across"] + tap.twist_deg * f["twist"] + tap.depth_offset_mm * f["depth"]
+                + rng.normal(0, noise_px, REST.shape))
+        labels = {**tap.model_dump(), "depth_mm": protocol.depth_mm + tap.depth_offset_mm, "tap": k}
+        samples.append({"index": k, "target": [0.0] * 6, "labels": labels,
+                        "pins_px": pins.tolist(), "found": [True] * 127})
+    meta = {"scenario": {"name": "synthetic", "protocol": protocol.model_dump()}, "rest_pins_px": REST.tolist()}
+    return Run(Path("synthetic"), meta, samples)
+
+
+@pytest.fixture(scope="module")
+def run() -> Run:
+    return sheared_run()
+
+
+def test_the_fit_separates_the_drag_from_the_orientation(run: Run) -> None:
+    f = _fields()
+    fits = {b.lateral_mm: b for b in E.sheared_fits(run)}
+    assert sorted(fits) == sorted(FADE)
+    for l, fade in FADE.items():
+        g = fits[l].gradients
+        np.testing.assert_allclose(g["theta_deg"], (fade / 45.0 * f["theta"]).ravel(), atol=2e-3)
+        np.testing.assert_allclose(g["slide_along_mm"], (f["along"] / fade).ravel(), atol=2e-3)
+        np.testing.assert_allclose(g["twist_deg"], f["twist"].ravel(), atol=2e-3)
+        assert fits[l].residual_px < 0.02
+
+
+def test_signal_profile_is_the_fade_relative_to_the_edge_through_the_centre(run: Run) -> None:
+    """The θ term's spread in a bin is fade × the spread of the bin's angles × the field's RMS."""
+    profile = E.signal_profile(run)
+    theta, bins = run.label("theta_deg"), np.round(run.label("lateral_mm")) + 0.0
+    spread = {l: fade * np.std(theta[bins == l]) for l, fade in FADE.items()}
+    assert list(profile) == [3.0]
+    assert profile[3.0] == pytest.approx({l: v / spread[0.0] for l, v in spread.items()}, rel=0.01)
+
+
+def test_along_edge_drag_in_degrees_per_mm(run: Run) -> None:
+    """g_a·g_θ / |g_θ|² = (K/45 / fade) / (fade / 45) deg/mm = K / fade²; the rigid shift is
+    orthogonal to θ's field, so it adds nothing but is most of the drag's energy."""
+    f = _fields()
+    for l, figures in E.along_edge_turn_sheared(run).items():
+        assert figures["raw_deg_per_mm"] == pytest.approx(K_DEG_PER_MM / FADE[l] ** 2, rel=0.01)
+        expected_shift = np.sum(f["along"].mean(axis=0) ** 2) * 127 / np.sum(f["along"] ** 2)  # > 0.9 by design
+        assert figures["translation_share"] == pytest.approx(expected_shift, rel=0.01)
+        assert 0.0 <= figures["plane_share"] <= 1.0
+
+
+def test_drag_over_signal_is_the_slides_pin_motion_against_the_angles(run: Run) -> None:
+    """Drag: the RMS pin motion of each tap's slide and twist (from the known fields) about
+    the bin's mean; signal: that of its angle."""
+    f = _fields()
+    bins = np.round(run.label("lateral_mm")) + 0.0
+    x = {k: run.label(k) for k in ("theta_deg", "slide_along_mm", "slide_lateral_mm", "twist_deg")}
+    figures = E.drag_over_signal(run)
+    for l, fade in FADE.items():
+        m = bins == l
+        c = {k: v[m] - v[m].mean() for k, v in x.items()}
+        drag = (c["slide_along_mm"][:, None, None] / fade * f["along"] + c["slide_lateral_mm"][:, None, None]
+                * f["across"] + c["twist_deg"][:, None, None] * f["twist"])
+        signal = c["theta_deg"][:, None, None] * fade / 45.0 * f["theta"]
+        rms = {"drag_px": np.sqrt(np.mean(np.sum(drag**2, -1))), "signal_px": np.sqrt(np.mean(np.sum(signal**2, -1)))}
+        assert figures[l]["drag_px"] == pytest.approx(rms["drag_px"], rel=0.01)
+        assert figures[l]["signal_px"] == pytest.approx(rms["signal_px"], rel=0.01)
+        assert figures[l]["ratio"] == pytest.approx(rms["drag_px"] / rms["signal_px"], rel=0.02)
+    assert figures[-2.0]["ratio"] > figures[0.0]["ratio"] > figures[2.0]["ratio"]
+
+
+def test_plane_and_shift_shares() -> None:
+    comps = np.zeros((3, 254))
+    comps[0, 0] = comps[1, 1] = comps[2, 2] = 1.0
+    pcs = E.TapPCs(np.zeros(254), comps, np.array([0.5, 0.2, 0.2]), False)
+    field = np.zeros(254)
+    field[[0, 1, 2, 3]] = [1.0, 1.0, 1.0, 1.0]  # energy 4: 2 of it on PC2 and PC3
+    assert pcs.plane_share(field) == pytest.approx(0.5)
+    assert E.translation_share(np.tile([0.3, -0.2], 127)) == pytest.approx(1.0)
+    assert E.translation_share(np.ravel(REST - REST.mean(axis=0))) == pytest.approx(0.0, abs=1e-12)
+
+
+def test_a_sixth_of_a_turn_maps_the_grid_onto_itself() -> None:
+    perm, rot, centre = E.grid_turn(REST, 1)
+    np.testing.assert_allclose((REST - centre) @ rot.T + centre, REST[perm], atol=0.35 * 32.6)
+    six = E.turned_frames(REST[None], REST)
+    assert six.shape == (6, 127, 2) and np.abs(six - REST).max() < 0.35 * 32.6
+    squashed = REST * [1.0, 0.8]
+    with pytest.raises(Exception, match="does not map the rest pins onto themselves"):
+        E.grid_turn(squashed, 1)
+
+
+def test_reach_profile_finds_the_edge_side_in_the_image() -> None:
+    """Pins move as far as they lie towards the object, whose side in the image turns with
+    θ as −(θ + 30°) (camera rolled and mirrored): the fitted direction is that, and the
+    profile rises from beyond the edge to the object side."""
+    rng = np.random.default_rng(4)
+    centred = REST - REST.mean(axis=0)
+    reach = centred.max()
+    samples = []
+    for k, theta in enumerate(rng.uniform(-45, 45, 200)):
+        a = np.radians(-(theta + 30.0))  # the outward normal's direction in the image
+        beyond = centred @ np.array([np.cos(a), np.sin(a)])
+        magnitude = 1.0 + 0.5 * (1.0 - beyond / reach)  # 1 beyond the edge, 2 at the far object side
+        pins = REST + magnitude[:, None] * np.array([np.cos(a), np.sin(a)])
+        samples.append({"pins_px": pins.tolist(), "found": None,
+                        "labels": {"theta_deg": theta, "lateral_mm": -4.0, "depth_mm": 3.0}})
+    run = Run(Path("synthetic"), {"scenario": {"protocol": {"kind": "taps"}}, "rest_pins_px": REST.tolist()}, samples)
+    phi0, sigma = E.edge_normal_in_image(run)
+    assert sigma == -1.0 and phi0 == pytest.approx(-30.0, abs=1.0)
+    profile = E.reach_profile(run, -4.0)
+    assert profile[-1] == 1.0 and np.all(np.diff(profile) > 0) and profile[0] == pytest.approx(0.55, abs=0.05)
+
+
+def _write(run: Run, out: Path, name: str, x0_mm: float = 0.0) -> Path:
+    """`run` recorded to `out` by the run recorder, after a no-contact frame (as a sheared-taps
+    run has), its targets from x = `x0_mm` on."""
+    from twin.core.environment import Observation
+    from twin.core.poses import Pose
+    from twin.core.scenario import scenario_from_dict
+    from twin.runs.record import RunRecorder
+
+    protocol = {**run.meta["scenario"]["protocol"], "given": None}
+    scenario = scenario_from_dict({"name": name, "object": {"name": "rectangle"}, "protocol": protocol})
+    with RunRecorder(out, scenario, 0, "hardware", scenario.camera_model()) as recorder:
+        recorder.set_rest_pins(REST)
+        rest = {"lateral_mm": 9.9, "theta_deg": 0.0, "depth_mm": -5.0, "tap": -1, "no_contact": True}
+        hover = Pose(x0_mm - 10, 0, -5)
+        recorder.add(Observation(0.0, hover), hover, rest, REST, np.ones(127, bool))
+        for k, s in enumerate(run.samples):
+            target = Pose(x0_mm + k, 0, 3)
+            recorder.add(Observation(float(k), target), target, s["labels"], np.array(s["pins_px"]), np.ones(127, bool))
+    return out
+
+
+def test_compare_and_evaluate_print_the_edge_figures(run: Run, tmp_path: Path, capsys) -> None:
+    """Two sheared-tap runs that share no target compare by their edge figures, side by side;
+    `twin evaluate` on one prints its drag against its signal."""
+    import json
+
+    from twin.tools.cli import main
+
+    a = _write(run, tmp_path / "a", "rig")
+    b = _write(sheared_run(600, seed=5), tmp_path / "b", "twin", x0_mm=0.5)  # no target shared with a
+    assert main(["compare", str(a), str(b), "--out", str(tmp_path / "cmp")]) == 0
+    printed = capsys.readouterr().out
+    assert "no paired samples" in printed and "drag / orientation signal" in printed
+    header = next(line for line in printed.splitlines() if line.startswith("edge figures"))
+    assert "A: rig" in header and "B: twin" in header
+    figures = json.loads((tmp_path / "cmp" / "comparison.json").read_text())["edge_figures"]
+    assert figures["a"]["signal_profile"]["3.0"]["-2.0"] == pytest.approx(E.signal_profile(run)[3.0][-2.0])
+    small = _write(sheared_run(240, seed=7), tmp_path / "small", "rig")  # the GPs' fit grows as n³
+    assert main(["evaluate", "--train", str(small), "--test", str(small), "--out", str(tmp_path / "eval")]) == 0
+    printed = capsys.readouterr().out
+    assert "drag / orientation signal" in printed and (tmp_path / "eval" / "edge_figures.json").is_file()

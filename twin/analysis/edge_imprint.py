@@ -1,0 +1,338 @@
+"""What a sensor's taps on a straight edge carry of the edge, and how an in-contact slide
+moves the pins against it: the figures that compare the twin with a real TacTip
+(a recording imported by twin.runs.lab_recording beside the twin's own runs).
+
+Unit-free figures, so they compare across cameras:
+
+* signal profile: the edge's orientation signal (each pin's spread over the edge angles,
+  RMS over the pins, px) at each lateral position l, over its value at l = 0;
+* reach profile: mean |pin displacement| in ten bins across the pin array along the edge
+  normal (from beyond the edge to the object side), over the largest bin, at one l;
+* drag / signal: how much more an in-contact slide moves the pins than the edge angle does;
+* the along-edge drag in degrees of turn per mm of slide: how far along the orientation
+  direction a 1 mm slide along the edge moves the pins, in degrees of the edge angle
+  (raw pins), and how far it turns θ_PC23, the angle in the taps' PC2–PC3 plane that the
+  paper reads the orientation from; and the share of that drag's energy in the plane.
+
+Plain tap runs (discrete l, θ over a turn) give the spread directly. Sheared-tap runs
+(twin.core.scenario.ShearedTapProtocol: random l, θ, depth, slide and twist) are fitted
+per lateral bin (1 mm wide, centred on whole mm) with a linear model of each pin
+coordinate in θ, the slide along and across the edge, the twist, the depth offset and l
+within the bin; the signal and the drag are the spreads of the fitted θ and slide terms
+over the run's samples. A run whose angles span less than a turn (a lab set's ±45°) has
+its PCs taken over its frames turned by the pin grid's six-fold symmetry (a 60° turn of
+the rest pins about their centre maps the grid onto itself), so PC2–PC3 can turn with θ.
+Only samples with every pin found and in contact count.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from twin.analysis.evaluation import orientation_signal_px
+from twin.core.errors import UserError
+from twin.runs.record import Run
+from twin.sensing.perception import pca_fit, pins_to_vectors
+
+#: the linear model's terms for sheared taps (after the constant), per lateral bin
+SHEARED_TERMS = ("theta_deg", "slide_along_mm", "slide_lateral_mm", "twist_deg", "depth_offset_mm", "lateral_in_bin_mm")
+SLIDE_TERMS = ("slide_along_mm", "slide_lateral_mm", "twist_deg")
+REACH_BINS = 10
+#: a 60° turn must map every rest pin within this fraction of a pin spacing of another
+SYMMETRY_TOLERANCE = 0.35
+
+
+def usable(run: Run) -> np.ndarray:
+    """(N,) bool: samples with pins, every pin found, in contact (not a no-contact frame)."""
+    ok = []
+    for s in run.samples:
+        found = s.get("found")
+        ok.append(s["pins_px"] is not None and (found is None or all(found)) and not s["labels"].get("no_contact"))
+    return np.array(ok, bool)
+
+
+def is_sheared(run: Run) -> bool:
+    return run.meta["scenario"]["protocol"]["kind"] == "sheared_taps"
+
+
+@dataclass(frozen=True)
+class BinFit:
+    """The linear model of one lateral bin: z ≈ z0 + Σ gradient[term]·x[term] (px per unit)."""
+
+    lateral_mm: float
+    n: int
+    gradients: dict[str, np.ndarray]  # term -> (254,) px per unit of the term
+    spread_px: dict[str, float]       # term -> RMS over samples and pins of the term's deviation (px)
+    mean_z: np.ndarray                # (254,) px: the bin's mean frame
+    residual_px: float                # RMS pin distance left unexplained
+    tap_z: np.ndarray                 # (n, 254) px: the bin's frames with the fitted slide and twist taken out
+
+
+def _pin_rms(vectors: np.ndarray) -> float:
+    """RMS over rows and pins of the pin distances in (n, 254) vectors (px)."""
+    return float(np.sqrt(np.mean(np.sum(vectors.reshape(len(vectors), -1, 2) ** 2, axis=-1))))
+
+
+def sheared_fits(run: Run, width_mm: float = 1.0, min_samples: int = 20) -> list[BinFit]:
+    """The per-bin linear fits of a sheared-taps run, from the object side to off it
+    (bins centred on multiples of `width_mm`; bins with fewer than `min_samples` usable
+    samples are left out, so a small run may have none)."""
+    ok = usable(run)
+    z = pins_to_vectors(run.pins_px[ok])
+    lateral = run.label("lateral_mm")[ok]
+    centre = np.round(lateral / width_mm) * width_mm
+    values = {t: run.label(t)[ok] for t in SHEARED_TERMS[:-1]}
+    values["lateral_in_bin_mm"] = lateral - centre
+    fits = []
+    for c in sorted(set(centre.tolist())):
+        m = centre == c
+        if m.sum() < min_samples:
+            continue
+        x = np.column_stack([values[t][m] for t in SHEARED_TERMS])
+        x = x - x.mean(axis=0)
+        coef, *_ = np.linalg.lstsq(np.column_stack([np.ones(m.sum()), x]), z[m], rcond=None)
+        gradients = {t: coef[1 + k] for k, t in enumerate(SHEARED_TERMS)}
+        spread = {t: _pin_rms(np.outer(x[:, k], coef[1 + k])) for k, t in enumerate(SHEARED_TERMS)}
+        spread["slides"] = _pin_rms(x[:, 1:4] @ coef[2:5])
+        residual = _pin_rms(z[m] - coef[0] - x @ coef[1:])
+        fits.append(BinFit(float(c) + 0.0, int(m.sum()), gradients, spread, z[m].mean(axis=0), residual,
+                           z[m] - x[:, 1:4] @ coef[2:5]))
+    return fits
+
+
+def signal_profile(run: Run) -> dict[float, dict[float, float]]:
+    """{depth_mm: {lateral_mm: signal at l over signal at l = 0}}: plain taps per depth;
+    sheared taps as one row at their nominal depth (the fitted θ term's spread). Rows
+    without an l = 0 are left out."""
+    if is_sheared(run):
+        fits = sheared_fits(run)
+        signal = {f.lateral_mm: f.spread_px["theta_deg"] for f in fits}
+        rows = {float(run.meta["scenario"]["protocol"]["depth_mm"]): signal}
+    else:
+        rows = orientation_signal_px(_subset(run, usable(run)))
+    return {d: {l: v / row[0.0] for l, v in row.items()} for d, row in rows.items() if row.get(0.0)}
+
+
+def drag_over_signal(run: Run) -> dict[float, dict[str, float]]:
+    """Sheared taps, per lateral bin: {"drag_px": the fitted slide and twist terms' spread,
+    "signal_px": the θ term's, "ratio": drag / signal}."""
+    return {f.lateral_mm: {"drag_px": f.spread_px["slides"], "signal_px": f.spread_px["theta_deg"],
+                           "ratio": f.spread_px["slides"] / f.spread_px["theta_deg"]} for f in sheared_fits(run)}
+
+
+def _subset(run: Run, mask: np.ndarray) -> Run:
+    return Run(run.path, run.meta, [s for s, m in zip(run.samples, mask) if m])
+
+
+# ------------------------------------------------------------------ PCs over a turn
+def grid_turn(rest_px: np.ndarray, turns: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The pin grid turned by turns·60° about the rest pins' centre: (permutation p with
+    pin i landing on pin p[i], 2×2 rotation (image px), centre px). UserError when the
+    grid does not map onto itself within SYMMETRY_TOLERANCE spacings."""
+    centre = rest_px.mean(axis=0)
+    a = np.radians(60.0 * turns)
+    rot = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
+    moved = (rest_px - centre) @ rot.T + centre
+    distance = np.linalg.norm(moved[:, None] - rest_px[None], axis=-1)
+    perm = np.argmin(distance, axis=1)
+    spacing = float(np.median(np.sort(np.linalg.norm(rest_px[:, None] - rest_px[None], axis=-1), axis=1)[:, 1]))
+    off = distance[np.arange(len(perm)), perm].max()
+    if len(set(perm.tolist())) != len(perm) or off > SYMMETRY_TOLERANCE * spacing:
+        raise UserError(f"a {60 * turns}° turn does not map the rest pins onto themselves "
+                        f"({off:.1f} px off, pin spacing {spacing:.1f} px)")
+    return perm, rot, centre
+
+
+def turned_frames(pins_px: np.ndarray, rest_px: np.ndarray) -> np.ndarray:
+    """(6N, 127, 2) px: the frames and their five turns by the grid's symmetry (`grid_turn`)."""
+    out = [pins_px]
+    for k in range(1, 6):
+        perm, rot, centre = grid_turn(rest_px, k)
+        turned = np.empty_like(pins_px)
+        turned[:, perm] = (pins_px - centre) @ rot.T + centre
+        out.append(turned)
+    return np.concatenate(out)
+
+
+@dataclass(frozen=True)
+class TapPCs:
+    """A tap set's first three PCs; PC2–PC3 is the plane the paper reads the orientation in."""
+
+    mean: np.ndarray          # (254,) px
+    components: np.ndarray    # (3, 254)
+    explained: np.ndarray     # (3,) fractions
+    turned: bool              # over the frames turned by the grid's symmetry
+    pair: tuple[int, int] = (1, 2)  # PC2, PC3 (0-based)
+
+    def project(self, z: np.ndarray) -> np.ndarray:
+        return (np.atleast_2d(z) - self.mean) @ self.components.T
+
+    def in_plane(self, z: np.ndarray) -> np.ndarray:
+        """(n, 2) px: frames' coordinates in the PC2–PC3 plane."""
+        return self.project(z)[:, list(self.pair)]
+
+    def theta_pc23_deg(self, z: np.ndarray) -> np.ndarray:
+        """The angle (deg) of frames in the PC2–PC3 plane: the paper's θ_PC23."""
+        p = self.in_plane(z)
+        return np.degrees(np.arctan2(p[:, 1], p[:, 0]))
+
+    def plane_share(self, field: np.ndarray) -> float:
+        """The share of a displacement field's energy (254,) in the PC2–PC3 plane."""
+        return float(np.sum((self.components[list(self.pair)] @ field) ** 2) / np.sum(field**2))
+
+
+def tap_pcs(run: Run) -> TapPCs:
+    """The PCs of a tap run's usable frames (sheared taps: with their fitted slide and
+    twist taken out, the taps the paper's PCA is of); over their six-fold turns when its
+    angles span less than 300° (a lab set's ±45°)."""
+    ok = usable(run)
+    theta = run.label("theta_deg")[ok]
+    fits = sheared_fits(run) if is_sheared(run) else []
+    pins = np.concatenate([f.tap_z for f in fits]).reshape(-1, 127, 2) if fits else run.pins_px[ok]
+    turned = np.ptp(theta) < 300.0
+    if turned:
+        pins = turned_frames(pins, run.rest_pins_px)
+    mean, comps, explained = pca_fit(pins_to_vectors(pins), 3)
+    return TapPCs(mean, comps, explained, turned)
+
+
+def _wrap(angle_deg: np.ndarray) -> np.ndarray:
+    return (np.asarray(angle_deg) + 180.0) % 360.0 - 180.0
+
+
+def along_edge_turn_sheared(run: Run, pcs: TapPCs | None = None) -> dict[float, dict[str, float]]:
+    """Sheared taps, per lateral bin, for a 1 mm slide along the edge: "raw_deg_per_mm" (its
+    pin field along the orientation direction, in degrees of θ: g_a·g_θ / |g_θ|²),
+    "pc23_deg_per_mm" (how far it turns θ_PC23 from the bin's mean frame), "plane_share"
+    (its energy in the taps' PC2–PC3 plane) and "radius_px" (the bin's RMS radius in that plane)."""
+    pcs = pcs or tap_pcs(run)
+    out = {}
+    for f in sheared_fits(run):
+        g_a, g_t = f.gradients["slide_along_mm"], f.gradients["theta_deg"]
+        turn = _wrap(pcs.theta_pc23_deg(f.mean_z + g_a) - pcs.theta_pc23_deg(f.mean_z))[0]
+        p = pcs.in_plane(f.tap_z)
+        out[f.lateral_mm] = {"raw_deg_per_mm": abs(float(g_a @ g_t / (g_t @ g_t))),
+                             "pc23_deg_per_mm": abs(float(turn)), "plane_share": pcs.plane_share(g_a),
+                             "radius_px": float(np.sqrt(np.mean(np.sum(p**2, axis=1)))),
+                             "translation_share": translation_share(g_a)}
+    return out
+
+
+def along_edge_turn_slides(taps: Run, slides: Run, lateral_mm: float | None = None,
+                           pcs: TapPCs | None = None) -> dict[str, float] | None:
+    """The same figures from a slides run's along-edge slides (90°, 270°), their first step
+    (sample 0 → 1), with the PCs and orientation direction of a plain tap run: the taps at
+    the slides' lateral position, θ ± one orientation step, averaged over depths.
+    None without such slides."""
+    pcs = pcs or tap_pcs(taps)
+    z_taps = pins_to_vectors(taps.pins_px)
+    t_theta, t_lat = taps.label("theta_deg"), taps.label("lateral_mm")
+    thetas = np.unique(t_theta[np.isfinite(t_theta)])
+    step = float(np.min(np.diff(thetas))) if len(thetas) > 1 else None
+    z = pins_to_vectors(slides.pins_px)
+    direction, sample, theta = slides.label("direction_deg"), slides.label("sample_in_slide"), slides.label("theta_deg")
+    lateral = slides.label("lateral_mm")
+    raw, turns, energy_in, energy, radius, shift = [], [], 0.0, 0.0, [], 0.0
+    for d in (90, 270):
+        for t in np.unique(theta[direction == d]):
+            first = np.flatnonzero((direction == d) & (theta == t) & (sample == 0))
+            second = np.flatnonzero((direction == d) & (theta == t) & (sample == 1))
+            if len(first) != 1 or len(second) != 1:
+                continue
+            i, j = first[0], second[0]
+            l0 = lateral[i] if lateral_mm is None else lateral_mm
+            if abs(lateral[i] - l0) > 1e-6:
+                continue
+            length = float(np.linalg.norm(np.subtract(slides.samples[j]["target"][:2], slides.samples[i]["target"][:2])))
+            g_a = (z[j] - z[i]) / length
+            turns.append(abs(_wrap(pcs.theta_pc23_deg(z[j]) - pcs.theta_pc23_deg(z[i]))[0]) / length)
+            energy_in += pcs.plane_share(g_a) * float(g_a @ g_a)
+            energy += float(g_a @ g_a)
+            shift += translation_share(g_a) * float(g_a @ g_a)
+            radius.append(float(np.linalg.norm(pcs.in_plane(z[i])[0])))
+            if step is not None:
+                at = np.isclose(t_lat, l0)
+                plus = at & np.isclose(_wrap(t_theta - t - step), 0.0)
+                minus = at & np.isclose(_wrap(t_theta - t + step), 0.0)
+                if plus.any() and minus.any():
+                    g_t = (z_taps[plus].mean(axis=0) - z_taps[minus].mean(axis=0)) / (2 * step)
+                    raw.append(abs(float(g_a @ g_t / (g_t @ g_t))))
+    if not turns:
+        return None
+    return {"raw_deg_per_mm": float(np.mean(raw)) if raw else None, "pc23_deg_per_mm": float(np.mean(turns)),
+            "plane_share": energy_in / energy, "radius_px": float(np.sqrt(np.mean(np.square(radius)))),
+            "translation_share": shift / energy}
+
+
+def translation_share(field: np.ndarray) -> float:
+    """The share of a displacement field's energy (254,) in a rigid shift of all the pins."""
+    mean = field.reshape(-1, 2).mean(axis=0)
+    return float(len(field) // 2 * mean @ mean / (field @ field))
+
+
+# ------------------------------------------------------------------ reach
+def edge_normal_in_image(run: Run) -> tuple[float, float]:
+    """(φ0 deg, σ ±1) with the image direction of the edge's outward normal (off the
+    object) at edge angle θ being φ0 + σ·θ: fitted from where the pins move most (the
+    displacement-weighted centroid of the rest pins lies towards the object)."""
+    rest = run.rest_pins_px
+    d = np.linalg.norm(run.pins_px - rest, axis=-1)
+    ok = usable(run) & (np.nan_to_num(d).sum(axis=1) > 0)
+    d = d[ok]
+    centroid = (d @ (rest - rest.mean(axis=0))) / d.sum(axis=1, keepdims=True)
+    towards_object = np.degrees(np.arctan2(centroid[:, 1], centroid[:, 0]))
+    theta = run.label("theta_deg")[ok]
+    weight = np.linalg.norm(centroid, axis=1)
+    best = None
+    for sigma in (1.0, -1.0):
+        phase = np.radians(towards_object + 180.0 - sigma * theta)
+        mean = np.sum(weight * np.exp(1j * phase))
+        if best is None or abs(mean) > abs(best[1]):
+            best = (sigma, mean)
+    return float(np.degrees(np.angle(best[1]))), best[0]
+
+
+def reach_profile(run: Run, lateral_mm: float, half_width_mm: float = 0.5, bins: int = REACH_BINS) -> list[float]:
+    """Mean |pin displacement| (px) in `bins` equal bins of the rest pins' position along the
+    edge normal in the image, from beyond the edge (far) to the object side, over the
+    largest bin; over the usable samples within `half_width_mm` of `lateral_mm`."""
+    ok = usable(run) & (np.abs(run.label("lateral_mm") - lateral_mm) <= half_width_mm + 1e-9)
+    if not ok.any():
+        raise UserError(f"{run.path}: no usable sample within {half_width_mm} mm of l = {lateral_mm} mm")
+    phi0, sigma = edge_normal_in_image(run)
+    rest = run.rest_pins_px - run.rest_pins_px.mean(axis=0)
+    total = np.zeros(bins)
+    for pins, theta in zip(run.pins_px[ok], run.label("theta_deg")[ok]):
+        a = np.radians(phi0 + sigma * theta)
+        along = rest @ np.array([np.cos(a), np.sin(a)])  # + beyond the edge
+        edges = np.linspace(along.max(), along.min(), bins + 1)
+        index = np.clip(np.searchsorted(-edges, -along, side="right") - 1, 0, bins - 1)
+        magnitude = np.linalg.norm(pins - run.rest_pins_px, axis=-1)
+        total += np.bincount(index, magnitude, bins) / np.maximum(np.bincount(index, minlength=bins), 1)
+    return (total / total.max()).tolist()
+
+
+def edge_figures(taps: Run, slides: Run | None = None, reach_at: tuple[float, ...] = (-4.0, 4.0)) -> dict:
+    """Every figure of this module for one sensor: a tap run (plain or sheared) and, for
+    plain taps, a slides run for the along-edge drag (its slides at their first lateral
+    position). Keys: signal_profile, reach (l → ten bins), pcs_explained, pcs_turned,
+    drag_over_signal and along_edge (l → figures; sheared taps, or plain taps with slides)."""
+    pcs = tap_pcs(taps)
+    lateral = taps.label("lateral_mm")[usable(taps)]
+    figures = {"name": taps.meta["scenario"]["name"], "kind": taps.meta["scenario"]["protocol"]["kind"],
+               "signal_profile": signal_profile(taps),
+               "reach": {l: reach_profile(taps, l) for l in reach_at
+                         if np.any(np.abs(lateral - l) <= 0.5 + 1e-9)},
+               "pcs_explained": pcs.explained.tolist(), "pcs_turned": pcs.turned,
+               "drag_over_signal": {}, "along_edge": {}}
+    if is_sheared(taps):
+        figures["drag_over_signal"] = drag_over_signal(taps)
+        figures["along_edge"] = along_edge_turn_sheared(taps, pcs)
+    elif slides is not None:
+        starts = np.isin(slides.label("direction_deg"), (90, 270)) & (slides.label("sample_in_slide") == 0)
+        for l in sorted(set(slides.label("lateral_mm")[starts].tolist())):
+            turn = along_edge_turn_slides(taps, slides, l, pcs)
+            if turn is not None:
+                figures["along_edge"][float(l)] = turn
+    return figures

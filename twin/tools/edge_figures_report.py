@@ -1,0 +1,61 @@
+"""The edge figures (twin.analysis.edge_imprint) as text: one column per sensor, so a real
+TacTip's runs and the twin's read side by side in `twin compare` and `twin evaluate`."""
+from __future__ import annotations
+
+WIDTH = 22
+
+
+def _cell(value, fmt: str = "{:.2f}") -> str:
+    return ("—" if value is None else fmt.format(value)).rjust(WIDTH)
+
+
+def _rows_by_lateral(figures: list[dict], key: str, field: str | None, fmt: str, scale: float = 1.0) -> list[str]:
+    laterals = sorted({l for f in figures for l in f[key]}, reverse=True)
+    lines = []
+    for l in laterals:
+        cells = []
+        for f in figures:
+            row = f[key].get(l)
+            value = row if field is None else (None if row is None else row.get(field))
+            cells.append(_cell(None if value is None else value * scale, fmt))
+        lines.append(f"    l {l:+g} mm".ljust(34) + "".join(cells))
+    return lines
+
+
+def format_edge_figures(figures: list[dict], labels: list[str] | None = None) -> str:
+    """The figures of several sensors (twin.analysis.edge_imprint.edge_figures) side by side."""
+    labels = labels or [f["name"] for f in figures]
+    lines = ["edge figures".ljust(34) + "".join(label[:WIDTH - 1].rjust(WIDTH) for label in labels)]
+    depths = sorted({d for f in figures for d in f["signal_profile"]})
+    for depth in depths:
+        rows = [{"signal_profile": f["signal_profile"].get(depth, {})} for f in figures]
+        lines.append(f"  orientation signal / its value at l = 0, {depth:g} mm deep:")
+        lines += _rows_by_lateral(rows, "signal_profile", None, "{:.2f}")
+    reach_at = sorted({l for f in figures for l in f["reach"]}, reverse=True)
+    for l in reach_at:
+        lines.append(f"  reach at l {l:+g} mm (mean |pin displacement| in 10 bins along the edge normal, "
+                     "beyond the edge → object side, / largest bin):")
+        for label, f in zip(labels, figures):
+            bins = f["reach"].get(l)
+            lines.append(f"    {label}: " + ("—" if bins is None else " ".join(f"{v:.2f}" for v in bins)))
+    if any(f["drag_over_signal"] for f in figures):
+        lines.append("  drag / orientation signal (fitted slide and twist terms against the angle term, px/px):")
+        lines += _rows_by_lateral(figures, "drag_over_signal", "ratio", "{:.1f}")
+        lines.append("  drag, px:")
+        lines += _rows_by_lateral(figures, "drag_over_signal", "drag_px", "{:.2f}")
+        lines.append("  orientation signal, px:")
+        lines += _rows_by_lateral(figures, "drag_over_signal", "signal_px", "{:.2f}")
+    if any(f["along_edge"] for f in figures):
+        lines.append("  a 1 mm slide along the edge (sheared taps: fitted; plain taps: the slides' first step):")
+        for field, what, fmt, scale in (("raw_deg_per_mm", "raw pins, deg of edge angle per mm", "{:.1f}", 1.0),
+                                        ("pc23_deg_per_mm", "θ_PC23 turned, deg per mm", "{:.1f}", 1.0),
+                                        ("plane_share", "drag energy in the taps' PC2–PC3, %", "{:.1f}", 100.0),
+                                        ("translation_share", "drag energy in a rigid shift, %", "{:.0f}", 100.0),
+                                        ("radius_px", "the taps' PC2–PC3 radius, px", "{:.1f}", 1.0)):
+            lines.append(f"   {what}:")
+            lines += _rows_by_lateral(figures, "along_edge", field, fmt, scale)
+    lines.append("  PC1/PC2/PC3 of the taps, %".ljust(34) + "".join(
+        _cell(None, "") if not f["pcs_explained"] else
+        ("/".join(f"{100 * v:.0f}" for v in f["pcs_explained"]) + (" (6-fold)" if f["pcs_turned"] else "")).rjust(WIDTH)
+        for f in figures))
+    return "\n".join(lines)
