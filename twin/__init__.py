@@ -23,7 +23,8 @@ import sys
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from twin.control.contour import ContourFollower, ContourStep
+    from twin.control.contour import ContourStep
+    from twin.runs.contour_run import ScenarioFollower as ContourFollower
     from twin.control.controllers import Controller, PaperController, Percept
     from twin.core.environment import Environment, Observation
     from twin.core.errors import PhysicsError, TwinError, UserError
@@ -39,7 +40,7 @@ if TYPE_CHECKING:
 
 #: public name → (module, name there)
 _PUBLIC = {
-    "ContourFollower": ("twin.control.contour", "ContourFollower"),
+    "ContourFollower": ("twin.runs.contour_run", "ScenarioFollower"),  # the loop of a scenario
     "ContourStep": ("twin.control.contour", "ContourStep"),
     "Controller": ("twin.control.controllers", "Controller"),
     "PaperController": ("twin.control.controllers", "PaperController"),

@@ -6,9 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from twin.control.contour import ContourFollower
 from twin.sensing.perception import GPConfig, PerceptionModel, paper_training_labels, synthetic_tap_pins
-from twin.world.scene import load_scenario_stimulus
+from twin.runs.contour_run import ScenarioFollower
 from twin.core.scenario import scenario_from_dict
 from twin.runs.sim_env import SimEnvironment
 
@@ -39,7 +38,7 @@ def test_a_path_back_to_the_start_is_not_a_closed_loop(tmp_path) -> None:
         "protocol": {"kind": "contour", "max_steps": 17, "controller": str(tmp_path / "out_and_back.py") + ":OutAndBack"},
     }, str(tmp_path / "inline.yaml"))
     env = SimEnvironment(scenario)
-    follower = ContourFollower(env, scenario, model, load_scenario_stimulus(scenario))
+    follower = ScenarioFollower(env, scenario, model)
     poses = [step.observation.pose for step in follower]
     start = np.array([poses[0].x, poses[0].y])
     assert np.linalg.norm(np.array([poses[-1].x, poses[-1].y]) - start) < 1.0  # it did come back

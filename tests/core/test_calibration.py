@@ -15,7 +15,7 @@ from twin.core.scenario import scenario_from_dict
 from twin.core.sensor import CameraModel
 from twin.runs.sim_env import SimEnvironment
 from twin.runs.training import cache_key, tap_scenario_like
-from twin.world.scene import dome_params
+from twin.runs.spec import dome_params
 from twin.world.dome.flex import DomeParams
 from twin.world.dome.material import _TO_DOME, apply_dome_material, dome_material_of
 

@@ -10,7 +10,7 @@ import pytest
 
 from twin.tools.cli import main
 from twin.core.errors import UserError
-from twin.core.scenario import load_scenario
+from twin.runs.spec import load_scenario  # the scenario file with its dome model's `physics` checked
 
 SCENARIOS = sorted(Path(__file__).resolve().parents[2].joinpath("scenarios").glob("*.yaml"))
 
@@ -39,6 +39,7 @@ BAD = {
                                  "skin_bending", "membrane_young_mpa"),
     "skin_held_inside_the_cap": ("name: x\nobject: {name: rectangle}\ndome: compliant\nphysics: {skin_held_deg: 50}\n",
                                  "physics.skin_held_deg", "50"),
+    "unknown_dome": ("name: x\nobject: {name: rectangle}\ndome: rubber\n", "dome", "rubber"),
     "skin_held_on_flex": ("name: x\nobject: {name: rectangle}\nphysics: {skin_held_deg: 80}\n",
                           "physics.skin_held_deg", "flex"),
 }

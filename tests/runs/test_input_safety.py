@@ -12,7 +12,7 @@ from twin.core.errors import UserError
 from twin.core.scenario import load_scenario, scenario_from_dict
 from twin.core.validation import MAX_YAML_NODES, read_yaml
 from twin.sensing.perception import PerceptionModel
-from twin.world.scene import load_scenario_stimulus
+from twin.runs.spec import load_scenario_stimulus
 
 BASE = {"object": {"name": "rectangle"}}
 

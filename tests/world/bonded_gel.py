@@ -16,7 +16,7 @@ from scipy.sparse.linalg import splu
 from skfem.models.elasticity import lame_parameters, linear_elasticity
 
 from twin.core.sensor import TacTipGeometry
-from twin.world.dome.compliance import DISC_RULE, CapSurface, SkinSheet, post_tips
+from twin.world.dome.compliant.compliance import DISC_RULE, CapSurface, SkinSheet, post_tips
 
 
 @dataclass

@@ -9,8 +9,8 @@ import pytest
 
 import mujoco
 
-from twin.core.poses import Pose
 from twin.core.scenario import load_scenario
+from twin.runs.spec import scene_spec
 from twin.world.scene import build_scene
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -42,7 +42,7 @@ def test_scenario_scene_steps_without_warnings(path: Path) -> None:
     scenario = load_scenario(path)
     if scenario.backend != "sim":
         pytest.skip("hardware scenario")
-    scene = build_scene(scenario, Pose(0, 0, -10, 0, 0, 0))
+    scene = build_scene(scene_spec(scenario))
     _step_one_second(scene.model, scene.data)
 
 

@@ -13,8 +13,8 @@ import pytest
 
 from tests.world.bonded_gel import BondedGel
 from twin.core.sensor import CameraModel, TacTipGeometry
-from twin.world.dome.compliance import CapSurface, DomeCompliance, skin_on_gel, skinned
-from twin.world.dome.contact import solve_normal
+from twin.world.dome.compliant.compliance import CapSurface, DomeCompliance, skin_on_gel, skinned
+from twin.world.dome.compliant.contact import solve_normal
 
 GEOMETRY = TacTipGeometry()
 SURFACE = CapSurface(GEOMETRY, 0.0025, 65.0)

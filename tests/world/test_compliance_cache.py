@@ -1,5 +1,5 @@
 """The sealed gel's influence matrices are computed once per surface and Poisson's ratio
-and cached on disk at unit shear modulus (twin.world.dome.compliance.sealed_gel): what
+and cached on disk at unit shear modulus (twin.world.dome.compliant.compliance.sealed_gel): what
 that relies on, and that a cached dome is the computed one. And the compiled products
 that each contact increment takes of them are the matrices' own."""
 from __future__ import annotations
@@ -9,7 +9,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from twin.core.sensor import TacTipGeometry
-from twin.world.dome.compliance import (CapSurface, DomeCompliance, disc_averaged_kernel, half_space_columns,
+from twin.world.dome.compliant.compliance import (CapSurface, DomeCompliance, disc_averaged_kernel, half_space_columns,
                                         post_tip_kernel, sealed_gel, self_compliance, skinned)
 
 SURFACE = CapSurface(TacTipGeometry(), 0.0025, 65.0)  # the fast level's nodes: quick to compute

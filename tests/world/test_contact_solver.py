@@ -1,4 +1,4 @@
-"""The frictional contact solver (twin.world.dome.contact) on the skinned dome, whose
+"""The frictional contact solver (twin.world.dome.compliant.contact) on the skinned dome, whose
 skin couples normal and tangential motion, checked against Signorini's and Coulomb's
 conditions themselves: no penetration and no pull, no gap where pressed, the traction
 inside the friction disc, no slip where it is inside, slip against the traction where it
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from twin.core.sensor import TacTipGeometry
-from twin.world.dome.compliance import CapSurface, DomeCompliance
-from twin.world.dome.contact import (_alart_curnier, _alart_curnier_residual, _newton_step, alternation_pass,
+from twin.world.dome.compliant.compliance import CapSurface, DomeCompliance
+from twin.world.dome.compliant.contact import (_alart_curnier, _alart_curnier_residual, _newton_step, alternation_pass,
                                     own_stiffness, solve_coulomb, unknowns_matrix)
 
 TOLERANCE = 1e-8  # m

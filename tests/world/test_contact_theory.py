@@ -1,7 +1,7 @@
 """The compliant dome against closed-form contact mechanics (K. L. Johnson, *Contact
 Mechanics*, 1985, §4.2 and §7.2), through the real pipeline: the dome pressed and slid on
 the flat top of the rectangle (120 × 80 mm, centred on the work origin), contact found by
-MuJoCo rays, forces from twin.world.dome.contact.
+MuJoCo rays, forces from twin.world.dome.compliant.contact.
 
 * Hertz: a rigid flat on the elastic sphere (R = 20 mm) is the same problem as a rigid
   sphere on an elastic half-space, F = 4/3 E* √R δ^3/2, a = √(R δ), E* = E / (1 − ν²).
@@ -235,7 +235,7 @@ def test_skin_membrane_obeys_laplace_law():
     equator; measured −0.3 %, spread 1.2 %). A rigid rotation about the sphere's centre
     stretches nothing but the springs that hold the skin at the equator."""
     from twin.core.sensor import TacTipGeometry
-    from twin.world.dome.compliance import CapSurface, membrane_stiffness
+    from twin.world.dome.compliant.compliance import CapSurface, membrane_stiffness
 
     surface = CapSurface(TacTipGeometry(), PARAMS.spacing, PARAMS.extent_deg)
     skin = surface.skin_to(90.0)
@@ -263,7 +263,7 @@ def test_skin_bending_energy_of_a_dimple_matches_plate_theory():
     (1.5 %). A rigid translation
     of the same size costs less than 0.1 % of it, a rotation nothing."""
     from twin.core.sensor import TacTipGeometry
-    from twin.world.dome.compliance import CapSurface, bending_stiffness
+    from twin.world.dome.compliant.compliance import CapSurface, bending_stiffness
 
     young, poisson, thickness, c, s = 6e5, 0.5, 0.0015, 1e-4, 0.004
     rigidity = young * thickness ** 3 / (12 * (1 - poisson ** 2))

@@ -1,4 +1,4 @@
-"""The compliant dome (twin.world.dome.flex) and its quasi-static stepping (twin.world.dome.physics).
+"""The compliant dome (twin.world.dome.flex) and its quasi-static stepping (twin.world.dome.flex.physics).
 
 Scene: a box "rectangle" whose top face is z = 0 with a straight edge along y at x = 0
 (box at x < 0), the TacTip pointing down (twin.world.dome.testbed.edge_scene). No mocks.

@@ -165,7 +165,7 @@ def test_the_increment_length_is_a_scenario_knob():
     """`physics: {increment_mm}` sets the largest tool motion per contact increment: a 3 mm
     slide takes 3 increments at 1 mm and 6 at the default 0.5 mm (a flex scenario refuses it)."""
     from twin.core.errors import UserError
-    from twin.world.scene import dome_params
+    from twin.runs.spec import dome_params
 
     spec = {"name": "increments", "object": {"name": "rectangle"}, "dome": "compliant",
             "effects": ["contact", "friction"]}
@@ -178,7 +178,7 @@ def test_the_increment_length_is_a_scenario_knob():
         env.move_to(Pose(58, 3, 3, 0, 0, 0))
         assert env.physics.steps - before == increments
     with pytest.raises(UserError, match="increment_mm"):
-        scenario_from_dict({**spec, "dome": "flex", "physics": {"increment_mm": 1.0}})
+        dome_params(scenario_from_dict({**spec, "dome": "flex", "physics": {"increment_mm": 1.0}}))
 
 
 def test_skin_bending_takes_the_membrane_from_the_calibration():
@@ -186,7 +186,7 @@ def test_skin_bending_takes_the_membrane_from_the_calibration():
     which the scenario alone cannot see; where neither does, building the dome refuses,
     naming the field."""
     from twin.core.errors import UserError
-    from twin.world.scene import dome_params
+    from twin.runs.spec import dome_params
 
     shell = {"name": "shell_calibrated", "object": {"name": "rectangle"}, "dome": "compliant",
              "physics": {"skin_bending": True}}

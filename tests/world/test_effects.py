@@ -61,7 +61,7 @@ def test_friction_off_gives_no_shear(fidelity):
 def test_friction_off_builds_no_friction_rows():
     off = _env(["contact"])
     on = _env(["contact", "friction"])
-    flex = off.scene.tactip.flex
+    flex = off.scene.dome_handles.flex
     assert off.scene.model.flex_condim[flex] == 1 and on.scene.model.flex_condim[flex] == 3
     logs = {}
     for name, env in (("off", off), ("on", on)):

@@ -1,4 +1,4 @@
-"""The gel's force kernel (twin.world.dome.compliance.disc_averaged_kernel) against the
+"""The gel's force kernel (twin.world.dome.compliant.compliance.disc_averaged_kernel) against the
 closed forms it is built from, written out here in the half-space's own frame: Boussinesq
 for a normal point force and Cerruti for a tangential one (K. L. Johnson, *Contact
 Mechanics*, 1985, eqs. 3.20 and 3.21). Then the same for any orientation of the surface
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from twin.world.dome.compliance import DISC_RULE, disc_averaged_kernel
+from twin.world.dome.compliant.compliance import DISC_RULE, disc_averaged_kernel
 
 G = 7.0e3  # Pa
 

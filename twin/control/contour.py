@@ -1,7 +1,7 @@
 """The closed contour-following loop (§III-D) on any Environment: observe → read pins →
 perceive θ̂ and l̂ → step with the controller; it stops when the loop closes, at the
 spiral's end, when the contour is lost or at the step limit. Recording, scoring and
-plotting a run: twin.runs.contour_run.
+plotting a run, and building the loop from a scenario: twin.runs.contour_run.
 """
 from __future__ import annotations
 
@@ -13,12 +13,12 @@ import numpy as np
 
 from twin.core.environment import Environment, Observation
 
-from twin.control.controllers import Percept, load_controller, normal_from_theta
+from twin.control.controllers import Controller, Percept, normal_from_theta
 from twin.core.errors import UnreachablePoseError, UserError
 from twin.core.poses import Pose, object_to_work_deg, object_to_work_xy, work_to_object_xy
-from twin.core.scenario import Scenario, hover_over
+from twin.core.scenario import ContourProtocol, hover_over
 from twin.sensing.pins import PinReader
-from twin.world.scene import load_scenario_stimulus
+from twin.world.stimuli import Stimulus
 
 #: The loop is closed (or the spiral's end reached) when the sensor comes within this
 #: distance (mm) of the first contact point (the end point) after having travelled at
@@ -63,17 +63,18 @@ class ContourFollower:
     LOST_DISTANCE_MM), a target out of the arm's reach, or the step limit. `clock(stage)`
     is a context manager charged with the time of "render" (observe), "track",
     "perception" and "physics" (moves), for benchmarks.
+
+    env: its work frame is the object frame (`stimulus`'s, seen from above, z into the
+    object). protocol: depth, speed, start orientation and step budget. model: a fitted
+    PerceptionModel. controller: twin.control.controllers.load_controller's.
     """
 
-    def __init__(self, env: Environment, scenario: Scenario, model, stimulus=None, clock=no_clock,
-                 controller=None) -> None:
-        if scenario.work_frame != "object":
-            raise UserError(f"{scenario.source}: contour following needs work_frame: object")
-        stimulus = load_scenario_stimulus(scenario) if stimulus is None else stimulus
-        self.env, self.scenario, self.model, self.stimulus, self.clock = env, scenario, model, stimulus, clock
-        spec = scenario.protocol.controller if controller is None else controller
-        self.controller = load_controller(spec, scenario.protocol, scenario.source_dir)
-        self._controller_name = spec if isinstance(spec, str) else type(spec).__name__
+    def __init__(self, env: Environment, protocol: ContourProtocol, model, stimulus: Stimulus, controller: Controller,
+                 clock=no_clock, controller_name: str | None = None) -> None:
+        self.env, self.protocol, self.model, self.stimulus, self.clock = env, protocol, model, stimulus, clock
+        self.controller = controller
+        #: how errors name the controller: its name in the scenario, else its class
+        self._controller_name = controller_name or type(controller).__name__
         self.stop_reason = "not started"
         #: (127, 2) px: the pins at rest (the tracker's reference), once iteration has begun
         self.rest_pins_px: np.ndarray | None = None
@@ -94,7 +95,7 @@ class ContourFollower:
         return answer
 
     def __iter__(self) -> Iterator[ContourStep]:
-        env, p, stimulus, clock = self.env, self.scenario.protocol, self.stimulus, self.clock
+        env, p, stimulus, clock = self.env, self.protocol, self.stimulus, self.clock
         start_xy = object_to_work_xy(stimulus.start_point_mm)[0]
         end_xy = None if stimulus.end_point_mm is None else object_to_work_xy(stimulus.end_point_mm)[0]
         resolution = (env.camera.width, env.camera.height)

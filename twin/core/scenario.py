@@ -3,14 +3,14 @@ fidelity, effects), validated with pydantic. Errors name the file, field and val
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, ClassVar, Literal, Union
+from typing import Annotated, Any, Literal, Union
 
 from pydantic import Field, field_validator, model_validator
 
 from twin.core.errors import UserError
 from twin.core.poses import Pose
 from twin.core.resources import scenario_path
-from twin.core.calibration import DOME_MATERIAL, Calibration, load_calibration
+from twin.core.calibration import Calibration, load_calibration
 from twin.core.sensor import CameraModel
 from twin.core.validation import PoseList, RunName, no_link_out, StrictModel, bounded, bounded_list, read_yaml, validate_mapping
 
@@ -65,64 +65,11 @@ class CameraSpec(StrictModel):
     noise_std: float = bounded(0, 50, "grey levels", "pixel noise sigma, with camera_noise", 2.0)
 
 
-class PhysicsOverrides(StrictModel):
-    """Overrides of the fidelity level's dome parameters (twin.world.dome.flex.DomeParams), for sweeps."""
-
-    cellcount: Annotated[list[Annotated[int, Field(ge=2, le=12)]], Field(
-        min_length=3, max_length=3, description="dome grid cells along x, y, z (cells; each in [2, 12])")] | None = None
-    timestep_s: float | None = bounded(0, 0.05, "s", "physics time step", None, open_lo=True)
-    settle_px: float | None = bounded(0, 5, "px", "settle tolerance", None, open_lo=True)
-    surface_spacing_mm: float | None = bounded(0.5, 10, "mm", "collision surface spacing", None)
-    skin_spacing_mm: float | None = bounded(0, 5, "mm", "skin layer node spacing (twin.world.dome.skin), 0 = off, "
-                                            "else ≥ 0.5", None)
-    membrane_young_mpa: float | None = bounded(0, 10, "MPa", "skin membrane's Young's modulus (flex: "
-                                               "twin.world.dome.flex; compliant: twin.world.dome.compliance), 0 = off",
-                                               None)
-    gel_young_kpa: float | None = bounded(1, 1000, "kPa", "compliant dome: the gel's Young's modulus (the skin "
-                                          "and gel as one solid without a membrane)", None)
-    skin_bending: bool | None = Field(
-        default=None, description="compliant dome: the skin membrane also resists bending, a thin shell of its "
-                                  "modulus and thickness (default false; needs membrane_young_mpa > 0 here or in the "
-                                  "calibration's dome_material)")
-    increment_mm: float | None = bounded(0.05, 5, "mm", "compliant dome: the largest tool motion per contact increment "
-                                         "(the friction path's resolution; default 0.5 at fidelity default)", None)
-    gel_enclosed: bool | None = Field(
-        default=None, description="compliant dome: the gel is sealed in the dome and keeps its volume (default true); "
-                                  "false = an open elastic half-space, the body of the closed-form contact checks")
-    skin_held_deg: float | None = bounded(*DOME_MATERIAL["skin_held_deg"][1:3], "deg",
-                                          DOME_MATERIAL["skin_held_deg"][3] + "; default 90", None)
-
-    @field_validator("skin_spacing_mm")
-    @classmethod
-    def _skin_spacing(cls, v: float | None) -> float | None:
-        if v is not None and v != 0 and not 0.5 <= v <= 5:
-            raise ValueError(f"skin_spacing_mm must be 0 (off) or in [0.5, 5] mm, got {v}")
-        return v
-
-    #: overrides that only the flex dome has
-    FLEX_ONLY: ClassVar[tuple[str, ...]] = ("cellcount", "timestep_s", "settle_px", "skin_spacing_mm")
-
-    #: overrides that only the compliant dome has
-    COMPLIANT_ONLY: ClassVar[tuple[str, ...]] = ("gel_enclosed", "gel_young_kpa", "skin_bending", "increment_mm",
-                                                 "skin_held_deg")
-
-    def as_compliant_changes(self) -> dict:
-        """The overrides for the compliant dome (twin.world.dome.compliant.CompliantParams)."""
-        changes = {"spacing": None if self.surface_spacing_mm is None else self.surface_spacing_mm * 1e-3,
-                   "enclosed": self.gel_enclosed, "skin_bending": self.skin_bending,
-                   "young": None if self.gel_young_kpa is None else self.gel_young_kpa * 1e3,
-                   "membrane_young": None if self.membrane_young_mpa is None else self.membrane_young_mpa * 1e6,
-                   "step_length": None if self.increment_mm is None else self.increment_mm * 1e-3,
-                   "skin_held_deg": self.skin_held_deg}
-        return {k: v for k, v in changes.items() if v is not None}
-
-    def as_dome_changes(self) -> dict:
-        changes = {"cellcount": None if self.cellcount is None else tuple(self.cellcount), "timestep": self.timestep_s,
-                   "settle_px": self.settle_px,
-                   "surface_spacing": None if self.surface_spacing_mm is None else self.surface_spacing_mm * 1e-3,
-                   "skin_spacing": None if self.skin_spacing_mm is None else self.skin_spacing_mm * 1e-3,
-                   "membrane_young": None if self.membrane_young_mpa is None else self.membrane_young_mpa * 1e6}
-        return {k: v for k, v in changes.items() if v is not None}
+def calibrated_camera(camera: CameraSpec, calibration: Calibration | None) -> CameraModel:
+    """`camera`'s resolution and field of view with the calibration's intrinsics,
+    distortion and pose (the nominal camera without a calibration)."""
+    nominal = CameraModel(width=camera.width, height=camera.height, fov_y_deg=camera.fov_y_deg)
+    return nominal if calibration is None else calibration.camera_model(nominal)
 
 
 class SensorSpec(StrictModel):
@@ -239,7 +186,9 @@ Protocol = Annotated[Union[RenderProtocol, TapProtocol, SlideProtocol, ShearedTa
 
 class Scenario(StrictModel):
     """One run. README.md, "Scenarios", shows a whole file; every field's unit and range is in
-    its model's description here (ObjectSpec, SensorSpec, PhysicsOverrides, the protocols)."""
+    its model's description here (ObjectSpec, SensorSpec, the protocols) and, for `physics`,
+    in the dome model's settings (twin.world.dome.flex.FlexSettings,
+    twin.world.dome.compliant.CompliantSettings)."""
 
     name: RunName
     description: str = ""
@@ -250,9 +199,12 @@ class Scenario(StrictModel):
     work_frame: Literal["object"] | PoseList = "object"
     sensor: SensorSpec = SensorSpec()
     fidelity: Literal["fast", "default", "reference"] = "default"
-    #: dome model: MuJoCo's flex grid, or the compliant contact model (twin.world.dome.compliant)
-    dome: Literal["flex", "compliant"] = "flex"
-    physics: PhysicsOverrides = PhysicsOverrides()
+    #: the dome model's name (twin.world.dome.registry: flex, MuJoCo's flex grid, or compliant,
+    #: the compliant contact model)
+    dome: str = "flex"
+    #: overrides of the dome model's fidelity level, for sweeps: its own settings, units and
+    #: bounds (the model's schema, twin.world.dome.<model>; checked by twin.runs.spec)
+    physics: dict[str, Any] = {}
     effects: list[str] = ["contact", "friction", "render"]
     protocol: Protocol = RenderProtocol()
     hardware_config: str | None = None
@@ -268,24 +220,6 @@ class Scenario(StrictModel):
         if "camera_noise" in effects and "render" not in effects:
             raise ValueError("effect 'camera_noise' needs 'render'")
         return sorted(set(effects), key=EFFECTS.index)
-
-    @model_validator(mode="after")
-    def _overrides_fit_the_dome(self) -> "Scenario":
-        other = "flex" if self.dome == "compliant" else "compliant"
-        only = {"flex": PhysicsOverrides.FLEX_ONLY, "compliant": PhysicsOverrides.COMPLIANT_ONLY}[other]
-        given = [f"physics.{k}" for k in only if getattr(self.physics, k) is not None]
-        if given:
-            raise ValueError(f"{', '.join(given)}: only for the {other} dome (this scenario has dome: {self.dome})")
-        return self
-
-    @model_validator(mode="after")
-    def _bending_needs_the_membrane(self) -> "Scenario":
-        # with a calibration, its dome material may set the membrane: checked where both
-        # are applied (twin.world.scene.dome_params)
-        if self.physics.skin_bending and not self.physics.membrane_young_mpa and self.sensor.calibration is None:
-            raise ValueError(f"physics.skin_bending: true needs the skin membrane, membrane_young_mpa > 0 in "
-                             f"`physics` or in the calibration's dome_material (got {self.physics.membrane_young_mpa})")
-        return self
 
     def has(self, effect: str) -> bool:
         return effect in self.effects
@@ -307,10 +241,7 @@ class Scenario(StrictModel):
     def camera_model(self) -> CameraModel:
         """The sensor's camera model (resolution and field of view of `sensor.camera`, with
         the intrinsics, distortion and pose of `sensor.calibration` when it names one)."""
-        c = self.sensor.camera
-        nominal = CameraModel(width=c.width, height=c.height, fov_y_deg=c.fov_y_deg)
-        calibration = self.calibration()
-        return nominal if calibration is None else calibration.camera_model(nominal)
+        return calibrated_camera(self.sensor.camera, self.calibration())
 
     def calibration(self) -> Calibration | None:
         """The sensor's calibration (`sensor.calibration`: a file relative to the scenario,

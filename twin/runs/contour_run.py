@@ -13,15 +13,36 @@ import matplotlib.pyplot as plt
 import numpy as np
 from tqdm import tqdm
 
-from twin.control.contour import ContourFollower
+from twin.control.contour import ContourFollower, no_clock
+from twin.control.controllers import load_controller
+from twin.core.environment import Environment
+from twin.core.errors import UserError
 from twin.core.files import replace_file
 from twin.core.poses import work_to_object_xy
 from twin.core.scenario import Scenario
 from twin.runs.backends import make_environment
 from twin.runs.contour_metrics import contour_metrics
 from twin.runs.record import RunRecorder, load_run
+from twin.runs.spec import load_scenario_stimulus
 from twin.runs.training import model_for_scenario
-from twin.world.scene import load_scenario_stimulus
+from twin.world.stimuli import Stimulus
+
+
+class ScenarioFollower(ContourFollower):
+    """The closed loop (twin.control.contour.ContourFollower) of a contour scenario on
+    `env`: its protocol, its object (`stimulus`, loaded when not given) and its controller
+    (`controller`, an object or a name, replaces the scenario's `protocol.controller`).
+    UserError when the scenario's work frame is not the object's."""
+
+    def __init__(self, env: Environment, scenario: Scenario, model, stimulus: Stimulus | None = None, clock=no_clock,
+                 controller=None) -> None:
+        if scenario.work_frame != "object":
+            raise UserError(f"{scenario.source}: contour following needs work_frame: object")
+        stimulus = load_scenario_stimulus(scenario) if stimulus is None else stimulus
+        protocol = scenario.protocol
+        spec = protocol.controller if controller is None else controller
+        super().__init__(env, protocol, model, stimulus, load_controller(spec, protocol, scenario.source_dir), clock,
+                         controller_name=spec if isinstance(spec, str) else None)
 
 
 def run_contour(scenario: Scenario, out: Path, seed: int | None = None, progress: bool = True, model=None,
@@ -38,7 +59,7 @@ def run_contour(scenario: Scenario, out: Path, seed: int | None = None, progress
     stimulus = load_scenario_stimulus(scenario)
     wall0 = time.perf_counter()
     env = make_environment(scenario, seed)
-    follower = ContourFollower(env, scenario, model, stimulus, controller=controller)
+    follower = ScenarioFollower(env, scenario, model, stimulus, controller=controller)
     recorder = RunRecorder.resume(out) if resume else RunRecorder(
         out, scenario, seed, scenario.backend, scenario.camera_model(), extra={"model": model.info.get("path", "in memory")})
     try:

@@ -29,7 +29,7 @@ from twin.core.poses import Pose, object_to_work_xy, work_to_object_xy
 from twin.core.scenario import Scenario, hover_over, load_scenario
 from twin.runs.backends import make_environment
 from twin.sensing.pins import PinReader
-from twin.world.scene import load_scenario_stimulus
+from twin.runs.spec import load_scenario_stimulus
 import shapely
 
 

@@ -12,11 +12,12 @@ import mujoco
 from twin.world.arm import ArmDynamics
 from twin.core.environment import Environment, Observation
 from twin.core.errors import UnreachablePoseError, UserError
-from twin.core.poses import Pose, invert_transform, make_transform
+from twin.core.poses import Pose, invert_transform
 from twin.world.render import PinRenderer, render_overview
 from twin.core.scenario import DEFAULT_SPEED_MM_S, START_POSE, Scenario
 from twin.world.scene import TOOL2FLANGE, Scene, build_overview, build_scene, kinematics, sensor_physics
 from twin.runs.protocols import protocol_moves
+from twin.runs.spec import SimSpec, scene_spec, sim_spec
 
 
 
@@ -29,22 +30,23 @@ class SimEnvironment(Environment):
     """
 
     def __init__(self, scenario: Scenario, seed: int | None = None, start_pose: Pose = START_POSE) -> None:
-        self.scenario = scenario
-        self.seed = scenario.seed if seed is None else seed
+        #: the scenario resolved once (twin.runs.spec): everything below is built from it
+        self.spec: SimSpec = sim_spec(scenario)
+        spec = self.spec
+        self.seed = spec.seed if seed is None else seed
         self.start_pose = start_pose
-        self.scene: Scene = build_scene(scenario, start_pose)
-        self.camera = self.scene.camera
-        calibration = scenario.calibration()
+        self.scene: Scene = build_scene(spec.scene)
+        self.camera = spec.scene.camera
         #: (127, 2) px the sensor's rest layout differs from the lattice (calibration)
-        self.rest_offsets_px = None if calibration is None else calibration.rest_offsets_px(self.camera.width)
+        self.rest_offsets_px = spec.rest_offsets_px
         #: the dome apex relative to the commanded TCP (calibration's tcp_offset_mm), 4×4 m
-        self.tcp2apex = make_transform(np.eye(3), np.zeros(3) if calibration is None else calibration.tcp_offset_m)
+        self.tcp2apex = spec.tcp2apex
         self.work_frame = Pose.from_matrix(self.scene.work2world)
         self.world2work = invert_transform(self.scene.work2world)
         self._renderer = None
-        if scenario.has("render"):
-            self._renderer = PinRenderer(self.camera.nominal(), lighting=scenario.has("lighting"), msaa=scenario.sensor.camera.msaa)
-        self._noise = scenario.sensor.camera.noise_std if scenario.has("camera_noise") else 0.0
+        if spec.has("render"):
+            self._renderer = PinRenderer(self.camera.nominal(), lighting=spec.has("lighting"), msaa=spec.msaa)
+        self._noise = spec.noise_std
         #: wall time (s) spent per stage since construction: physics (move + settle), render
         self.timings = {"physics": 0.0, "render": 0.0, "frames": 0}
         self._new_episode()
@@ -55,7 +57,7 @@ class SimEnvironment(Environment):
         start = self.scene.work2world @ self.start_pose.to_matrix()
         self._q = kinematics().inverse(start, TOOL2FLANGE)  # the start pose must be reachable too
         self._commanded = start
-        self.arm = ArmDynamics(kinematics(), TOOL2FLANGE, self._q) if self.scenario.has("arm_dynamics") else None
+        self.arm = ArmDynamics(kinematics(), TOOL2FLANGE, self._q) if self.spec.has("arm_dynamics") else None
         self.physics = sensor_physics(self.scene, start @ self.tcp2apex)
         self._frame = None
 
@@ -76,7 +78,7 @@ class SimEnvironment(Environment):
         return pins_px if self.rest_offsets_px is None else pins_px + self.rest_offsets_px
 
     def observe_frame(self):
-        """The settled physics frame at the current pose (twin.world.dome.physics.Frame)."""
+        """The settled physics frame at the current pose (twin.world.dome.base.Frame)."""
         if self._frame is None:
             self._frame = self.physics.settle()
         return self._frame
@@ -174,7 +176,7 @@ def render_scenario_view(scenario: Scenario, out: Path, view: str = "sensor") ->
             env.move_to(pose)
             image = env.observe().frame
     else:
-        model, data = build_overview(scenario, pose)
+        model, data = build_overview(scene_spec(scenario), pose)
         image = render_overview(model, data, lookat=np.array([0.3, 0.0, 0.15]), distance=1.3)
     if not cv2.imwrite(str(out), image[..., ::-1]):
         raise UserError(f"could not write {out}")

@@ -21,11 +21,11 @@ import numpy as np
 
 from twin.core.errors import UserError
 from twin.core.resources import cache_dir, code_digest, package_version, scenario_path
-from twin.world.scene import dome_params
 from twin.sensing.perception import PerceptionModel
 from twin.runs.record import Run, load_run
 from twin.core.scenario import Scenario, load_scenario
 from twin.runs.runner import record_protocol
+from twin.runs.spec import dome_params
 
 def train_from_run(run: Run, method: str = "pca", seed: int = 0) -> PerceptionModel:
     """Fit the paper's model (or the baseline) on a recorded tap run."""
@@ -47,7 +47,7 @@ def tap_scenario_like(scenario: Scenario) -> Scenario:
     taps = load_scenario(scenario_path("taps_rectangle"))
     sensor = scenario.sensor.model_dump()
     sensor["calibration"] = scenario.calibration()
-    return taps.with_changes(dome=scenario.dome, fidelity=scenario.fidelity, physics=scenario.physics.model_dump(),
+    return taps.with_changes(dome=scenario.dome, fidelity=scenario.fidelity, physics=dict(scenario.physics),
                              effects=list(scenario.effects), sensor=sensor, seed=scenario.seed)
 
 

@@ -13,11 +13,9 @@ import numpy as np
 
 from twin.world import gl
 from twin.world.render import PinRenderer
-from twin.core.sensor import CameraModel, TacTipGeometry
-from twin.core.scenario import ContourProtocol, PhysicsOverrides
-from twin.world.dome.compliance import CapSurface, DomeCompliance
-from twin.world.dome.compliant import COMPLIANT_LEVELS, SKIN_PHYSICS
-from twin.world.dome.flex import FIDELITY_LEVELS
+from twin.core.sensor import CameraModel
+from twin.core.scenario import ContourProtocol
+from twin.world.dome.registry import DOME_MODELS
 from twin.world.dome.testbed import edge_scene, sensor_down
 from twin.sensing.perception import benchmark_perception
 from twin.runs.runner import run_chunk, worker_environment
@@ -163,6 +161,10 @@ def _print_rows(title: str, rows: list[dict]) -> None:
         print("  ".join(fmt(r.get(k, "")).ljust(w) for k, w in zip(keys, widths)))
 
 
+#: the physics benchmark's row every ratio is to: (dome model, fidelity level)
+BASELINE_ROW = ("flex", "default")
+
+
 def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose: bool = True) -> list[dict]:
     """ms of physics per settled frame for each dome model and fidelity level, best of
     `repeats`, and each row's time as a ratio of the flex default's (same run).
@@ -192,25 +194,16 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
     depth, step = contour.depth_mm, contour.step_mm
     poses = ([sensor_down(0, 0, depth)] + [sensor_down(0, step * k, depth) for k in range(1, 9)]
              + [sensor_down(0, 8 * step, -2)])
-    variant_physics = {**{f"default+{name}": physics for name, physics in SKIN_PHYSICS.items()},
-                       "default+increment_1mm": {"increment_mm": 1.0}}
-    variants = {name: COMPLIANT_LEVELS["default"].with_(**PhysicsOverrides(**physics).as_compliant_changes())
-                for name, physics in variant_physics.items()}
-    models = [("flex", FIDELITY_LEVELS), ("compliant", COMPLIANT_LEVELS), ("compliant", variants)]
+    models = [(builder, builder.levels) for builder in DOME_MODELS.values()]
+    models += [(builder, {f"default+{name}": builder.params("default", builder.settings(**physics), {}, "benchmark")
+                          for name, physics in builder.presets.items()})
+               for builder in DOME_MODELS.values() if builder.presets]
     rows, params_of_rows = [], []
-    for dome, table in models:
+    for builder, table in models:
         for level in [level for level in levels or list(table) if level in table]:
             params = table[level]
-            precompute = cached = 0.0
-            if dome == "compliant":
-                surface = CapSurface(TacTipGeometry(), params.spacing, params.extent_deg)
-                compliance = DomeCompliance(surface, *params.material)
-                t0 = time.perf_counter()
-                compliance.one_off(refresh=True)
-                precompute = time.perf_counter() - t0
-                t0 = time.perf_counter()
-                compliance.precompute()
-                cached = time.perf_counter() - t0
+            precompute, cached = builder.precompute(params)
+            dome = builder.name
             rows.append({"dome": dome, "level": level, "precompute_s": precompute, "cached_s": cached})
             params_of_rows.append(params)
     seconds = np.zeros((repeats, len(rows)))  # [round, row]
@@ -224,7 +217,7 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
                 physics.settle()
             if round_ >= 0:
                 seconds[round_, i], steps[i] = time.perf_counter() - t0, physics.steps
-    flex = next((seconds[:, i] for i, r in enumerate(rows) if r["dome"] == "flex" and r["level"] == "default"), None)
+    flex = next((seconds[:, i] for i, r in enumerate(rows) if (r["dome"], r["level"]) == BASELINE_ROW), None)
     for i, r in enumerate(rows):
         best = float(seconds[:, i].min())
         r.update({"ms_per_frame": 1e3 * best / len(poses), "steps_per_frame": steps[i] / len(poses),

@@ -16,12 +16,13 @@ from pathlib import Path
 from twin.core.errors import Terminated, UserError
 from twin.tools.boundary import OneLineParser, bounded_float, bounded_int, guarded, output_file
 from twin.runs.parallel import one_blas_thread
-from twin.core.scenario import Scenario, load_scenario
+from twin.core.scenario import Scenario
 from twin.control.controllers import load_controller
 from twin.sensing.perception import PerceptionModel
 from hardware.config import load_hardware_config
-from twin.core.scenario import START_POSE
-from twin.world.scene import build_scene, load_scenario_stimulus
+from twin.runs.spec import load_scenario, load_scenario_stimulus, scene_spec
+from twin.world.dome.registry import DOME_MODELS
+from twin.world.scene import build_scene
 from twin.runs.sim_env import check_reachable, render_scenario_view
 from twin.runs.run import resume_run, run_scenario
 from twin.runs.lab_recording import import_lab_recording, with_taps_from
@@ -70,7 +71,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
         scenario = _checked_scenario(path)
         reach = ""
         if args.compile and scenario.backend == "sim":
-            reach = f", {check_reachable(scenario, build_scene(scenario, START_POSE))} poses in reach"
+            reach = f", {check_reachable(scenario, build_scene(scene_spec(scenario)))} poses in reach"
         print(f"{path}: ok ({scenario.protocol.kind}, object {scenario.object.name or scenario.object.stl or scenario.object.outline}, "
               f"effects {', '.join(scenario.effects) or 'none'}{reach})")
     return 0
@@ -366,7 +367,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="out/fig2_shear.png")
     p.add_argument("--fidelity", choices=("fast", "default", "reference"), default="default")
     p.add_argument("--no-friction", action="store_true", help="frictionless contact: slides should match taps")
-    p.add_argument("--dome", choices=("flex", "compliant"), default="flex", help="the dome model (scenario `dome`)")
+    p.add_argument("--dome", choices=list(DOME_MODELS), default="flex", help="the dome model (scenario `dome`)")
     p.set_defaults(func=_cmd_figure)
 
     p = sub.add_parser("demo", help="the main job: the six-object contour-following demo")

@@ -21,7 +21,7 @@ from twin.analysis.sweep.fronts import (
     default_on_front,
     is_finite_number,
 )
-from twin.analysis.sweep.knobs import DEFAULT, REFERENCES, Setting
+from twin.analysis.sweep.knobs import BASE_DOME, DEFAULT, REFERENCES, Setting
 from twin.analysis.sweep.measure import run_sweep
 from twin.analysis.sweep.probe import Probe
 
@@ -253,14 +253,14 @@ def plot_pareto(rows: list[dict], path: Path) -> Path:
             if not pts:
                 continue
             for dome, marker in DOME_MARKERS.items():
-                mine = [r for r in pts if r.get("dome", "flex") == dome]
+                mine = [r for r in pts if r.get("dome", BASE_DOME) == dome]
                 if mine:
                     ax.scatter([r["total_ms"] for r in mine], [r[metric] for r in mine], c=colour, s=22, zorder=3,
                                marker=marker, label=("rendered + tracked" if output == "frames" else "projected pins")
-                               + ("" if dome == "flex" else f" ({dome} dome)"))
+                               + ("" if dome == BASE_DOME else f" ({dome} dome)"))
             # a pin metric's front is per dome model (each against its own reference), the others across both
             for dome in list(DOME_MARKERS) if metric in PIN_METRICS else [None]:
-                front = sorted((r for r in pts if r.get(key) and (dome is None or r.get("dome", "flex") == dome)),
+                front = sorted((r for r in pts if r.get(key) and (dome is None or r.get("dome", BASE_DOME) == dome)),
                                key=lambda r: r["total_ms"])
                 if front and ringed:
                     ax.scatter([r["total_ms"] for r in front], [r[metric] for r in front], s=90, facecolor="none",

@@ -30,7 +30,8 @@ from twin.runs.contour_run import object_path
 from twin.runs.record import Run, load_run
 from twin.analysis.comparison import paired_runs
 from twin.world.render import OverviewRenderer
-from twin.world.scene import Overview, load_scenario_stimulus
+from twin.runs.spec import load_scenario_stimulus, scene_spec
+from twin.world.scene import Overview
 
 VIDEO_FPS = 10  # frames/s: one frame per sample
 QUALITY = 8  # imageio-ffmpeg quality, 0–10 (10 = best)
@@ -164,7 +165,7 @@ class ScenePanel:
     (on llvmpipe they took 140 of a frame's 160 ms)."""
 
     def __init__(self, scenario, size: tuple[int, int] = SIDE_SIZE) -> None:
-        self.overview = Overview(scenario)
+        self.overview = Overview(scene_spec(scenario))
         lookat = self.overview.object2world[:3, 3] + np.array([-0.15, 0.0, 0.2])  # between base and object
         self.renderer = OverviewRenderer(self.overview.model, *size, lookat=lookat, distance=1.0,
                                          azimuth=120.0, elevation=-25.0, shadows=False)

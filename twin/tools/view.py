@@ -16,11 +16,12 @@ import numpy as np
 
 import mujoco.viewer
 
-from twin.control.contour import ContourFollower
 from twin.core.environment import Environment, Observation
 from twin.core.errors import UserError
 from twin.core.scenario import Scenario
 from twin.runs.backends import make_environment
+from twin.runs.contour_run import ScenarioFollower
+from twin.runs.spec import scene_spec
 from twin.runs.protocols import protocol_moves
 from twin.runs.runner import chunk_moves, chunk_samples
 from twin.runs.training import model_for_scenario
@@ -41,7 +42,7 @@ def scenario_steps(env: Environment, scenario: Scenario) -> Iterator[tuple[Obser
     protocol: contour following closes the loop with the scenario's model; open-loop
     protocols run chunk by chunk from a reset, as `twin run` does."""
     if scenario.protocol.kind == "contour":
-        follower = ContourFollower(env, scenario, model_for_scenario(scenario))
+        follower = ScenarioFollower(env, scenario, model_for_scenario(scenario))
         for step in follower:
             yield step.observation, step.pins_px, step.found, step.labels, follower.rest_pins_px
         return
@@ -57,7 +58,7 @@ def view_scenario(scenario: Scenario, seed: int | None = None, wait: bool = True
     if not has_display():
         raise UserError("twin view needs a display, and neither DISPLAY nor WAYLAND_DISPLAY is set "
                         "(headless: `twin run SCENARIO --video` writes an MP4 of the run instead)")
-    overview = Overview(scenario, screen_px=SCREEN_PX, screen_azimuth_deg=VIEW_AZIMUTH_DEG)
+    overview = Overview(scene_spec(scenario), screen_px=SCREEN_PX, screen_azimuth_deg=VIEW_AZIMUTH_DEG)
     env = make_environment(scenario, seed)
     resolution = (env.camera.width, env.camera.height)
     shown = 0

@@ -1,16 +1,17 @@
-"""Scene assembly: a scenario in, compiled MuJoCo models out, with only what its effects
-need.
+"""Scene assembly: a resolved scene (`SceneSpec`: values, resolved from a scenario once by
+twin.runs.spec) in, compiled MuJoCo models out, with only what its effects need.
 
-The **physics scene** is built in the tool frame (twin.world.dome.flex.add_stimulus_carrier says
-why): the TacTip sits still at the origin and the object rides a free "stimulus carrier"
-that twin.world.dome.physics drives along the commanded path. The **overview scene** is the lab as
+The **physics scene** is built in the tool frame (twin.world.dome.carrier.add_stimulus_carrier
+says why): the TacTip sits still at the origin and the object rides a free "stimulus
+carrier" that the dome model (twin.world.dome.base.DomeModel) moves along the commanded path. The **overview scene** is the lab as
 a person sees it — table, IRB120, TacTip, object — for `twin render --view scene`; it is
 only rendered, never stepped.
 
 | effect        | what it builds                                                      |
 |---------------|---------------------------------------------------------------------|
 | contact       | the object's convex collision pieces (else the object has none)      |
-| friction      | frictional dome contacts (else condim 1, no friction rows at all)    |
+| friction      | frictional dome contacts (else condim 1, no friction rows at all;    |
+|               | the dome model gets friction coefficient 0)                          |
 | render, camera_noise, lighting | nothing here: twin.world.render                          |
 
 World = robot base frame on the table top (README "Conventions").
@@ -24,15 +25,12 @@ import numpy as np
 
 import mujoco
 
-from twin.world.dome.flex import FIDELITY_LEVELS, DomeParams, TacTipHandles, add_stimulus_carrier, add_tactip
-from twin.world.dome.compliant import COMPLIANT_LEVELS, CompliantParams, CompliantPhysics
-from twin.world.dome.physics import SensorPhysics
-from twin.world.dome.material import apply_dome_material
+from twin.world.dome.base import DomeBuilder, DomeModel, DomeParameters
+from twin.world.dome.carrier import add_stimulus_carrier
 from twin.core.errors import UserError
 from twin.world.kinematics import IRB120_XML, Irb120Kinematics
 from twin.core.poses import Pose, make_transform, matrix_to_quat_wxyz
-from twin.core.scenario import Scenario
-from twin.world.stimuli import Stimulus, load_stimulus
+from twin.world.stimuli import Stimulus
 from twin.core.sensor import CameraModel, TacTipGeometry
 
 #: Flange (ABB tool0) to the undeformed dome apex along the flange's +z (m): the TacTip's
@@ -45,48 +43,77 @@ SCREEN_HEIGHT_M, SCREEN_DISTANCE_M = 0.4, 0.3  # Overview's screen: height, dist
 OBJECT_PRIORITY = 1  # object geoms win the friction mix against the skin (contact μ = the object's)
 
 
-@dataclass
-class Scene:
-    """The compiled physics scene and what the simulation needs to drive it."""
+@dataclass(frozen=True)
+class SceneSpec:
+    """What the physics scene is built from: values resolved from a scenario once
+    (twin.runs.spec.sim_spec).
 
-    scenario: Scenario
-    model: mujoco.MjModel
-    data: mujoco.MjData
+    name: named in the model and in every PhysicsError. source: the scenario file, named
+    in errors. stimulus: the object. object2world, work2world: 4×4 (m), its placement and
+    the work frame. dome: the dome model's builder (twin.world.dome.registry), dome_params:
+    its parameters. camera: the (calibrated) camera, whose pixels the dome settles in.
+    contact, friction: the scenario's effects of those names.
+    """
+
+    name: str
+    source: str
     stimulus: Stimulus
-    tactip: TacTipHandles | None   # None for the compliant dome (not a MuJoCo body)
-    dome_params: DomeParams | CompliantParams
-    camera: CameraModel
     object2world: np.ndarray
     work2world: np.ndarray
+    dome: DomeBuilder
+    dome_params: DomeParameters
+    camera: CameraModel
+    contact: bool
+    friction: bool
 
 
-def load_scenario_stimulus(scenario: Scenario) -> Stimulus:
-    """The scenario's object (built-in, STL or outline, paths relative to the scenario)."""
-    o = scenario.object
-    kwargs = {}
-    if o.material is not None:
-        kwargs["material"] = o.material
-    if o.friction is not None:
-        kwargs["friction"] = o.friction
-    calibration = scenario.calibration()
-    if calibration is not None and calibration.friction is not None:
-        kwargs["friction"] = calibration.friction  # the sensor's fitted skin–stimulus friction
-    if o.name is not None:
-        return load_stimulus(o.name, **kwargs)
-    path = scenario.resolve(o.stl or o.outline)
-    return load_stimulus(path, thickness_mm=o.thickness_mm, **kwargs)
+@dataclass
+class Scene:
+    """The compiled physics scene and what the simulation needs to drive it.
+
+    dome_handles: what the dome model added to the scene, resolved against `model`
+    (twin.world.dome.flex's TacTipHandles); None where it adds no body."""
+
+    spec: SceneSpec
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    dome_handles: object | None
+
+    @property
+    def stimulus(self) -> Stimulus:
+        return self.spec.stimulus
+
+    @property
+    def dome_params(self) -> DomeParameters:
+        return self.spec.dome_params
+
+    @property
+    def camera(self) -> CameraModel:
+        return self.spec.camera
+
+    @property
+    def object2world(self) -> np.ndarray:
+        return self.spec.object2world
+
+    @property
+    def work2world(self) -> np.ndarray:
+        return self.spec.work2world
 
 
-def object_and_work_frames(scenario: Scenario, stimulus: Stimulus) -> tuple[np.ndarray, np.ndarray]:
-    """(object2world, work2world) 4×4 (m) for the scenario's placement."""
-    px, py = np.asarray(scenario.placement.position_mm) * 1e-3
-    yaw = np.radians(scenario.placement.yaw_deg)
+def object_and_work_frames(position_mm: tuple[float, float], yaw_deg: float, thickness_mm: float,
+                           work_pose: Pose | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(object2world, work2world) 4×4 (m): the object's reference point at `position_mm`
+    (x, y) on the table, turned by `yaw_deg` about the table normal, its top
+    `thickness_mm` above the table; the work frame is `work_pose` (world, mm/deg), or the
+    object frame turned over (z into the object) when None."""
+    px, py = np.asarray(position_mm, float) * 1e-3
+    yaw = np.radians(yaw_deg)
     rz = np.array([[np.cos(yaw), -np.sin(yaw), 0], [np.sin(yaw), np.cos(yaw), 0], [0, 0, 1]])
-    object2world = make_transform(rz, np.array([px, py, stimulus.thickness_mm * 1e-3]))
-    if scenario.work_frame == "object":
+    object2world = make_transform(rz, np.array([px, py, thickness_mm * 1e-3]))
+    if work_pose is None:
         work2world = make_transform(rz @ FLIP_X, object2world[:3, 3])
     else:
-        work2world = Pose.from_array(scenario.work_frame).to_matrix()
+        work2world = work_pose.to_matrix()
     return object2world, work2world
 
 
@@ -104,53 +131,29 @@ def _add_object(spec: mujoco.MjSpec, body: mujoco.MjsBody, stimulus: Stimulus, c
             g.contype = g.conaffinity = 0
 
 
-def dome_params(scenario: Scenario) -> DomeParams | CompliantParams:
-    """The scenario's dome model at its fidelity level with its `physics` overrides and
-    its calibration's dome material applied."""
-    if scenario.dome == "compliant":
-        params = COMPLIANT_LEVELS[scenario.fidelity].with_(**scenario.physics.as_compliant_changes())
-    else:
-        params = FIDELITY_LEVELS[scenario.fidelity].with_(**scenario.physics.as_dome_changes())
-    calibration = scenario.calibration()
-    if calibration is not None:
-        params = apply_dome_material(params, calibration.dome_material)
-    if isinstance(params, CompliantParams) and params.skin_bending and not params.membrane_young:
-        raise UserError(f"{scenario.source}: physics.skin_bending: true needs the skin membrane, membrane_young_mpa "
-                        f"> 0 in `physics` or in the calibration's dome_material (neither sets it)")
-    return params
-
-
-def build_scene(scenario: Scenario, start_pose: Pose) -> Scene:
-    """Compile the physics scene with the sensor at `start_pose` (work frame, mm/deg)."""
-    stimulus = load_scenario_stimulus(scenario)
-    params = dome_params(scenario)
-    object2world, work2world = object_and_work_frames(scenario, stimulus)
-    spec = mujoco.MjSpec()
-    spec.modelname = f"twin_{scenario.name}"
-    carrier = add_stimulus_carrier(spec)
-    _add_object(spec, carrier, stimulus, collide=scenario.has("contact"), friction=scenario.has("friction"))
-    handles = None
-    if scenario.dome == "flex":
-        handles = add_tactip(spec, spec.worldbody, TacTipGeometry(), params, friction=scenario.has("friction"))
+def build_scene(spec: SceneSpec) -> Scene:
+    """Compile the physics scene: the object on the stimulus carrier and the dome model's bodies."""
+    model_spec = mujoco.MjSpec()
+    model_spec.modelname = f"twin_{spec.name}"
+    carrier = add_stimulus_carrier(model_spec)
+    _add_object(model_spec, carrier, spec.stimulus, collide=spec.contact, friction=spec.friction)
+    added = spec.dome.add_to_scene(model_spec, spec.dome_params, spec.friction)
     try:
-        model = spec.compile()
+        model = model_spec.compile()
     except ValueError as err:
-        raise UserError(f"{scenario.source}: the scene does not compile: {err}") from None
+        raise UserError(f"{spec.source}: the scene does not compile: {err}") from None
     data = mujoco.MjData(model)
-    return Scene(scenario, model, data, stimulus, None if handles is None else handles.resolve(model), params,
-                 scenario.camera_model(), object2world, work2world)
+    return Scene(spec, model, data, None if added is None else added.resolve(model))
 
 
-def sensor_physics(scene: Scene, start_tool2world: np.ndarray) -> SensorPhysics | CompliantPhysics:
-    """The scene's dome model, stepping from `start_tool2world` (lab pose of the dome
-    apex, 4×4 m): the flex dome (SensorPhysics) or the compliant one (CompliantPhysics)."""
-    scenario = scene.scenario
-    if scene.tactip is None:
-        friction = scene.stimulus.friction if scenario.has("friction") else 0.0
-        return CompliantPhysics(scene.model, scene.data, scene.dome_params, friction, scenario.name, start_tool2world,
-                                stimulus2world=scene.object2world, work2world=scene.work2world)
-    return SensorPhysics(scene.model, scene.data, scene.tactip, scene.dome_params, scenario.name, start_tool2world,
-                         stimulus2world=scene.object2world, work2world=scene.work2world, camera=scene.camera)
+def sensor_physics(scene: Scene, start_tool2world: np.ndarray) -> DomeModel:
+    """The scene's dome model running, from `start_tool2world` (lab pose of the dome apex,
+    4×4 m)."""
+    spec = scene.spec
+    return spec.dome.start(scene.model, scene.data, scene.dome_handles, spec.dome_params,
+                           friction=spec.stimulus.friction if spec.friction else 0.0, name=spec.name,
+                           start_tool2world=start_tool2world, stimulus2world=spec.object2world,
+                           work2world=spec.work2world, camera=spec.camera)
 
 
 def _add_tactip_visual(body: mujoco.MjsBody, geometry: TacTipGeometry) -> None:
@@ -171,15 +174,16 @@ class Overview:
     re-poses the arm by inverse kinematics (no recompilation), so a sequence of poses
     costs one IK solve and one forward pass each."""
 
-    def __init__(self, scenario: Scenario, screen_px: tuple[int, int] | None = None,
+    def __init__(self, scene: SceneSpec, screen_px: tuple[int, int] | None = None,
                  screen_azimuth_deg: float = 120.0) -> None:
-        """screen_px: (width, height) of an RGB texture shown on a screen standing beyond
+        """scene: the object, its placement and the work frame (twin.runs.spec.sim_spec).
+        screen_px: (width, height) of an RGB texture shown on a screen standing beyond
         the object as seen from a free camera at `screen_azimuth_deg` (deg), facing it
         (`screen_texture`): where `twin view` shows the sensor's frame."""
-        stimulus = load_scenario_stimulus(scenario)
-        self.object2world, self.work2world = object_and_work_frames(scenario, stimulus)
+        stimulus = scene.stimulus
+        self.object2world, self.work2world = scene.object2world, scene.work2world
         spec = mujoco.MjSpec()
-        spec.modelname = f"overview_{scenario.name}"
+        spec.modelname = f"overview_{scene.name}"
         spec.visual.global_.offwidth, spec.visual.global_.offheight = 1280, 960
         spec.worldbody.add_light(pos=[0.3, -0.3, 1.5], dir=[-0.2, 0.2, -1], diffuse=[0.7, 0.7, 0.7])
         spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=list(TABLE_HALF_SIZE),
@@ -231,8 +235,8 @@ class Overview:
         mujoco.mj_forward(self.model, self.data)
 
 
-def build_overview(scenario: Scenario, pose: Pose) -> tuple[mujoco.MjModel, mujoco.MjData]:
+def build_overview(scene: SceneSpec, pose: Pose) -> tuple[mujoco.MjModel, mujoco.MjData]:
     """The overview scene (`Overview`) with the sensor at `pose` (work frame, mm/deg)."""
-    overview = Overview(scenario)
+    overview = Overview(scene)
     overview.pose_sensor(pose)
     return overview.model, overview.data

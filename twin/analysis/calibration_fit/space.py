@@ -13,7 +13,7 @@ from twin.core.calibration import Calibration, CameraCalibration
 from twin.core.errors import UserError
 from twin.core.scenario import Scenario
 from twin.world.dome.material import dome_material_of
-from twin.world.scene import dome_params, load_scenario_stimulus
+from twin.runs.spec import dome_params, load_scenario_stimulus
 
 RENDER_EFFECTS = {"render", "camera_noise", "lighting"}
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from twin.analysis.sweep.knobs import DEFAULT
+from twin.analysis.sweep.knobs import BASE_DOME, DEFAULT
 from twin.runs.contour_metrics import COMPLETED_STOPS
 
 #: Accuracy columns measured against the dome's own reference (compared within a dome only).
@@ -116,7 +116,7 @@ def peers(a: dict, b: dict, metrics: str | tuple[str, ...] = PRIMARY) -> bool:
 def _same_dome_if_pins(a: dict, b: dict, metrics: str | tuple[str, ...]) -> bool:
     """Pin metrics compare rows of one dome only (PIN_METRICS); other metrics any two rows."""
     pin = any(m in PIN_METRICS for m in metric_tuple(metrics))
-    return not pin or a.get("dome", "flex") == b.get("dome", "flex")
+    return not pin or a.get("dome", BASE_DOME) == b.get("dome", BASE_DOME)
 
 
 def dominators(rows: list[dict], row: dict, metrics: str | tuple[str, ...] = PRIMARY) -> list[str]:

@@ -7,13 +7,14 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from twin.core.scenario import scenario_from_dict
-from twin.world.dome.compliant import SKIN_PHYSICS
-from twin.world.dome.flex import FIDELITY_LEVELS
+from twin.world.dome.registry import DOME_MODELS
 
 if TYPE_CHECKING:
     from twin.core.scenario import Scenario
 
 BASE_EFFECTS: tuple[str, ...] = ("contact", "friction", "render")
+#: the base scenario's dome model (a row without a `dome` column ran it; unlabelled in pareto.png)
+BASE_DOME = "flex"
 REFERENCE = "reference"
 DEFAULT = "default"
 #: Each dome model's accuracy reference (its reference level, exact projected pins): a
@@ -28,10 +29,10 @@ class Setting:
     """One point of the sweep: the default scenario with one knob turned.
 
     name: short id (CSV `setting`); knob: which knob it turns (groups the table).
-    fidelity: the dome model's fidelity level (twin.world.dome.flex.FIDELITY_LEVELS or
-    twin.world.dome.compliant.COMPLIANT_LEVELS). physics: scenario `physics` overrides
+    fidelity: the dome model's fidelity level (its builder's `levels`, twin.world.dome.registry).
+    physics: scenario `physics` overrides
     (cellcount [i, j, k], timestep_s s, settle_px px, surface_spacing_mm mm, skin_spacing_mm mm,
-    gel_enclosed, increment_mm mm, …; twin.core.scenario.PhysicsOverrides). dome: the scenario's dome model ('flex' or 'compliant').
+    gel_enclosed, increment_mm mm, …; the dome model's settings, twin.world.dome.registry). dome: the scenario's dome model ('flex' or 'compliant').
     effects: scenario effects. camera: scenario `sensor.camera` overrides (width px,
     height px, msaa samples, noise_std grey levels). note: what the setting shows.
     pins_comparable: False where the setting changes the dome's material model (a skin over
@@ -46,7 +47,7 @@ class Setting:
     effects: tuple[str, ...] = BASE_EFFECTS
     camera: dict = field(default_factory=dict)
     note: str = ""
-    dome: str = "flex"
+    dome: str = BASE_DOME
     pins_comparable: bool = True
 
     @property
@@ -68,8 +69,12 @@ class Setting:
         return scenario_from_dict(data, f"<sweep setting {self.name}>")
 
 
+#: the compliant dome's skins over the gel, as scenario `physics` (twin.world.dome.compliant.SKIN_PHYSICS)
+SKIN_PRESETS = DOME_MODELS["compliant"].presets
+
+
 def _default_settle_px() -> float:
-    return FIDELITY_LEVELS["default"].settle_px
+    return DOME_MODELS["flex"].levels["default"].settle_px
 
 
 def full_settings() -> list[Setting]:
@@ -91,7 +96,7 @@ def full_settings() -> list[Setting]:
         Setting("settle_x2", "settle tolerance", physics={"settle_px": s0 * 2.0}),
         Setting("grid_3x3x2", "dome resolution", physics={"cellcount": [3, 3, 2]}),
         Setting("grid_5x5x2", "dome resolution", physics={"cellcount": [5, 5, 2]}),
-        Setting("skin_off", "skin layer", physics={"skin_spacing_mm": 0.0}, note="no sub-grid skin layer (twin.world.dome.skin)"),
+        Setting("skin_off", "skin layer", physics={"skin_spacing_mm": 0.0}, note="no sub-grid skin layer (twin.world.dome.flex.skin)"),
         Setting("skin_1mm", "skin layer", physics={"skin_spacing_mm": 1.0}),
         Setting("membrane_off", "skin membrane", physics={"membrane_young_mpa": 0.0}, note="gel only (twin.world.dome.flex)"),
         Setting("render_off", "render", effects=no_render, note="pins projected, no frames"),
@@ -117,13 +122,13 @@ def full_settings() -> list[Setting]:
                 note="compliant, the gel as an open half-space (not sealed)"),
         Setting("compliant_increment_1mm", "compliant increment", "default", physics={"increment_mm": 1.0},
                 dome="compliant", note="compliant, 1.5 mm nodes, 1 mm increments (the default's are 0.5 mm)"),
-        Setting("compliant_membrane", "compliant skin", "default", physics=SKIN_PHYSICS["membrane"], dome="compliant",
+        Setting("compliant_membrane", "compliant skin", "default", physics=SKIN_PRESETS["membrane"], dome="compliant",
                 pins_comparable=False, note="compliant, the skin as a membrane over a softer gel (no pin error: "
                 "another material than compliant_reference)"),
-        Setting("compliant_shell", "compliant skin", "default", physics=SKIN_PHYSICS["shell"], dome="compliant",
+        Setting("compliant_shell", "compliant skin", "default", physics=SKIN_PRESETS["shell"], dome="compliant",
                 pins_comparable=False, note="compliant, the skin as a thin shell over a softer gel (no pin error: "
                 "another material than compliant_reference)"),
-        Setting("compliant_shell_held_65", "compliant skin", "default", physics=SKIN_PHYSICS["shell_held_65"],
+        Setting("compliant_shell_held_65", "compliant skin", "default", physics=SKIN_PRESETS["shell_held_65"],
                 dome="compliant", pins_comparable=False, note="compliant, the thin shell held by the base at the "
                 "cap's rim, 65° (no pin error: another material than compliant_reference)"),
     ]

@@ -13,15 +13,15 @@ from pathlib import Path
 import numpy as np
 
 from twin.analysis.sweep.knobs import Setting
-from twin.control.contour import ContourFollower
 from twin.core.sensor import CameraModel
 from twin.runs.contour_metrics import contour_metrics
+from twin.runs.contour_run import ScenarioFollower
 from twin.runs.protocols import protocol_moves
 from twin.runs.record import Run
 from twin.runs.runner import chunk_moves, chunk_samples
 from twin.runs.sim_env import SimEnvironment
+from twin.runs.spec import dome_builder, dome_params, load_scenario_stimulus
 from twin.sensing.perception import GPConfig, PerceptionModel, angle_error_deg
-from twin.world.scene import dome_params, load_scenario_stimulus
 
 #: Reference camera resolution (W, H) px: pin errors are expressed at this resolution.
 REFERENCE_RESOLUTION = (640, 480)
@@ -158,12 +158,12 @@ def open_loop(env, moves, stages: Stages, settling: bool = False) -> dict:
 
 
 def _contour(env, scenario, model, stages: Stages) -> dict:
-    """Contour following of the scenario's object with twin.control.contour.ContourFollower (the
+    """Contour following of the scenario's object with twin.runs.contour_run.ScenarioFollower (the
     same loop and stop rules as `twin run`, without the recorder); returns
     twin.runs.contour_metrics.contour_metrics of the steps."""
 
     stimulus = load_scenario_stimulus(scenario)
-    follower = ContourFollower(env, scenario, model, stimulus, clock=stages.clock)
+    follower = ScenarioFollower(env, scenario, model, stimulus, clock=stages.clock)
     samples = [{"pose": [float(v) for v in step.observation.pose.as_array()], "time": float(step.observation.time),
                 "labels": step.labels} for step in follower]
     run = Run(Path(f"<sweep {scenario.name}>"), {"status": "completed", "stop_reason": follower.stop_reason}, samples)
@@ -192,11 +192,7 @@ def probe_setting(setting: Setting, probe: Probe, seed: int = 0) -> dict:
         scenario = setting.scenario(probe.contour(), seed)
         params = dome_params(scenario)
         cam = scenario.sensor.camera
-        if scenario.dome == "compliant":  # quasi-static: no time step, nothing to settle
-            resolution = {"cellcount": f"{params.spacing * 1e3:g} mm nodes", "timestep_s": None, "settle_px": None}
-        else:
-            resolution = {"cellcount": "x".join(str(c) for c in params.cellcount), "timestep_s": params.timestep,
-                          "settle_px": params.settle_px}
+        resolution = dome_builder(scenario).resolution(params)
         row.update({**resolution, "camera": f"{cam.width}x{cam.height}" if setting.renders else "—",
                     "msaa": cam.msaa if setting.renders else 0, "effects": "+".join(scenario.effects)})
         env = SimEnvironment(scenario, seed=seed)

@@ -7,8 +7,7 @@ from dataclasses import fields
 
 from twin.core.calibration import DOME_MATERIAL
 from twin.core.errors import UserError
-from twin.world.dome.compliant import CompliantParams
-from twin.world.dome.flex import DomeParams
+from twin.world.dome.base import DomeParameters
 
 #: material name -> (model parameter field, factor from the name's unit to SI)
 _TO_DOME: dict[str, tuple[str, float]] = {
@@ -18,10 +17,8 @@ _TO_DOME: dict[str, tuple[str, float]] = {
     "skin_held_deg": ("skin_held_deg", 1.0),
 }
 assert set(_TO_DOME) == set(DOME_MATERIAL)
-#: the flex grid's Lamé λ ∝ 1/(1 − 2ν): it needs ν below this
-FLEX_MAX_POISSON = 0.49
 
-Params = DomeParams | CompliantParams
+Params = DomeParameters
 
 
 def material_names(params: Params) -> list[str]:
@@ -38,8 +35,9 @@ def apply_dome_material(params: Params, material: Mapping[str, float]) -> Params
         if name not in names:
             raise UserError(f"dome material {name!r} has no meaning for the {type(params).__name__} dome model "
                             f"(it has {', '.join(names)})")
-    if isinstance(params, DomeParams) and material.get("poisson", 0.0) > FLEX_MAX_POISSON:
-        raise UserError(f"dome material poisson = {material['poisson']} locks the flex dome (needs ≤ {FLEX_MAX_POISSON})")
+    if material.get("poisson", 0.0) > params.max_poisson:
+        raise UserError(f"dome material poisson = {material['poisson']} is beyond the {type(params).__name__} dome "
+                        f"model's ν ≤ {params.max_poisson}")
     return params.with_(**{_TO_DOME[name][0]: value * _TO_DOME[name][1] for name, value in material.items()})
 
 

@@ -3,7 +3,7 @@
 `SensorPhysics` moves the sensor along a straight line at the commanded speed ("arm
 dynamics off": the sensor follows the commanded pose exactly). The physics scene is built
 in the tool frame: the dome sits still at the world origin and the stimulus carrier
-(twin.world.dome.flex.add_stimulus_carrier, a heavy free body) is driven with a prescribed velocity
+(twin.world.dome.carrier.add_stimulus_carrier, a heavy free body) is driven with a prescribed velocity
 so that its pose is inv(tool2world) · stimulus2world at every step — see that function
 for why. Contacts see the true sliding velocity, so friction shears the skin along the
 path. `settle` then steps with the sensor at rest until the pins stop moving *as the
@@ -39,7 +39,7 @@ rectangle: the apex pin kept moving ±10 µm *in depth* (a contact-switching cyc
 no camera sees.
 
 A settled frame's pins are the flex's plus the sub-grid skin layer's offsets at the
-commanded pose (twin.world.dome.skin; `Frame.pins_tool`).
+commanded pose (twin.world.dome.flex.skin; `Frame.pins_tool`).
 
 Pins are read from the state without recomputing MuJoCo's kinematics: with
 ``dof="trilinear"`` every flex vertex is a fixed linear combination of the grid nodes'
@@ -54,54 +54,17 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from twin.world.dome.flex import DomeParams, TacTipHandles, apply_contact_law, flex_contact_geoms, pin_tips_tool, tool2world
+from twin.world.dome.base import Frame, physics_error
+from twin.world.dome.flex.grid import DomeParams, TacTipHandles, apply_contact_law, flex_contact_geoms, pin_tips_tool, tool2world
 from twin.core.errors import PhysicsError
-from twin.core.poses import Pose, invert_transform, make_transform
-from twin.world.dome.skin import SkinLayer, skin_layer
+from twin.core.poses import invert_transform, make_transform
+from twin.world.dome.flex.skin import SkinLayer, skin_layer
 from twin.core.sensor import CameraModel
-
-
-@dataclass(frozen=True)
-class Frame:
-    """One settled sensor reading.
-
-    pins_tool: (127, 3) pin tip positions in the tool frame (m), pin order of twin.core.sensor.
-    time: simulation time (s) when the frame settled.
-    contact_force: magnitude of the total contact force on the dome (N).
-    contact_force_tool: (3,) total contact force on the dome in the tool frame (N).
-    n_steps: physics steps since the previous frame (move + settle).
-    settled: True if the settling criterion was met (always True: otherwise settle raises).
-    tool2world: 4×4 pose of the tool frame at this frame (m).
-    settle_steps: steps spent in `settle` for this frame (part of n_steps).
-    last_motion_px: the settling band met: largest pin motion (px, u or v) over the last
-      `settle_steps` steps, in the physics' camera model.
-    """
-
-    pins_tool: np.ndarray
-    time: float
-    contact_force: float
-    contact_force_tool: np.ndarray
-    n_steps: int
-    settled: bool
-    tool2world: np.ndarray
-    settle_steps: int = 0
-    last_motion_px: float = 0.0
-
-
-def physics_error(scenario_name: str, where: str, time_s: float, world2work: np.ndarray, tool2world: np.ndarray,
-                  what: str) -> PhysicsError:
-    """The PhysicsError of a dome model: scenario, `where` ("step 12"), simulated time (s),
-    the commanded pose in the lab convention (work frame, mm/deg) and what failed."""
-    lab = Pose.from_matrix(world2work @ tool2world)
-    return PhysicsError(
-        f"[{scenario_name}] {where} (t = {time_s:.4f} s) at pose x={lab.x:.3f} y={lab.y:.3f} z={lab.z:.3f} mm, "
-        f"α={lab.alpha:.2f} β={lab.beta:.2f} γ={lab.gamma:.2f} deg: {what}")
 
 
 class PinMap:
@@ -152,7 +115,7 @@ class SensorPhysics:
     """Moves the sensor, settles the dome and checks every step.
 
     model, data: a compiled scene with the TacTip added to the world body
-      (twin.world.dome.flex.add_tactip) and the stimuli on twin.world.dome.flex.add_stimulus_carrier's body;
+      (twin.world.dome.flex.add_tactip) and the stimuli on twin.world.dome.carrier.add_stimulus_carrier's body;
       `handles` resolved against `model`. The dome's contact law (solref, solimp, margin)
       is written into `model` for every geom that can touch the dome
       (twin.world.dome.flex.apply_contact_law), so it holds whichever side wins MuJoCo's priority mix.
@@ -195,7 +158,7 @@ class SensorPhysics:
         if model.body_jntnum[body] != 1 or model.jnt_type[jnt] != mujoco.mjtJoint.mjJNT_FREE:
             raise PhysicsError(
                 f"[{scenario_name}] the stimulus carrier {carrier!r} must have exactly one free joint "
-                "(twin.world.dome.flex.add_stimulus_carrier)"
+                "(twin.world.dome.carrier.add_stimulus_carrier)"
             )
         if handles.mount_body != 0:
             raise PhysicsError(f"[{scenario_name}] the TacTip must be added to the world body (static dome)")
@@ -213,7 +176,7 @@ class SensorPhysics:
         self._warnings = data.warning.number.copy()
         self._commanded = np.asarray(start_tool2world, float)
         self._pin_map = PinMap(model, data, handles)
-        #: the sub-grid skin (twin.world.dome.skin); None when it is off or nothing can touch the dome
+        #: the sub-grid skin (twin.world.dome.flex.skin); None when it is off or nothing can touch the dome
         self.skin: SkinLayer | None = None
         if params.skin_spacing > 0 and len(flex_contact_geoms(model, handles)):
             self.skin = skin_layer(self.camera.geometry, params.skin_spacing, params.skin_extent_deg)

@@ -24,7 +24,7 @@ contacts lost and regained every step).
 
 Pin tips move with the gel around them (they are interpolated vertices, read by
 ``pin_tips_tool`` in the tool frame); the grid is too coarse for the skin's local bending
-at the border of a contact, which twin.world.dome.skin adds to every settled frame (SensorPhysics).
+at the border of a contact, which twin.world.dome.flex.skin adds to every settled frame (SensorPhysics).
 
 Frames and units: README "Conventions". Tool frame: origin at the undeformed dome apex
 (the TCP), +z along the sensor axis out of the tip. All lengths in m, forces in N.
@@ -32,7 +32,7 @@ Frames and units: README "Conventions". Tool frame: origin at the undeformed dom
 Attaching: ``add_tactip(spec, spec.worldbody, geometry, params, friction)`` adds a
 jointless body holding the rigid base and the flex; the physics scene is built in the
 tool frame (dome still at the origin, stimuli on ``add_stimulus_carrier``'s body, moved
-by twin.world.dome.physics.SensorPhysics — see add_stimulus_carrier for why). ``add_tactip`` also
+by twin.world.dome.flex.physics.SensorPhysics — see add_stimulus_carrier for why). ``add_tactip`` also
 applies ``configure_options`` (discrete integrator, Newton, elliptic cone, impratio,
 viscosity, timestep) to the whole spec; ``apply_contact_law`` (called by SensorPhysics)
 gives every contact with the dome the dome's normal contact law.
@@ -40,6 +40,7 @@ gives every contact with the dome the dome's normal contact law.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import ClassVar
 
 import mujoco
 import numpy as np
@@ -125,7 +126,7 @@ class DomeParams:
         nodes is refused by the compiler); damps moves, doesn't change equilibria.
       solver_iterations, solver_tolerance: Newton solver limits (converges in 1–7
         iterations here).
-      skin_spacing (m), skin_extent_deg (deg): the sub-grid skin layer (twin.world.dome.skin): node
+      skin_spacing (m), skin_extent_deg (deg): the sub-grid skin layer (twin.world.dome.flex.skin): node
         spacing on the outer skin and half-angle of the cap it covers; 0 spacing = off
         (scenario `physics: {skin_spacing_mm: 0}`). At 1.5 mm the layer makes taps readable
         (README "Reproducing the paper") for ≈ 0.5 ms of physics per frame. It swings the
@@ -133,7 +134,7 @@ class DomeParams:
         on twin taps and slides); the tracker follows them (twin.sensing.tracker.PinTracker, step 5).
         55° holds a 7 mm press (a contact reaching the cap's outer ring raises PhysicsError).
 
-    Stepping (used by twin.world.dome.physics.SensorPhysics)
+    Stepping (used by twin.world.dome.flex.physics.SensorPhysics)
       timestep (s): physics step. Moves advance the sensor by speed × timestep per step.
         0.02 s: larger steps (0.03, 0.04 s) made the flower's thin convex pieces (1.1 mm
         slivers) throw the skin into 1–11 px oscillations that never settled (measured).
@@ -184,6 +185,9 @@ class DomeParams:
         presses give ≈ 10 N).
     """
 
+    #: the largest Poisson's ratio (–) the model takes (the grid's Lamé λ ∝ 1/(1 − 2ν): it locks at ν = 0.5)
+    max_poisson: ClassVar[float] = 0.49
+
     young: float = 5.0e4
     poisson: float = 0.40
     membrane_young: float = 3.0e5
@@ -225,7 +229,7 @@ class DomeParams:
 
 
 #: The fidelity levels (scenario field `fidelity`); `twin bench physics` measures their
-#: cost (twin.world.dome.physics.benchmark_physics). Every level runs the taps, the slides and full
+#: cost (twin.world.dome.flex.physics.benchmark_physics). Every level runs the taps, the slides and full
 #: contour traces of all six objects without PhysicsError (tests/test_physics_hard_cases.py
 #: holds the hard cases). Against `reference`, the default's pins differ by ≈ 3 px RMS
 #: (median over 31 edge frames; the coarser grid), far more than its settling tolerance.
@@ -538,39 +542,3 @@ def flex_contact_geoms(model: mujoco.MjModel, handles: TacTipHandles) -> np.ndar
     hits = (model.geom_contype & faff) | (model.geom_conaffinity & ftype)
     hits[handles.base_geom] = 0
     return np.flatnonzero(hits)
-
-
-#: Mass (kg) and rotational inertia (kg·m²) of the kinematic stimulus carrier. It is driven
-#: by prescribing its velocity every step (twin.world.dome.physics), so it must be heavy enough that
-#: the contact forces (≤ tens of N) don't deflect it measurably within one step.
-CARRIER_MASS = 1.0e4
-CARRIER_INERTIA = 25.0
-
-
-def add_stimulus_carrier(spec: mujoco.MjSpec, name: str = "stimulus") -> mujoco.MjsBody:
-    """Add the body that carries every stimulus geom: free joint, heavy, gravity-compensated.
-
-    The physics scene is built in the *tool frame*: the TacTip sits still at the world
-    origin (``add_tactip(spec, spec.worldbody, ...)``), and the stimuli move around it —
-    twin.world.dome.physics.SensorPhysics prescribes this body's velocity each step so that its pose
-    in the tool frame is inv(tool2world) · stimulus2world along the commanded path
-    ("arm dynamics off": the sensor follows the commanded pose exactly). Add the stimulus
-    geoms to the returned body with their poses in the lab world frame (the body's frame
-    *is* the world frame when the tool frame coincides with it).
-
-    Why this way round (measured with MuJoCo 4.0, 2 cores):
-      * a mocap sensor mount has a pose but no velocity; the dome's node bodies are its
-        children, so a move teleports the whole dome and contacts never see the slip —
-        friction then produced no shear at all (mean pin shift 2 nm over a 4 mm slide);
-      * a free-jointed, velocity-driven sensor mount shears correctly but makes the flex
-        nodes "articulated attachments", whose stiffness MuJoCo must pull back through the
-        attachment Jacobians: 2.3 ms per step instead of ≈ 0.45 ms with a static dome.
-    Quasi-static contact mechanics are frame-invariant (gravity is compensated on the
-    dome and the carrier), so moving the world around a still sensor gives the same pins.
-    """
-    body = spec.worldbody.add_body(name=name, gravcomp=1.0)
-    body.add_freejoint(name=f"{name}_free")
-    body.explicitinertial = True
-    body.mass = CARRIER_MASS
-    body.inertia = [CARRIER_INERTIA] * 3
-    return body

@@ -42,7 +42,7 @@ from functools import lru_cache
 import mujoco
 import numpy as np
 
-from twin.world.dome.flex import hemisphere_rings
+from twin.world.dome.flex.grid import hemisphere_rings
 from twin.core.errors import PhysicsError
 from twin.core.sensor import TacTipGeometry
 

@@ -8,13 +8,13 @@ every increment of the path:
   each increment puts the carrier at the object's pose in the tool frame and casts one
   ray per surface node from the dome's sphere centre along the node's normal
   (mj_multiRay), which gives every node's rigid gap to the object along its normal;
-* the dome is the influence model of twin.world.dome.compliance (Boussinesq–Cerruti, a
+* the dome is the influence model of twin.world.dome.compliant.compliance (Boussinesq–Cerruti, a
   node every `spacing` on the cap, and the sealed gel's pressure keeping its volume);
-* each increment is one frictional contact problem (twin.world.dome.contact): Signorini
+* each increment is one frictional contact problem (twin.world.dome.compliant.contact): Signorini
   contact and Coulomb friction whose stick/slip state and tractions carry over from the
   previous increment — the path dependence the paper is about;
 * the pins are posts on the skin: each base moves with the gel and each post turns with
-  the skin's surface (twin.world.dome.compliance.post_tip_kernel), so a flattened patch
+  the skin's surface (twin.world.dome.compliant.compliance.post_tip_kernel), so a flattened patch
   swings its pins' tips outwards and a sheared patch carries them along.
 
 A move is cut into increments of at most `step_length` of tool travel and
@@ -38,6 +38,7 @@ import math
 import time
 from dataclasses import dataclass, replace
 from functools import lru_cache
+from typing import ClassVar
 
 import mujoco
 import numpy as np
@@ -46,9 +47,9 @@ from scipy.spatial.transform import Rotation
 from twin.core.errors import PhysicsError
 from twin.core.poses import invert_transform, make_transform
 from twin.core.sensor import TacTipGeometry
-from twin.world.dome.compliance import CapSurface, DomeCompliance
-from twin.world.dome.contact import ContactNotConverged, solve_increment, unknowns_matrix
-from twin.world.dome.physics import Frame, physics_error
+from twin.world.dome.compliant.compliance import CapSurface, DomeCompliance
+from twin.world.dome.compliant.contact import ContactNotConverged, solve_increment, unknowns_matrix
+from twin.world.dome.base import Frame, physics_error
 
 
 @dataclass(frozen=True)
@@ -62,7 +63,7 @@ class CompliantParams:
     spacing (m): node spacing on the outer surface (the pins are 3.3 mm apart).
     extent_deg (deg): half-angle of the cap that can take contact; the pins reach 61°, a
       6 mm press on a flat 51°. The gel's pressure acts beyond it too, to the equator, so
-      it does not change the pins (twin.world.dome.compliance).
+      it does not change the pins (twin.world.dome.compliant.compliance).
     step_length (m), step_angle_deg (deg): largest tool motion per contact increment (the
       resolution of the friction path; a scenario sets step_length as `physics:
       {increment_mm}`). On the benchmark's contour path (twin bench physics) 0.5 mm moves
@@ -75,20 +76,23 @@ class CompliantParams:
     tolerance (m), max_iterations: contact solver residual and iteration limit (1 px of
       pin motion ≈ 75 µm; 0.1 µm moved the pins ≤ 0.003 px from 0.01 µm).
     max_penetration (m), max_force (N), max_pin_excursion (m): the per-increment checks.
-    enclosed: the gel is sealed in the dome and keeps its volume (twin.world.dome.compliance);
+    enclosed: the gel is sealed in the dome and keeps its volume (twin.world.dome.compliant.compliance);
       False is an open half-space, the body of the closed-form contact checks.
-    membrane_young (Pa): the skin as a membrane over the gel (twin.world.dome.compliance.
+    membrane_young (Pa): the skin as a membrane over the gel (twin.world.dome.compliant.compliance.
       membrane_stiffness), 0 = none; `young` is then the gel's own modulus. Off by default
       (SKIN_PHYSICS: a 0.6 MPa skin over a 41.9 kPa gel, the same 4.3 N; what it changes
       is measured in the README).
     skin_bending: the skin membrane also resists bending, as a thin shell of the same
-      modulus and thickness (twin.world.dome.compliance.bending_stiffness); needs
+      modulus and thickness (twin.world.dome.compliant.compliance.bending_stiffness); needs
       membrane_young. Off by default (assets/tactip/README.md).
     skin_held_deg: where the base holds the skin, degrees from the apex: the skin and the
       gel's pressure go on from the cap's rim (extent_deg) down to it. The geometry's dome
       meets its base at the equator (90, the default); a sensor whose skin is bonded
       higher up holds it there.
     """
+
+    #: the largest Poisson's ratio (–) the model takes (the incompressible gel's ν = 0.5 is the model's own)
+    max_poisson: ClassVar[float] = 0.5
 
     young: float = 6.7e4
     poisson: float = 0.5

@@ -51,7 +51,7 @@ material and cached). Contact acts on the cap alone. (Ending the skin at the cap
 held there by springs, made the pins depend on where the cap ends: 1.5–2.8 px RMS between
 a 65° and a 75° cap on a press and slide across an edge, against 0.001 px now.) The skin
 couples normal and tangential motion (stretching a curved membrane moves it normally),
-which twin.world.dome.contact solves jointly. With `skin_bending` the skin is a thin
+which twin.world.dome.compliant.contact solves jointly. With `skin_bending` the skin is a thin
 shell: its bending stiffness (`bending_stiffness`, D = E t³ / 12(1 − ν²), the same E and
 t) is added to the membrane's.
 
