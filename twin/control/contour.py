@@ -11,9 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from twin.core.environment import Environment, Observation
-
 from twin.control.controllers import Controller, Percept, normal_from_theta
+from twin.core.environment import Environment, Observation
 from twin.core.errors import UnreachablePoseError, UserError
 from twin.core.poses import Pose, object_to_work_deg, object_to_work_xy, work_to_object_xy
 from twin.core.scenario import ContourProtocol, hover_over

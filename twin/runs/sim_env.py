@@ -5,20 +5,18 @@ import time
 from pathlib import Path
 
 import cv2
+import mujoco
 import numpy as np
 
-import mujoco
-
-from twin.world.arm import ArmDynamics
 from twin.core.environment import Environment, Observation
 from twin.core.errors import UnreachablePoseError, UserError
 from twin.core.poses import Pose, invert_transform
-from twin.world.render import PinRenderer, render_overview
 from twin.core.scenario import DEFAULT_SPEED_MM_S, START_POSE, Scenario
-from twin.world.scene import TOOL2FLANGE, Scene, build_overview, build_scene, kinematics, sensor_physics
 from twin.runs.protocols import protocol_moves
 from twin.runs.spec import SimSpec, scene_spec, sim_spec
-
+from twin.world.arm import ArmDynamics
+from twin.world.render import PinRenderer, render_overview
+from twin.world.scene import TOOL2FLANGE, Scene, build_overview, build_scene, kinematics, sensor_physics
 
 
 class SimEnvironment(Environment):

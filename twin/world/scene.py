@@ -21,17 +21,16 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import lru_cache
 
+import mujoco
 import numpy as np
 
-import mujoco
-
+from twin.core.errors import UserError
+from twin.core.poses import Pose, make_transform, matrix_to_quat_wxyz
+from twin.core.sensor import CameraModel, TacTipGeometry
 from twin.world.dome.base import DomeBuilder, DomeModel, DomeParameters
 from twin.world.dome.carrier import add_stimulus_carrier
-from twin.core.errors import UserError
 from twin.world.kinematics import IRB120_XML, Irb120Kinematics
-from twin.core.poses import Pose, make_transform, matrix_to_quat_wxyz
 from twin.world.stimuli import Stimulus
-from twin.core.sensor import CameraModel, TacTipGeometry
 
 #: Flange (ABB tool0) to the undeformed dome apex along the flange's +z (m): the TacTip's
 #: mounting adapter, camera housing and dome stacked (assets/tactip/README.md).

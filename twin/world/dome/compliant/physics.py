@@ -47,9 +47,9 @@ from scipy.spatial.transform import Rotation
 from twin.core.errors import PhysicsError
 from twin.core.poses import invert_transform, make_transform
 from twin.core.sensor import TacTipGeometry
+from twin.world.dome.base import Frame, physics_error
 from twin.world.dome.compliant.compliance import CapSurface, DomeCompliance
 from twin.world.dome.compliant.contact import ContactNotConverged, solve_increment, unknowns_matrix
-from twin.world.dome.base import Frame, physics_error
 
 
 @dataclass(frozen=True)
@@ -111,7 +111,7 @@ class CompliantParams:
     skin_bending: bool = False
     skin_held_deg: float = 90.0
 
-    def with_(self, **changes) -> "CompliantParams":
+    def with_(self, **changes) -> CompliantParams:
         return replace(self, **changes)
 
     @property

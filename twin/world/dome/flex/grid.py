@@ -224,7 +224,7 @@ class DomeParams:
         """Total simulated dome mass (kg)."""
         return DOME_REAL_MASS * self.mass_scale
 
-    def with_(self, **changes) -> "DomeParams":
+    def with_(self, **changes) -> DomeParams:
         return replace(self, **changes)
 
 
@@ -271,7 +271,7 @@ class TacTipHandles:
     vert_adr: int = -1  # first vertex of the flex in mjData.flexvert_xpos
     node_bodies: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
 
-    def resolve(self, model: mujoco.MjModel) -> "TacTipHandles":
+    def resolve(self, model: mujoco.MjModel) -> TacTipHandles:
         """Fill in the ids for a compiled model (call once after compiling)."""
         mount = model.body(self.mount_name).id
         dome = model.body(self.dome_body_name).id

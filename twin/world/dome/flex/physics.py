@@ -59,12 +59,19 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from twin.world.dome.base import Frame, physics_error
-from twin.world.dome.flex.grid import DomeParams, TacTipHandles, apply_contact_law, flex_contact_geoms, pin_tips_tool, tool2world
 from twin.core.errors import PhysicsError
 from twin.core.poses import invert_transform, make_transform
-from twin.world.dome.flex.skin import SkinLayer, skin_layer
 from twin.core.sensor import CameraModel
+from twin.world.dome.base import Frame, physics_error
+from twin.world.dome.flex.grid import (
+    DomeParams,
+    TacTipHandles,
+    apply_contact_law,
+    flex_contact_geoms,
+    pin_tips_tool,
+    tool2world,
+)
+from twin.world.dome.flex.skin import SkinLayer, skin_layer
 
 
 class PinMap:

@@ -42,9 +42,9 @@ from functools import lru_cache
 import mujoco
 import numpy as np
 
-from twin.world.dome.flex.grid import hemisphere_rings
 from twin.core.errors import PhysicsError
 from twin.core.sensor import TacTipGeometry
+from twin.world.dome.flex.grid import hemisphere_rings
 
 
 class SkinLayer:
