@@ -52,6 +52,15 @@ class SimSpec:
         return effect in self.effects
 
 
+def _read_only(array: np.ndarray | None) -> np.ndarray | None:
+    """A copy of `array` that cannot be written to (a spec's arrays are values too)."""
+    if array is None:
+        return None
+    frozen = np.array(array, dtype=float)
+    frozen.flags.writeable = False
+    return frozen
+
+
 def _builder(name: str, source: str) -> DomeBuilder:
     """The builder of the dome model `name`; UserError naming `source` and `dome` otherwise."""
     builder = DOME_MODELS.get(name)
@@ -147,8 +156,8 @@ def scene_spec(scenario: Scenario, calibration: Calibration | None = None) -> Sc
     object2world, work2world = object_and_work_frames(scenario.placement.position_mm, scenario.placement.yaw_deg,
                                                       stimulus.thickness_mm, work_pose)
     builder = _builder(scenario.dome, scenario.source)
-    return SceneSpec(name=scenario.name, source=scenario.source, stimulus=stimulus, object2world=object2world,
-                     work2world=work2world, dome=builder,
+    return SceneSpec(name=scenario.name, source=scenario.source, stimulus=stimulus,
+                     object2world=_read_only(object2world), work2world=_read_only(work2world), dome=builder,
                      dome_params=_params(builder, scenario.fidelity, scenario.physics, calibration, scenario.source),
                      camera=calibrated_camera(scenario.sensor.camera, calibration),
                      contact=scenario.has("contact"), friction=scenario.has("friction"))
@@ -162,5 +171,5 @@ def sim_spec(scenario: Scenario) -> SimSpec:
     return SimSpec(
         scene=scene, effects=tuple(scenario.effects), seed=scenario.seed, msaa=camera.msaa,
         noise_std=camera.noise_std if scenario.has("camera_noise") else 0.0,
-        rest_offsets_px=None if calibration is None else calibration.rest_offsets_px(scene.camera.width),
-        tcp2apex=make_transform(np.eye(3), np.zeros(3) if calibration is None else calibration.tcp_offset_m))
+        rest_offsets_px=_read_only(None if calibration is None else calibration.rest_offsets_px(scene.camera.width)),
+        tcp2apex=_read_only(make_transform(np.eye(3), np.zeros(3) if calibration is None else calibration.tcp_offset_m)))
