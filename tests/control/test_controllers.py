@@ -70,14 +70,15 @@ def test_object_without_methods_is_refused() -> None:
 ])
 def test_a_plug_in_that_fails_at_run_time_is_named(tmp_path: Path, answer: str, message: str) -> None:
     """The contour loop asks its controller through ContourFollower._ask_controller: a
-    plug-in's exception, sys.exit or a non-finite answer is a UserError naming it."""
-    from twin.control.contour import ContourFollower
+    plug-in's exception, sys.exit or a non-finite answer is a UserError naming it (by its
+    name in the scenario: the scenario's loop, twin.runs.contour_run.ScenarioFollower)."""
     from twin.core.scenario import scenario_from_dict
+    from twin.runs.contour_run import ScenarioFollower
 
     (tmp_path / "bad.py").write_text("from twin.core.poses import Pose\nclass C:\n    def reset(self, start): pass\n"
                                      f"    def next_pose(self, percept):\n        {answer}\n")
     scenario = scenario_from_dict({"name": "plug_in", "object": {"name": "rectangle"},
                                    "protocol": {"kind": "contour", "controller": "bad.py:C"}}, str(tmp_path / "s.yaml"))
-    follower = ContourFollower(None, scenario, model=None)
+    follower = ScenarioFollower(None, scenario, model=None)
     with pytest.raises(UserError, match=r"controller 'bad.py:C': " + message):
         follower._ask_controller("next_pose", None)
