@@ -9,6 +9,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import os
 import shutil
 from pathlib import Path
 
@@ -275,3 +276,34 @@ def test_edited_run_folders_are_named_and_exit_2(base_run: Path, files: Path, tm
     case()
     assert counter[0] >= N_RUNS - len(commands)
     print(f"edited run folders: {counter[0]} cases, 0 tracebacks")
+
+
+# ------------------------------------------------------------------ the boundary itself
+
+def test_an_internal_fault_is_one_line_and_its_traceback_goes_to_the_log(tmp_path: Path, monkeypatch) -> None:
+    from twin.tools.boundary import LOG_ENV, guarded
+
+    monkeypatch.setenv(LOG_ENV, str(tmp_path / "logs"))
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        code = guarded(lambda: {}["missing key"])
+    line = err.getvalue()
+    assert code == 1 and line.count("\n") == 1 and line.startswith("internal error: KeyError: 'missing key' (traceback in ")
+    log = Path(line.split("traceback in ")[1].rstrip(")\n"))
+    assert log.parent == tmp_path / "logs" and "Traceback (most recent call last)" in log.read_text()
+
+
+@pytest.mark.parametrize("errno_, code, start", [(28, 1, "failed: /x/run.json: No space left on device"),
+                                                  (2, 2, "error: /x/run.json: No such file or directory"),
+                                                  (13, 2, "error: /x/run.json: Permission denied")])
+def test_a_write_error_is_the_user_s_when_the_path_is_wrong_and_the_machine_s_when_the_disk_is(
+        errno_: int, code: int, start: str) -> None:
+    from twin.tools.boundary import guarded
+
+    def fail():
+        raise OSError(errno_, os.strerror(errno_), "/x/run.json")
+
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        assert guarded(fail) == code
+    assert err.getvalue() == start + "\n"
