@@ -81,8 +81,8 @@ def bounded_float(lo: float, hi: float, unit: str, open_lo: bool = False) -> Cal
 
 def output_file(path: Path, what: str, suffix: str) -> Path:
     """`path` if a `suffix` file can be written there (checked before any work: the suffix,
-    a folder that exists, no link, not a folder itself); UserError naming it otherwise. A
-    probe file is created and removed where none exists yet."""
+    its folder, created if missing, no link, not a folder itself); UserError naming it
+    otherwise. A probe file is created and removed where none exists yet."""
     if "\0" in str(path):
         raise UserError(f"{what} {quoted(str(path))}: a path cannot hold a NUL character")
     if path.suffix.lower() != suffix:
@@ -91,8 +91,10 @@ def output_file(path: Path, what: str, suffix: str) -> Path:
         raise UserError(f"{what} {path}: is a symbolic link; name the file itself")
     if path.is_dir():
         raise UserError(f"{what} {path}: is a folder; name a file")
-    if not path.parent.is_dir():
-        raise UserError(f"{what} {path}: its folder {path.parent} does not exist (or is not a folder)")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise UserError(f"{what} {path}: its folder cannot be created ({err.strerror or type(err).__name__})") from None
     if path.exists():
         if not path.is_file() or not os.access(path, os.W_OK):
             raise UserError(f"{what} {path}: exists and cannot be overwritten")
@@ -103,6 +105,20 @@ def output_file(path: Path, what: str, suffix: str) -> Path:
         path.unlink()
     except OSError as err:
         raise UserError(f"{what} {path}: cannot be written ({err.strerror})") from None
+    return path
+
+
+def output_folder(path: Path, what: str) -> Path:
+    """`path`, created if missing, checked before any work: UserError naming it where it
+    is not a folder that can be written (a file, a file's child, a link out, /proc/...)."""
+    if "\0" in str(path):
+        raise UserError(f"{what} {quoted(str(path))}: a path cannot hold a NUL character")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise UserError(f"{what} {path}: cannot be created as a folder ({err.strerror or type(err).__name__})") from None
+    if not path.is_dir() or not os.access(path, os.W_OK | os.X_OK):
+        raise UserError(f"{what} {path}: not a folder that can be written")
     return path
 
 

@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 from twin.core.errors import Terminated, UserError
-from twin.tools.boundary import OneLineParser, bounded_float, bounded_int, guarded, output_file
+from twin.tools.boundary import OneLineParser, bounded_float, bounded_int, guarded, output_file, output_folder
 from twin.runs.parallel import one_blas_thread
 from twin.core.scenario import Scenario
 from twin.control.controllers import load_controller
@@ -155,7 +155,8 @@ def _warn_unfinished(notes: list[str]) -> None:
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
 
-    result = evaluate_and_report(Path(args.train), Path(args.test), Path(args.out), seed=args.seed)
+    result = evaluate_and_report(Path(args.train), Path(args.test), output_folder(Path(args.out), "twin evaluate --out"),
+                                 seed=args.seed)
     _warn_unfinished(result["unfinished"])
     if "heldout_by_lateral_mm" in result:
         print(format_heldout(result["heldout_by_lateral_mm"]))
@@ -185,7 +186,7 @@ def _cmd_serve_robot(args: argparse.Namespace) -> int:
 
 def _cmd_compare(args: argparse.Namespace) -> int:
 
-    r = compare_and_report(Path(args.run_a), Path(args.run_b), Path(args.out),
+    r = compare_and_report(Path(args.run_a), Path(args.run_b), output_folder(Path(args.out), "twin compare --out"),
                            model_path=Path(args.model) if args.model else None,
                            slides_a=Path(args.slides_a) if args.slides_a else None,
                            slides_b=Path(args.slides_b) if args.slides_b else None)
@@ -223,7 +224,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 def _cmd_calibrate(args: argparse.Namespace) -> int:
 
     settings = load_settings(Path(args.settings) if args.settings else None)
-    r = calibrate_and_report([Path(r) for r in args.runs], _checked_scenario(args.scenario), Path(args.out), settings,
+    r = calibrate_and_report([Path(r) for r in args.runs], _checked_scenario(args.scenario),
+                             output_folder(Path(args.out), "twin calibrate --out"), settings,
                              workers=args.workers, cluster=args.cluster, progress=not args.quiet)
     _warn_unfinished(r["unfinished"])
     print(f"{r['status']} ({r['stop_reason']}); pin RMS {r['before']['overall']:.3f} -> {r['after']['overall']:.3f} px")
@@ -237,7 +239,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
 def _cmd_figure(args: argparse.Namespace) -> int:
 
-    numbers = write_shear_figure(Path(args.out), fidelity=args.fidelity, friction=not args.no_friction, dome=args.dome)
+    numbers = write_shear_figure(output_file(Path(args.out), "twin figure --out", ".png"), fidelity=args.fidelity, friction=not args.no_friction, dome=args.dome)
     print(f"wrote {args.out}")
     for key, value in numbers.items():
         print(f"  {key}: {value}")
@@ -246,12 +248,12 @@ def _cmd_figure(args: argparse.Namespace) -> int:
 
 def _cmd_demo(args: argparse.Namespace) -> int:
 
-    return run_demo(Path(args.out), seed=args.seed, video=args.video)
+    return run_demo(output_folder(Path(args.out), "twin demo --out"), seed=args.seed, video=args.video)
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
 
-    return run_bench(args.what, quick=args.quick, out=Path(args.out) if args.out else None, workers=args.workers,
+    return run_bench(args.what, quick=args.quick, out=output_folder(Path(args.out), "twin bench --out") if args.out else None, workers=args.workers,
                      cluster=args.cluster)
 
 
