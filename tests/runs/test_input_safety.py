@@ -11,8 +11,8 @@ import pytest
 from twin.core.errors import UserError
 from twin.core.scenario import load_scenario, scenario_from_dict
 from twin.core.validation import MAX_YAML_NODES, read_yaml
-from twin.sensing.perception import PerceptionModel
 from twin.runs.spec import load_scenario_stimulus
+from twin.sensing.perception import PerceptionModel
 
 BASE = {"object": {"name": "rectangle"}}
 

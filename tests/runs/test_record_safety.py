@@ -6,7 +6,6 @@ is refused by file, line and field."""
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 from pathlib import Path
 

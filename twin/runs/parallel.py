@@ -13,8 +13,9 @@ from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_context
 
-from twin.core.errors import UserError
 from threadpoolctl import threadpool_limits
+
+from twin.core.errors import UserError
 
 
 def default_workers() -> int:

@@ -21,11 +21,12 @@ import numpy as np
 
 from twin.core.errors import UserError
 from twin.core.resources import cache_dir, code_digest, package_version, scenario_path
-from twin.sensing.perception import PerceptionModel
-from twin.runs.record import Run, load_run
 from twin.core.scenario import Scenario, load_scenario
+from twin.runs.record import Run, load_run
 from twin.runs.runner import record_protocol
 from twin.runs.spec import dome_params
+from twin.sensing.perception import PerceptionModel
+
 
 def train_from_run(run: Run, method: str = "pca", seed: int = 0) -> PerceptionModel:
     """Fit the paper's model (or the baseline) on a recorded tap run."""
@@ -86,7 +87,7 @@ def cached_tap_model(scenario: Scenario, progress: bool = True) -> PerceptionMod
         try:
             model = PerceptionModel.load(model_path)
         except UserError as err:  # a damaged cache entry (cut by a kill, a full disk) is trained again
-            warnings.warn(f"{err}; training it again")
+            warnings.warn(f"{err}; training it again", stacklevel=2)
     if model is None:
         run_dir = cache_dir() / "runs" / f"taps_{key}"
         if not _completed_run(run_dir):
@@ -97,7 +98,7 @@ def cached_tap_model(scenario: Scenario, progress: bool = True) -> PerceptionMod
             model_path.parent.mkdir(parents=True, exist_ok=True)
             model.save(model_path)
         except OSError as err:
-            warnings.warn(f"{model_path}: could not store the trained model in the cache ({err.strerror})")
+            warnings.warn(f"{model_path}: could not store the trained model in the cache ({err.strerror})", stacklevel=2)
     model.info["path"] = str(model_path)
     return model
 
