@@ -186,6 +186,13 @@ def test_compare_and_evaluate_print_the_edge_figures(run: Run, tmp_path: Path, c
     assert "A: rig" in header and "B: twin" in header
     figures = json.loads((tmp_path / "cmp" / "comparison.json").read_text())["edge_figures"]
     assert figures["a"]["signal_profile"]["3.0"]["-2.0"] == pytest.approx(E.signal_profile(run)[3.0][-2.0])
+    # a lab camera's resolution beside the twin's: never paired pin by pin, even on shared targets
+    lab = _write(sheared_run(300, seed=6), tmp_path / "lab", "lab")
+    meta = json.loads((lab / "run.json").read_text())
+    meta["camera"].update(width=256, height=256)
+    (lab / "run.json").write_text(json.dumps(meta))
+    assert main(["compare", str(lab), str(a), "--out", str(tmp_path / "cmp_lab")]) == 0
+    assert "no paired samples" in capsys.readouterr().out
     small = _write(sheared_run(240, seed=7), tmp_path / "small", "rig")  # the GPs' fit grows as n³
     assert main(["evaluate", "--train", str(small), "--test", str(small), "--out", str(tmp_path / "eval")]) == 0
     printed = capsys.readouterr().out

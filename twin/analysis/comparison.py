@@ -103,7 +103,9 @@ def compare_runs(dir_a: Path, dir_b: Path, out: Path, max_ssim_frames: int = 200
     weigh, side by side for a sim and a real sensor. Two tap runs (plain or sheared, e.g. an
     imported lab recording beside the twin's taps) also get the edge figures
     (twin.analysis.edge_imprint; `slides_a`, `slides_b`: a plain tap run's slides run for
-    the along-edge drag), and compare by those alone when they share no target pose."""
+    the along-edge drag), and compare by those alone when they share no target pose in
+    contact (both start with a no-contact frame at one pose) or differ in resolution (a
+    lab camera's 256×256 beside the twin's 640×480: pins compare through the figures)."""
     a, b = load_run(dir_a), load_run(dir_b)
     name_a, name_b = a.meta["scenario"]["name"], b.meta["scenario"]["name"]
     kind, kind_b = a.meta["scenario"]["protocol"]["kind"], b.meta["scenario"]["protocol"]["kind"]
@@ -131,7 +133,8 @@ def compare_runs(dir_a: Path, dir_b: Path, out: Path, max_ssim_frames: int = 200
     if edge_taps:  # what each sensor's taps carry of the edge, and how a slide drags its pins
         result["edge_figures"] = {tag: edge_figures(run, None if slides is None else load_run(slides))
                                   for tag, run, slides in (("a", a, slides_a), ("b", b, slides_b))}
-        if kind != kind_b or not pair_samples(a, b):
+        in_contact = [(i, j) for i, j in pair_samples(a, b) if not a.samples[i]["labels"].get("no_contact")]
+        if kind != kind_b or not in_contact or a.resolution != b.resolution:
             result.update(pairing=None, n_pairs=0, n_a=len(a.samples), n_b=len(b.samples))
             out.mkdir(parents=True, exist_ok=True)
             (out / "comparison.json").write_text(json.dumps(jsonable(result), indent=1, default=float))

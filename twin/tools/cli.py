@@ -192,7 +192,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
                            slides_b=Path(args.slides_b) if args.slides_b else None)
     _warn_unfinished(r["unfinished"])
     if not r["n_pairs"]:
-        print("no paired samples (the runs share no target pose): compared by their edge figures")
+        print("no paired samples (no target pose in contact shared, or another camera resolution): compared by "
+              "their edge figures")
     else:
         print(f"{r['n_pairs']} paired samples ({r['pairing']})")
         print(f"pin RMS difference: {r['pin_rms_difference_px']:.3f} px")
