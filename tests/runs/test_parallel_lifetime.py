@@ -1,6 +1,7 @@
 """A parallel run's worker processes end with it, even when it is killed outright
 (SIGKILL: checked by process id), and a SIGTERM keeps every sample the workers had
-finished or were working on: the chunks in progress are recorded, not thrown away."""
+finished or were working on, and so does Ctrl-C: the chunks in progress are recorded, not
+thrown away."""
 from __future__ import annotations
 
 import os
@@ -57,7 +58,7 @@ def _start(tmp_path: Path) -> tuple[subprocess.Popen, Path]:
     out = tmp_path / "run"
     proc = subprocess.Popen([sys.executable, "-m", "twin.tools.cli", "run", str(scenario), "--out", str(out),
                              "--workers", "2", "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            env=os.environ | {"PYTHONUNBUFFERED": "1"})
+                            env=os.environ | {"PYTHONUNBUFFERED": "1"}, start_new_session=True)
     return proc, out
 
 
@@ -86,14 +87,18 @@ def test_workers_end_when_the_parent_is_killed(tmp_path: Path) -> None:
     assert not [p for p in workers if _alive(p)], f"processes left of {sorted(workers)}"
 
 
-def test_sigterm_keeps_every_chunk_the_workers_were_running(tmp_path: Path) -> None:
+@pytest.mark.parametrize("stop, exit_code", [("SIGTERM to the parent", 143), ("Ctrl-C to the process group", 130)])
+def test_an_interruption_keeps_every_chunk_the_workers_were_running(tmp_path: Path, stop: str, exit_code: int) -> None:
     proc, out = _start(tmp_path)
     samples = out / "samples.jsonl"
     _wait(lambda: samples.exists() and samples.read_bytes().count(b"\n") >= 1, proc, "first sample")
     seen = samples.read_bytes().count(b"\n")  # the first chunk; the second was running beside it
-    proc.send_signal(signal.SIGTERM)
+    if stop.startswith("SIGTERM"):
+        proc.send_signal(signal.SIGTERM)
+    else:  # a terminal's Ctrl-C reaches every process of the group: the workers leave it to the parent
+        os.killpg(proc.pid, signal.SIGINT)
     _, err = proc.communicate(timeout=180)
-    assert proc.returncode == 143, err.decode()
+    assert proc.returncode == exit_code, err.decode()
     run = load_run(out)
     assert run.meta["status"] == "interrupted" and len(run.samples) % CHUNK == 0
     assert len(run.samples) >= max(seen, CHUNK * 2), (seen, len(run.samples))
