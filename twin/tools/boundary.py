@@ -17,6 +17,7 @@ import argparse
 import errno
 import math
 import os
+import socket
 import sys
 import time
 import traceback
@@ -30,10 +31,11 @@ from twin.core.resources import cache_dir
 EXIT_OK, EXIT_FAILED, EXIT_USER_ERROR, EXIT_SIGINT, EXIT_SIGTERM = 0, 1, 2, 130, 143
 #: where internal faults' tracebacks go: this folder, else cache_dir()/logs
 LOG_ENV = "TWIN_LOG_DIR"
-#: OSErrors that say the path the user gave is wrong (exit 2); the others (a full disk, an
+#: OSErrors that say the path (or address) the user gave is wrong (exit 2); the others (a full disk, an
 #: I/O error) are the machine's (exit 1)
 _USER_PATH_ERRORS = {errno.ENOENT, errno.ENOTDIR, errno.EISDIR, errno.EACCES, errno.EPERM, errno.EROFS, errno.EEXIST,
-                     errno.ENAMETOOLONG, errno.ELOOP, errno.EINVAL, errno.ENXIO, errno.ENODEV, errno.ETXTBSY}
+                     errno.ENAMETOOLONG, errno.ELOOP, errno.EINVAL, errno.ENXIO, errno.ENODEV, errno.ETXTBSY,
+                     errno.EADDRINUSE, errno.EADDRNOTAVAIL}
 #: the longest value quoted back in a message (characters)
 _QUOTE_MAX = 60
 
@@ -139,7 +141,7 @@ def guarded(call: Callable[[], int | None]) -> int:
         print(f"failed: {type(err).__name__}: {err}", file=sys.stderr)
         return EXIT_FAILED
     except OSError as err:
-        user = err.errno in _USER_PATH_ERRORS
+        user = err.errno in _USER_PATH_ERRORS or isinstance(err, socket.gaierror)  # gaierror: an unknown --host
         where = f"{err.filename}: " if err.filename else ""
         print(f"{'error' if user else 'failed'}: {where}{err.strerror or err}", file=sys.stderr)
         return EXIT_USER_ERROR if user else EXIT_FAILED
