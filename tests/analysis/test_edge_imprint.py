@@ -197,3 +197,23 @@ def test_compare_and_evaluate_print_the_edge_figures(run: Run, tmp_path: Path, c
     assert main(["evaluate", "--train", str(small), "--test", str(small), "--out", str(tmp_path / "eval")]) == 0
     printed = capsys.readouterr().out
     assert "drag / orientation signal" in printed and (tmp_path / "eval" / "edge_figures.json").is_file()
+
+
+def test_calibration_simulates_a_square_lab_camera(tmp_path: Path) -> None:
+    """`twin calibrate`'s physics scenario for a 256×256 lab camera builds its camera (the
+    physics-only calibration was a 640×480 one, refused as another aspect ratio)."""
+    from twin.analysis.calibration_fit.settings import load_settings
+    from twin.analysis.calibration_fit.space import Space
+    from twin.core.scenario import scenario_from_dict
+
+    scenario = scenario_from_dict({"name": "lab", "object": {"name": "rectangle"}, "fidelity": "fast",
+                                   "sensor": {"camera": {"width": 256, "height": 256}}, "effects": ["contact"],
+                                   "protocol": {"kind": "sheared_taps"}})
+    settings = tmp_path / "settings.yaml"  # the camera's bounds at 256×256 px
+    settings.write_text("parameters:\n  camera.focal_px: {fit: true, lower: 150.0, upper: 350.0, prior_std: null}\n"
+                        "  camera.cx_px: {fit: false, lower: 108.0, upper: 148.0, prior_std: null}\n"
+                        "  camera.cy_px: {fit: false, lower: 108.0, upper: 148.0, prior_std: null}\n")
+    physics = Space(scenario, load_settings(settings)).physics_scenario({})
+    camera = physics.camera_model()
+    assert (camera.width, camera.height) == (256, 256)
+    assert camera.intrinsics[0, 0] == pytest.approx(scenario.camera_model().intrinsics[0, 0])

@@ -95,7 +95,9 @@ class Space:
     def physics_scenario(self, values: dict[str, float]) -> Scenario:
         """The calibration scenario simulating `values`' physics, pins projected (no rendering)."""
         cal = self.calibration(values)
-        physics_only = Calibration(dome_material=cal.dome_material, friction=cal.friction, tcp_offset_mm=cal.tcp_offset_mm)
+        cam = self.scenario.sensor.camera  # the nominal camera at the scenario's resolution (a 256×256 lab camera too)
+        physics_only = Calibration(camera=CameraCalibration(width=cam.width, height=cam.height),
+                                   dome_material=cal.dome_material, friction=cal.friction, tcp_offset_mm=cal.tcp_offset_mm)
         effects = [e for e in self.scenario.effects if e not in RENDER_EFFECTS]
         sensor = {"camera": self.scenario.sensor.camera.model_dump(), "calibration": physics_only}
         return self.scenario.with_changes(effects=effects, sensor=sensor, backend="sim")
