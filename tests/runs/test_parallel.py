@@ -72,3 +72,47 @@ def test_worker_pool_keeps_one_ray_instance() -> None:
         assert list(pool.map_ordered(math.sqrt, [(1.0,)])) == [1.0]
         assert ray.get_runtime_context().gcs_address == address  # the same instance: not started per call
     assert not ray.is_initialized()  # the instance the pool started is stopped with it
+
+
+def _send_then_wait_for_flag(flag: str, send) -> None:
+    """Send 'first', then whether `flag` appeared (the parent creates it on receiving
+    'first') within 60 s: 'streamed', or 'not streamed' when the parent waited for the end."""
+    from pathlib import Path
+    import time
+
+    send("first")
+    deadline = time.monotonic() + 60.0
+    while not Path(flag).exists() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    send("streamed" if Path(flag).exists() else "not streamed")
+
+
+def _send_range(n: int, send) -> None:
+    for i in range(n):
+        send(i)
+
+
+def _send_then_fail(send) -> None:
+    send("before")
+    raise ValueError("job failed")
+
+
+def test_streamed_items_arrive_while_the_job_runs(tmp_path) -> None:
+    flag = tmp_path / "first_received"
+    with WorkerPool(workers=2) as pool:
+        items = []
+        for item in pool.map_streamed(_send_then_wait_for_flag, [(str(flag),), (str(tmp_path / "never"),)]):
+            items.append(item)
+            if item == "first":
+                flag.touch()
+        assert items[:2] == ["first", "streamed"]      # the first item came before its job ended
+        assert items[2:] == ["first", "not streamed"]  # the second job's, after the first job's
+        assert list(pool.map_streamed(_send_range, [(3,), (0,), (2,)])) == [0, 1, 2, 0, 1]  # in job order
+        got = []
+        with pytest.raises(ValueError, match="job failed"):
+            for item in pool.map_streamed(_send_then_fail, [(), ()]):
+                got.append(item)
+        assert got == ["before"]  # what a failed job sent before failing is kept
+    assert list(map_ordered(math.sqrt, [(4.0,)], workers=2)) == [2.0]
+    with WorkerPool(workers=1) as serial:  # one process: the same items, in the same order
+        assert list(serial.map_streamed(_send_range, [(3,), (0,), (2,)])) == [0, 1, 2, 0, 1]

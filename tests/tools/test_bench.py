@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from twin.tools.bench import bench_throughput, benchmark_physics
+from twin.tools.bench import bench_startup, bench_throughput, benchmark_physics
 
 
 @pytest.mark.slow
@@ -44,3 +44,11 @@ def test_physics_ratios_are_taken_round_by_round() -> None:
     for row in rows.values():
         assert 0 < row["ratio_min"] <= row["ratio_max"]
         assert row["ratio_to_flex_default"] == pytest.approx(row["ms_per_frame"] / flex["ms_per_frame"])
+
+
+@pytest.mark.slow
+def test_startup_rows_name_every_stage() -> None:
+    rows = bench_startup(quick=True)
+    assert [r["stage"] for r in rows] == ["imports", "scene build", "environment", "first frame, one process",
+                                          "pool start", "twin run taps_rectangle --workers 2: first frame"]
+    assert all(r["seconds"] > 0 and r["rounds"] == 1 for r in rows)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import os
+import queue
 import signal
 import sys
 import threading
@@ -34,6 +35,14 @@ def map_ordered(fn: Callable, jobs: list[tuple], workers: int | None = None, clu
         yield from pool.map_ordered(fn, jobs)
 
 
+def map_streamed(fn: Callable, jobs: list[tuple], workers: int | None = None, cluster: str | None = None) -> Iterator:
+    """Yield the items each job sends, in job order, as soon as they are sent (a job runs
+    fn(*job, send)), on a pool started for this call alone (WorkerPool.map_streamed).
+    workers, cluster: as map_ordered's."""
+    with WorkerPool(workers if cluster is not None else _local_workers(workers, len(jobs)), cluster) as pool:
+        yield from pool.map_streamed(fn, jobs)
+
+
 def _local_workers(workers: int | None, n_jobs: int) -> int:
     """No more local processes than jobs (a one-shot map)."""
     return min(default_workers() if workers is None else workers, max(n_jobs, 1))
@@ -55,6 +64,7 @@ class WorkerPool:
         self.workers = default_workers() if workers is None else workers
         self.cluster = cluster
         self._pool: ProcessPoolExecutor | None = None
+        self._outbox = None  # the local workers' queue of (job index, item) (map_streamed)
         self._ray_remote = None
         self._ray_started = False
 
@@ -74,19 +84,8 @@ class WorkerPool:
             for job in jobs:
                 yield fn(*job)
             return
-        if self._pool is None:
-            # forkserver, not fork: the parent may hold a GL context or BLAS/OpenMP threads (GP
-            # training), which a forked child inherits half-initialised and can deadlock on.
-            context = get_context("forkserver")
-            context.set_forkserver_preload(["twin.runs.sim_env", "twin.runs.runner", "twin.control.contour"])
-            self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=context, initializer=_start_worker,
-                                             initargs=(os.getpid(),))
-        futures = [self._pool.submit(fn, *job) for job in jobs]
-        # Ctrl-C and SIGTERM land while this waits for a worker, never while the caller
-        # handles a result (records a chunk): the results finished by then are all kept.
-        on_main = threading.current_thread() is threading.main_thread()
-        caller_mask = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS) if on_main else None
-        try:
+        futures = [self._local_pool().submit(fn, *job) for job in jobs]
+        with self._waits_interruptible() as caller_mask:
             for index, future in enumerate(futures):
                 try:
                     with _signals_delivered(caller_mask):
@@ -95,12 +94,83 @@ class WorkerPool:
                     yield from _finished_in_order(futures[index:])
                     raise
                 yield result
+
+    def map_streamed(self, fn: Callable, jobs: list[tuple]) -> Iterator:
+        """Yield what each job sends, job after job in order, as soon as it is sent: a
+        job runs fn(*job, send) and calls send(item) for each item (a chunk's samples),
+        so the caller gets a job's first item while the job runs, not when it ends.
+        SIGINT or SIGTERM: the rest of the jobs the workers were on is yielded, then it
+        raises; a failed job: what it sent, then its exception; either stops the local
+        workers (the next call starts new ones)."""
+        if self.cluster is not None or self.workers <= 1 or len(jobs) <= 1:
+            for items in self.map_ordered(_collect, [(fn, job) for job in jobs]):
+                yield from items
+            return
+        futures = [self._local_pool().submit(_send_job, fn, index, job) for index, job in enumerate(jobs)]
+        waiting: dict[int, list] = {}  # items of later jobs, sent before the earlier jobs ended
+        with self._waits_interruptible() as caller_mask:
+            for index, future in enumerate(futures):
+                pending = waiting.pop(index, [])
+                while True:
+                    try:
+                        item = pending.pop(0) if pending else self._next_item(index, future, waiting, caller_mask)
+                    except KeyboardInterrupt:  # Ctrl-C, SIGTERM: the jobs the workers were on are kept whole
+                        for later in futures[index + 1:]:
+                            later.cancel()
+                        yield from self._sent_in_order(futures, index, waiting)
+                        raise
+                    if isinstance(item, _JobEnd):
+                        break
+                    yield item
+
+    @contextlib.contextmanager
+    def _waits_interruptible(self) -> Iterator[set | None]:
+        """Around a local map: Ctrl-C and SIGTERM land while it waits for a worker
+        (_signals_delivered with the caller's mask, given), never while the caller
+        handles what it yields (records a chunk), so what was yielded is kept whole; a
+        failure or an interruption stops the local workers."""
+        on_main = threading.current_thread() is threading.main_thread()
+        caller_mask = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS) if on_main else None
+        try:
+            yield caller_mask
         except BaseException:
             self._stop_local()
             raise
         finally:
             if on_main:
                 signal.pthread_sigmask(signal.SIG_SETMASK, caller_mask)
+
+    def _next_item(self, index: int, future, waiting: dict[int, list], caller_mask: set | None):
+        """The next item job `index` sends (waits for it; Ctrl-C and SIGTERM land here);
+        items of other jobs go to `waiting`. Raises the job's exception once the items it
+        sent before failing have been taken."""
+        while True:
+            with _signals_delivered(caller_mask):
+                try:
+                    sender, item = self._outbox.get(timeout=0.2)
+                except queue.Empty:
+                    if future.done() and future.exception() is not None:
+                        raise future.exception() from None
+                    continue
+            if sender == index:
+                return item
+            waiting.setdefault(sender, []).append(item)
+
+    def _sent_in_order(self, futures: list, index: int, waiting: dict[int, list]) -> Iterator:
+        """After an interruption: the rest of the items of job `index` and of the jobs
+        after it that were not cancelled, in order, up to the first job that failed."""
+        for i in range(index, len(futures)):
+            if futures[i].cancelled():
+                return
+            pending = waiting.pop(i, [])
+            while True:
+                try:
+                    item = pending.pop(0) if pending else self._next_item(i, futures[i], waiting, None)
+                except Exception:  # noqa: BLE001  (a failed job ends the kept prefix; the interruption is raised)
+                    return
+                if isinstance(item, _JobEnd):
+                    break
+                yield item
 
     def close(self) -> None:
         """Stop the local workers and a Ray instance this pool started."""
@@ -112,10 +182,24 @@ class WorkerPool:
             self._ray_started = False
         self._ray_remote = None
 
+    def _local_pool(self) -> ProcessPoolExecutor:
+        """The local workers, started on first use, with the queue they send items on."""
+        if self._pool is None:
+            # forkserver, not fork: the parent may hold a GL context or BLAS/OpenMP threads (GP
+            # training), which a forked child inherits half-initialised and can deadlock on.
+            context = get_context("forkserver")
+            context.set_forkserver_preload(["twin.runs.sim_env", "twin.runs.runner", "twin.control.contour"])
+            self._outbox = context.Queue()
+            self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=context, initializer=_start_worker,
+                                             initargs=(os.getpid(), self._outbox))
+        return self._pool
+
     def _stop_local(self) -> None:
         if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
+            self._outbox.close()
+            self._outbox = None
 
     def _map_ray(self, fn: Callable, jobs: list[tuple]) -> Iterator:
         try:
@@ -171,10 +255,33 @@ def _finished_in_order(futures: list) -> Iterator:
 PARENT_CHECK_S = 0.5
 
 
-def _start_worker(parent_pid: int) -> None:
+#: A local worker's queue to its parent (map_streamed)
+_outbox = None
+class _JobEnd:
+    """What a streamed job sends after its last item."""
+
+
+def _send_job(fn: Callable, index: int, job: tuple) -> None:
+    """A streamed job's body in a local worker: fn(*job, send), each item sent as
+    (index, item), then (index, _JobEnd())."""
+    fn(*job, lambda item: _outbox.put((index, item)))
+    _outbox.put((index, _JobEnd()))
+
+
+def _collect(fn: Callable, job: tuple) -> list:
+    """A streamed job's body where nothing streams (one process, Ray): its items as a list."""
+    items: list = []
+    fn(*job, items.append)
+    return items
+
+
+def _start_worker(parent_pid: int, outbox=None) -> None:
     """A local worker's start: one BLAS thread; Ctrl-C left to the parent, which keeps
     what the workers finish; the worker ends when its parent does, even one killed
-    outright (SIGKILL: Linux's parent-death signal, and a thread that polls the parent)."""
+    outright (SIGKILL: Linux's parent-death signal, and a thread that polls the parent).
+    outbox: the queue map_streamed's jobs send their items on."""
+    global _outbox
+    _outbox = outbox
     one_blas_thread()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if sys.platform.startswith("linux"):

@@ -4,7 +4,8 @@ Open-loop protocols (render, taps, slides) are split into independent chunks —
 sensor orientation, each starting from a reset (no contact) — and the chunks run in
 parallel over the local cores (or a Ray cluster, twin.runs.parallel). Every chunk starts from
 the same reset state, so the samples do not depend on how chunks were distributed.
-Samples are recorded in protocol order as chunks complete.
+Samples are recorded in protocol order as soon as they are observed (a worker sends each
+one to the parent while it runs the rest of its chunk).
 """
 from __future__ import annotations
 
@@ -23,7 +24,7 @@ from twin.sensing.pins import PinReader
 from twin.runs.protocols import Move, protocol_moves
 from twin.runs.record import RunRecorder
 from twin.core.scenario import Scenario
-from twin.runs.parallel import default_workers, map_ordered
+from twin.runs.parallel import default_workers, map_streamed
 
 
 @dataclass
@@ -63,6 +64,13 @@ def run_chunk(scenario: Scenario, seed: int, moves: list[Move], sink=None, skip:
         else:
             sink(sample)
     return samples
+
+
+def send_chunk(scenario: Scenario, seed: int, moves: list[Move], skip: int, send) -> None:
+    """run_chunk for a worker of twin.runs.parallel.map_streamed: each sample is sent as
+    soon as it is observed, so the parent records a chunk's first frame while the rest
+    of the chunk runs."""
+    run_chunk(scenario, seed, moves, sink=send, skip=skip)
 
 
 def chunk_samples(env: Environment, moves: list[Move], clock=no_clock) -> Iterator[Sample]:
@@ -144,11 +152,10 @@ def record_protocol(scenario: Scenario, out: Path, seed: int | None = None, work
             if serial:  # record each sample as it is observed
                 for chunk, skip in jobs:
                     run_chunk(scenario, seed, chunk, sink=record, skip=skip)
-            else:  # record each chunk as its worker finishes it, in protocol order
-                for chunk_samples in map_ordered(run_chunk, [(scenario, seed, c, None, skip) for c, skip in jobs],
-                                                 workers=workers, cluster=cluster):
-                    for s in chunk_samples:
-                        record(s)
+            else:  # record each sample as soon as its worker observes it, in protocol order
+                for s in map_streamed(send_chunk, [(scenario, seed, c, skip) for c, skip in jobs],
+                                      workers=workers, cluster=cluster):
+                    record(s)
         finally:
             bar.close()
             if serial:

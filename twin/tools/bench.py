@@ -5,6 +5,10 @@ in tests. Each section returns rows (dicts) so the sweep can write CSV/markdown.
 """
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import Callable
@@ -21,7 +25,7 @@ from twin.sensing.perception import benchmark_perception
 from twin.runs.runner import run_chunk, worker_environment
 from twin.runs.parallel import default_workers, map_ordered
 from twin.runs.protocols import protocol_moves
-from twin.runs.runner import chunk_moves, close_worker_envs
+from twin.runs.runner import chunk_moves, chunk_samples, close_worker_envs
 from twin.core.resources import scenario_path
 from twin.core.scenario import load_scenario
 from twin.tools.sweep_report import sweep_and_report
@@ -128,6 +132,79 @@ def bench_throughput(quick: bool = False) -> list[dict]:
     return rows
 
 
+#: What `twin bench startup` runs: an open-loop scenario with rendered frames, two workers
+STARTUP_SCENARIO, STARTUP_WORKERS = "taps_rectangle", 2
+
+_IMPORT_PROBE = ("import time; t0 = time.perf_counter(); import twin.tools.cli, twin.runs.run; "
+                 "print(time.perf_counter() - t0)")
+
+
+def _first_frame_of_twin_run(scenario: str, workers: int) -> float:
+    """Seconds from starting `twin run SCENARIO --workers N` (a fresh interpreter) to its
+    first recorded sample; the run is then killed (its workers end with it)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        samples = Path(tmp) / "run" / "samples.jsonl"
+        t0 = time.perf_counter()
+        proc = subprocess.Popen([sys.executable, "-m", "twin.tools.cli", "run", scenario, "--workers", str(workers),
+                                 "--out", str(samples.parent), "--quiet"],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        try:
+            while not (samples.exists() and samples.stat().st_size > 0):
+                if proc.poll() is not None:
+                    raise RuntimeError(f"twin run {scenario} ended before its first frame: "
+                                       f"{proc.stderr.read().decode(errors='replace')[-500:]}")
+                time.sleep(0.005)
+            return time.perf_counter() - t0
+        finally:
+            proc.kill()
+            proc.wait()
+
+
+def bench_startup(quick: bool = False) -> list[dict]:
+    """What `twin run taps_rectangle --workers 2` spends before its first frame, in
+    seconds (median of 3 rounds, 1 with quick), warm caches: imports (a fresh
+    interpreter importing the CLI and the runner), scene build (the scenario resolved and
+    its MuJoCo scene compiled), environment (the whole simulated rig: scene,
+    renderer's GL context, reset), pool start (forkserver and workers importing the
+    simulator and answering a first job), first frame in one process (the first chunk's
+    first sample once the environment exists), and end to end: the first sample line
+    of the `twin run` command, from its start."""
+
+    from twin.runs.backends import make_environment
+    from twin.runs.parallel import WorkerPool
+    from twin.runs.spec import sim_spec
+    from twin.world.scene import build_scene
+
+    scenario = load_scenario(scenario_path(STARTUP_SCENARIO))
+    chunk = chunk_moves(protocol_moves(scenario.protocol))[0]
+    stages: dict[str, list[float]] = {}
+
+    def timed(stage: str, fn: Callable[[], object]) -> object:
+        t0 = time.perf_counter()
+        result = fn()
+        stages.setdefault(stage, []).append(time.perf_counter() - t0)
+        return result
+
+    for _ in range(1 if quick else 3):
+        probe = subprocess.run([sys.executable, "-c", _IMPORT_PROBE], capture_output=True, text=True, check=True)
+        stages.setdefault("imports", []).append(float(probe.stdout.strip()))
+        timed("scene build", lambda: build_scene(sim_spec(scenario).scene))
+        env = timed("environment", lambda: make_environment(scenario, scenario.seed))
+        reader_frames: list[float] = []
+        t0 = time.perf_counter()
+        for sample in chunk_samples(env, chunk):
+            reader_frames.append(time.perf_counter() - t0)
+            break
+        env.close()
+        stages.setdefault("first frame, one process", []).append(reader_frames[0])
+        with WorkerPool(STARTUP_WORKERS) as pool:
+            timed("pool start", lambda: list(pool.map_ordered(os.getpid, [()] * STARTUP_WORKERS)))
+        stages.setdefault(f"twin run {STARTUP_SCENARIO} --workers {STARTUP_WORKERS}: first frame", []).append(
+            _first_frame_of_twin_run(STARTUP_SCENARIO, STARTUP_WORKERS))
+    return [{"section": "startup", "stage": stage, "seconds": float(np.median(times)), "rounds": len(times)}
+            for stage, times in stages.items()]
+
+
 def bench_sweep(quick: bool = False, out: Path | None = None, workers: int | None = None,
                 cluster: str | None = None) -> list[dict]:
     """The fidelity sweep (twin.analysis.sweep): per setting, ms per frame split into physics,
@@ -143,6 +220,7 @@ SECTIONS: dict[str, Callable[..., list[dict]]] = {
     "physics": bench_physics,
     "perception": bench_perception,
     "throughput": bench_throughput,
+    "startup": bench_startup,
     "sweep": bench_sweep,
 }
 #: Sections that take out/workers/cluster and write and print their own outputs.
