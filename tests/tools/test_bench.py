@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from twin.tools.bench import bench_startup, bench_throughput, benchmark_physics
+from twin.tools.bench import bench_pixels, bench_startup, bench_throughput, benchmark_physics
 
 
 @pytest.mark.slow
@@ -52,3 +52,14 @@ def test_startup_rows_name_every_stage() -> None:
     assert [r["stage"] for r in rows] == ["imports", "scene build", "environment", "first frame, one process",
                                           "pool start", "twin run taps_rectangle --workers 2: first frame"]
     assert all(r["seconds"] > 0 and r["rounds"] == 1 for r in rows)
+
+
+def test_pixels_rows_cover_96x96_to_1280x960() -> None:
+    rows = bench_pixels(quick=True)
+    assert [r["resolution"] for r in rows][0] == "96x96" and rows[-1]["resolution"] == "1280x960"
+    assert "120x160" in [r["resolution"] for r in rows]  # a portrait camera renders and tracks too
+    default = next(r for r in rows if r["resolution"] == "640x480")
+    assert default["render_to_640x480"] == 1.0 and default["pixels_to_640x480"] == 1.0
+    for r in rows:
+        assert r["render_ms"] > 0 and r["track_ms"] > 0
+        assert r["pixels"] == r["pixels_to_640x480"] * 640 * 480

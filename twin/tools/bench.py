@@ -17,6 +17,7 @@ import numpy as np
 
 from twin.world import gl
 from twin.world.render import PinRenderer
+from twin.sensing.tracker import PinTracker
 from twin.core.sensor import CameraModel
 from twin.core.scenario import ContourProtocol
 from twin.world.dome.registry import DOME_MODELS
@@ -64,6 +65,48 @@ def bench_render(quick: bool = False) -> list[dict]:
     for r in rows:
         r["aa_cost_ms"] = r["ms_per_frame"] - base[r["lighting"]]
     return rows
+
+
+#: Camera shapes of `twin bench pixels`, from 96×96 to 1280×960 (the last is the default's 4× the pixels)
+PIXEL_SHAPES = [(96, 96), (128, 128), (160, 120), (120, 160), (320, 240), (640, 480), (1280, 960)]
+
+
+def bench_pixels(quick: bool = False) -> list[dict]:
+    """Inside-camera render and tracking ms per frame against the frame's pixel count,
+    96×96 to 1280×960 (no lighting, no anti-aliasing), timed in rounds that run every
+    shape once (median over rounds), so that a host that speeds up or slows down moves
+    every shape alike; each row's render time also as a ratio of 640×480's (median of
+    the per-round ratios)."""
+
+    rng = np.random.default_rng(0)
+    renderers, trackers = [], []
+    for width, height in PIXEL_SHAPES:
+        camera = CameraModel(width=width, height=height)
+        renderer = PinRenderer(camera)
+        renderers.append(renderer)
+        trackers.append(PinTracker(renderer.render(camera.geometry.pin_tip_points())))
+    pins = CameraModel().geometry.pin_tip_points()
+    calls = 10 if quick else 40
+    render_s = np.zeros((5 if quick else 9, len(PIXEL_SHAPES)))
+    track_s = np.zeros_like(render_s)
+    for round_ in range(-1, len(render_s)):  # round −1 untimed
+        for i, (renderer, tracker) in enumerate(zip(renderers, trackers)):
+            frames, t0 = [], time.perf_counter()
+            for _ in range(calls):
+                frames.append(renderer.render(pins + rng.normal(0, 2e-4, pins.shape)))
+            t1 = time.perf_counter()
+            for frame in frames:
+                tracker.track(frame)
+            if round_ >= 0:
+                render_s[round_, i], track_s[round_, i] = (t1 - t0) / calls, (time.perf_counter() - t1) / calls
+    for renderer in renderers:
+        renderer.close()
+    default = PIXEL_SHAPES.index((640, 480))
+    return [{"section": "pixels", "resolution": f"{w}x{h}", "pixels": w * h,
+             "render_ms": 1e3 * float(np.median(render_s[:, i])), "track_ms": 1e3 * float(np.median(track_s[:, i])),
+             "pixels_to_640x480": w * h / (640 * 480),
+             "render_to_640x480": float(np.median(render_s[:, i] / render_s[:, default])), "gl": gl.GL_BACKEND}
+            for i, (w, h) in enumerate(PIXEL_SHAPES)]
 
 
 def bench_physics(quick: bool = False) -> list[dict]:
@@ -217,6 +260,7 @@ def bench_sweep(quick: bool = False, out: Path | None = None, workers: int | Non
 
 SECTIONS: dict[str, Callable[..., list[dict]]] = {
     "render": bench_render,
+    "pixels": bench_pixels,
     "physics": bench_physics,
     "perception": bench_perception,
     "throughput": bench_throughput,

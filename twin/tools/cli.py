@@ -380,7 +380,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_demo)
 
     p = sub.add_parser("bench", help="print speed figures and sweep what accuracy costs in time")
-    p.add_argument("what", nargs="?", default="all", choices=("all", "render", "physics", "perception", "throughput", "startup", "sweep"),
+    p.add_argument("what", nargs="?", default="all", choices=("all", "render", "pixels", "physics", "perception", "throughput", "startup", "sweep"),
                    help="one section (default: all; 'sweep' = the fidelity sweep: CSV, Pareto plot, markdown table)")
     p.add_argument("--quick", action="store_true", help="small sections and the quick sweep (< 2 min on 2 cores)")
     p.add_argument("--out", default=None, help="directory for the CSVs and the sweep's files (sweep default: out/bench)")
