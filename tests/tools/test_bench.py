@@ -16,6 +16,7 @@ def test_throughput_rows_are_consistent() -> None:
         assert r["frames"] == 2 * 8 * 8  # 2 orientations × 8 directions × 8 samples
         assert r["fps_1_process"] > 0 and r["fps_all_cores"] > 0
         assert r["fps_all_cores_steady"] >= r["fps_all_cores"]  # start-up removed, never added
+        assert r["pool_start_s"] > 0 and r["env_build_s"] > 0
         assert r["ms_per_frame_1_process"] == pytest.approx(1e3 / r["fps_1_process"])
 
 
