@@ -588,6 +588,8 @@ class PinTracker:
                 break
             resolved[pins[rows]] = True
             blob[pins[rows]] = free[cols]
+            if resolved.all():  # every pin on its blob: no field left to predict
+                return cents[blob], resolved
             disp = np.where(resolved[:, None], cents[blob] - ref, 0.0)
             pred = ref + self._field(disp, resolved)
             pred[resolved] = cents[blob[resolved]]
