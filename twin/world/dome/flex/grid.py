@@ -229,7 +229,7 @@ class DomeParams:
 
 
 #: The fidelity levels (scenario field `fidelity`); `twin bench physics` measures their
-#: cost (twin.world.dome.flex.physics.benchmark_physics). Every level runs the taps, the slides and full
+#: cost (twin.tools.bench.benchmark_physics). Every level runs the taps, the slides and full
 #: contour traces of all six objects without PhysicsError (tests/test_physics_hard_cases.py
 #: holds the hard cases). Against `reference`, the default's pins differ by ≈ 3 px RMS
 #: (median over 31 edge frames; the coarser grid), far more than its settling tolerance.

@@ -125,7 +125,7 @@ class SensorPhysics:
       (twin.world.dome.flex.add_tactip) and the stimuli on twin.world.dome.carrier.add_stimulus_carrier's body;
       `handles` resolved against `model`. The dome's contact law (solref, solimp, margin)
       is written into `model` for every geom that can touch the dome
-      (twin.world.dome.flex.apply_contact_law), so it holds whichever side wins MuJoCo's priority mix.
+      (twin.world.dome.flex.grid.apply_contact_law), so it holds whichever side wins MuJoCo's priority mix.
     start_tool2world: the sensor's initial lab pose (4×4, m); must be out of contact.
     stimulus2world: the carrier body's lab pose (4×4, m); identity = its frame is the
       lab world frame.
