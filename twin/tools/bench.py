@@ -26,6 +26,9 @@ from twin.sensing.perception import benchmark_perception
 from twin.runs.runner import run_chunk, worker_environment
 from twin.runs.parallel import WorkerPool, default_workers
 from twin.runs.protocols import protocol_moves
+from twin.runs.backends import make_environment
+from twin.runs.spec import sim_spec
+from twin.world.scene import build_scene
 from twin.runs.runner import chunk_moves, chunk_samples, close_worker_envs
 from twin.core.resources import scenario_path
 from twin.core.scenario import load_scenario
@@ -225,11 +228,6 @@ def bench_startup(quick: bool = False) -> list[dict]:
     simulator and answering a first job), first frame in one process (the first chunk's
     first sample once the environment exists), and end to end: the first sample line
     of the `twin run` command, from its start."""
-
-    from twin.runs.backends import make_environment
-    from twin.runs.spec import sim_spec
-    from twin.world.scene import build_scene
-
     scenario = load_scenario(scenario_path(STARTUP_SCENARIO))
     chunk = chunk_moves(protocol_moves(scenario.protocol))[0]
     stages: dict[str, list[float]] = {}
