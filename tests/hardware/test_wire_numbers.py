@@ -241,6 +241,22 @@ def test_serve_robot_exits_130_on_ctrl_c():
     assert proc.returncode == 130 and "Traceback" not in err, err
 
 
+def test_serve_robot_port_0_takes_a_free_port_and_says_which():
+    proc = subprocess.Popen([sys.executable, "-m", "twin.tools.cli", "serve-robot", "--port", "0"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        line = proc.stdout.readline()
+        port = int(line.split("listening on 127.0.0.1:")[1].split(";")[0])
+        assert 0 < port <= 65535
+        with socket.create_connection(("127.0.0.1", port), timeout=5) as sock:
+            assert _ask(sock, encode_request(Command.GET_JOINTS), 26)[:2] == b"\x00\x01"
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=20)
+    finally:
+        proc.kill()
+    assert proc.returncode == 143 and "Traceback" not in err, err
+
+
 
 class _FaultyArm(KinematicArm):
     """A backend with a bug in its linear moves (the `ArmBackend` a MuJoCo scene plugs in

@@ -333,7 +333,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("serve-robot", help="answer the IRB120's RAPID socket protocol with the simulated arm")
     p.add_argument("--host", default="127.0.0.1")
-    p.add_argument("--port", type=bounded_int(1, 65535, "(TCP port)"), default=5000)
+    p.add_argument("--port", type=bounded_int(0, 65535, "(TCP port)"), default=5000,
+                   help="TCP port to listen on; 0 = any free port (the one taken is printed)")
     p.add_argument("--realtime", type=bounded_float(0, 1000, "(time scale)"), default=0.0, help="1 = moves take their real duration; 0 = instant")
     p.add_argument("--idle-timeout", type=TIMEOUT, default=300.0, metavar="S",
                    help="drop a client that sends nothing for S seconds (default 300)")
