@@ -271,6 +271,31 @@ def test_bad_input_exits_2_naming_run_or_field(real, tmp_path, capsys) -> None:
     assert "camera.fokal_px" in capsys.readouterr().err
 
 
+def _scaled_pins(src: Path, dst: Path, factor: float) -> Path:
+    """A copy of a run whose pins sit `factor` times as far from the image centre: a
+    camera the calibration settings' focal bounds cannot reach."""
+    shutil.copytree(src, dst)
+    rows = [json.loads(line) for line in (dst / "samples.jsonl").read_text().splitlines()]
+    for row in rows:
+        row["pins_px"] = ((np.asarray(row["pins_px"]) - [319.5, 239.5]) * factor + [319.5, 239.5]).tolist()
+    (dst / "samples.jsonl").write_text("\n".join(json.dumps(r) for r in rows) + "\n")
+    return dst
+
+
+def test_a_camera_beyond_the_settings_bounds_is_named_not_a_crash(real, tmp_path, capsys) -> None:
+    # the rest layout would absorb what the focal length cannot: beyond the calibration's
+    # ±50 px offsets, a one-line error (it was an internal fault writing calibration.yaml)
+    runs = [_scaled_pins(run, tmp_path / run.name, 1.6) for run in real["runs"]]
+    camera = {"parameters": {"camera.focal_px": {"fit": True}, "camera.k1": {"fit": False},
+                             "material.young_kpa": {"fit": False}, "tcp.z_mm": {"fit": False}}}
+    args = ["calibrate", *map(str, runs), "--scenario", str(real["root"] / "twin.yaml"), "--out",
+            str(tmp_path / "cal"), "--settings", str(_settings(tmp_path, camera)), "--workers", "1", "--quiet"]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "px from the fitted camera's (a calibration holds at most 50 px)" in err and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1, err
+
+
 def test_recovers_where_the_base_holds_the_skin(tmp_path, monkeypatch) -> None:
     """Where the base holds the compliant dome's skin decides whether the shell follows
     contours (README, "Where the skin is held") and nothing in the geometry fixes it, so it

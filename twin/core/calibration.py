@@ -65,12 +65,16 @@ class CameraCalibration(StrictModel):
     rotation_deg: bounded_list(-10.0, 10.0, "deg", length=3) = [0.0, 0.0, 0.0]
 
 
+#: the largest rest-pin offset a calibration holds (px): beyond it the camera or rest layout is wrong, not the pins
+REST_OFFSET_LIMIT_PX = 50.0
+
+
 class Calibration(StrictModel):
     """One sensor's fitted parameters (module docstring). Every field is optional: what is
     not given keeps the twin's nominal value."""
 
     camera: CameraCalibration = CameraCalibration()
-    rest_pin_offsets_px: Annotated[list[bounded_list(-50.0, 50.0, "px", length=2)],
+    rest_pin_offsets_px: Annotated[list[bounded_list(-REST_OFFSET_LIMIT_PX, REST_OFFSET_LIMIT_PX, "px", length=2)],
                                    Field(min_length=N_PINS, max_length=N_PINS)] | None = None
     dome_material: dict[str, float] = {}
     friction: float | None = bounded(0.0, 3.0, "dimensionless", "skin–stimulus Coulomb coefficient", None)

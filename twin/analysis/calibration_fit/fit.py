@@ -49,7 +49,10 @@ from twin.analysis.calibration_fit.search import optimise, search_key
 from twin.analysis.calibration_fit.settings import CalibrationSettings
 from twin.analysis.calibration_fit.space import Space
 from twin.analysis.calibration_fit.uncertainty import uncertainty
-from twin.core.calibration import write_calibration
+import numpy as np
+
+from twin.core.calibration import REST_OFFSET_LIMIT_PX, write_calibration
+from twin.core.errors import UserError
 from twin.core.scenario import Scenario
 from twin.runs.parallel import WorkerPool
 
@@ -97,6 +100,10 @@ def _calibrate(run_dirs: list[Path], scenario: Scenario, out: Path, settings: Ca
         space.camera = keep
         final = ev.solve_camera(final_tips, {n: v for n, v in final.items() if n not in keep}, final)
     _, offsets = ev.predict(final_tips, final)
+    if ev.fit_rest and np.abs(offsets).max() > REST_OFFSET_LIMIT_PX:
+        raise UserError(f"the runs' rest pins lie {np.abs(offsets).max():.1f} px from the fitted camera's (a calibration "
+                        f"holds at most {REST_OFFSET_LIMIT_PX:.0f} px): the camera's bounds in the calibration settings "
+                        f"do not reach this sensor's camera; widen them (--settings) and fit again")
     calibration = space.calibration(final, offsets if ev.fit_rest else None)
     after = ev.rms(final_tips, final)
     name = "calibration.yaml" if state["converged"] else "best_calibration.yaml"
