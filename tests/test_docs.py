@@ -254,3 +254,7 @@ def test_the_readme_lists_every_command_and_option():
                for option in action.option_strings if option.startswith("--") and option != "--help"
                and option not in rows[name]]
     assert missing == [], "options twin --help lists and the README's table does not"
+
+
+def test_the_readme_reads_in_ten_minutes():
+    assert len((ROOT / "README.md").read_text().splitlines()) <= 300, "the rest belongs on the docs site (docs/)"
