@@ -22,12 +22,13 @@ ROOT = Path(__file__).resolve().parents[1]
 
 #: Top-level folders of the repository: a cited path starting with one of them must exist.
 TOP_LEVEL = ("twin", "tests", "hardware", "scenarios", "assets", "docs", ".ci")
-PATH = re.compile(r"(?<![\w./-])((?:%s)/[\w./*-]*[\w*-])(?:::([\w:]+))?" % "|".join(re.escape(t) for t in TOP_LEVEL))
+_TOP = "|".join(re.escape(t) for t in TOP_LEVEL)
+PATH = re.compile(rf"(?<![\w./-])((?:{_TOP})/[\w./*-]*[\w*-])(?:::([\w:]+))?")
 DOTTED = re.compile(r"(?<![\w./-])((?:twin|hardware)(?:\.[A-Za-z_]\w*)+)")
 #: a test function cited by name alone (two words at least, so that `test_dir` is no citation)
 TEST_NAME = re.compile(r"(?<![\w./:-])(test_[a-z0-9]+_\w+)(?![\w./])")
 #: a section cited by its heading: README "Conventions", docs/scenarios.md, "Effects"
-SECTION = re.compile(r"(README|(?:%s)/[\w./-]*\.md)['’]?s?,? (?:section )?[\"“]([^\"”]+)[\"”]" % "|".join(TOP_LEVEL))
+SECTION = re.compile(rf"(README|(?:{_TOP})/[\w./-]*\.md)['’]?s?,? (?:section )?[\"“]([^\"”]+)[\"”]")
 #: what ends a file name, not a dotted Python name (`hardware.md`, `twin.yaml`)
 FILE_SUFFIXES = {"md", "py", "yaml", "yml", "json", "toml", "csv", "png", "mp4", "txt", "stl", "html"}
 #: Dotted names that are not Python objects: the entry-point group of the backends.
@@ -40,8 +41,13 @@ HISTORY = {"CHANGELOG.md", "assets/irb120/CHANGELOG.md"}
 
 
 def _tracked(pattern: str) -> list[Path]:
-    out = subprocess.run(["git", "ls-files", "--cached", "--others", "--exclude-standard", pattern],
-                         cwd=ROOT, capture_output=True, text=True, check=True).stdout
+    out = subprocess.run(
+        ["git", "ls-files", "--cached", "--others", "--exclude-standard", pattern],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
     return sorted(ROOT / line for line in out.splitlines() if (ROOT / line).exists())
 
 
@@ -57,8 +63,7 @@ def hash_comments(path: Path) -> str:
 def code_prose(path: Path) -> str:
     """A Python file's comments and docstrings (what it says about other code)."""
     text = path.read_text()
-    parts = [tok.string for tok in tokenize.generate_tokens(io.StringIO(text).readline)
-             if tok.type == tokenize.COMMENT]
+    parts = [tok.string for tok in tokenize.generate_tokens(io.StringIO(text).readline) if tok.type == tokenize.COMMENT]
     for node in ast.walk(ast.parse(text)):
         if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
             doc = ast.get_docstring(node, clean=False)
@@ -89,8 +94,11 @@ def defined_tests() -> dict[str, set[str]]:
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
                 names.add(node.name)
             if isinstance(node, ast.ClassDef):
-                names.update(f"{node.name}::{m.name}" for m in node.body
-                             if isinstance(m, (ast.FunctionDef, ast.AsyncFunctionDef)))
+                names.update(
+                    f"{node.name}::{m.name}"
+                    for m in node.body
+                    if isinstance(m, (ast.FunctionDef, ast.AsyncFunctionDef))
+                )
         found[p.relative_to(ROOT).as_posix()] = names
     return found
 
@@ -185,8 +193,9 @@ def citations(text: str) -> tuple[list[tuple[str, str | None]], list[str], list[
 
 
 def problems(texts: dict[str, str]) -> list[str]:
-    every_test = set().union(*defined_tests().values()) | {n.split("::")[-1] for names in defined_tests().values()
-                                                              for n in names}
+    every_test = set().union(*defined_tests().values()) | {
+        n.split("::")[-1] for names in defined_tests().values() for n in names
+    }
     found = []
     for source, text in texts.items():
         paths, dotted, tests, sections = citations(text)
@@ -200,8 +209,11 @@ def problems(texts: dict[str, str]) -> list[str]:
             if (why := dotted_problem(name)) is not None:
                 found.append(f"{source}: {why}")
         for test in tests:
-            if test not in every_test and not (ROOT / "tests" / f"{test}.py").exists() \
-                    and not any(Path(p).stem == test for p in defined_tests()):
+            if (
+                test not in every_test
+                and not (ROOT / "tests" / f"{test}.py").exists()
+                and not any(Path(p).stem == test for p in defined_tests())
+            ):
                 found.append(f"{source}: no test named {test}")
     return sorted(set(found))
 
@@ -210,26 +222,32 @@ def test_every_cited_path_and_name_exists():
     assert problems(sources()) == []
 
 
-@pytest.mark.parametrize("text", [
-    "see `twin/world/no_such_module.py`",
-    "tests/tools/test_evaluate.py::test_no_such_test checks it",
-    "the settings live in twin.sensing.perception.NoSuchConfig",
-    "`test_no_such_test_anywhere` holds it",
-    "twin.no_such_package.module",
-    'the pinned set (see README "No such section")',
-    "scenarios/no_such_*.yaml",
-])
+@pytest.mark.parametrize(
+    "text",
+    [
+        "see `twin/world/no_such_module.py`",
+        "tests/tools/test_evaluate.py::test_no_such_test checks it",
+        "the settings live in twin.sensing.perception.NoSuchConfig",
+        "`test_no_such_test_anywhere` holds it",
+        "twin.no_such_package.module",
+        'the pinned set (see README "No such section")',
+        "scenarios/no_such_*.yaml",
+    ],
+)
 def test_a_stale_citation_is_found(text):
     assert len(problems({"example.md": text})) == 1
 
 
-@pytest.mark.parametrize("text", [
-    "`twin/world/scene.py`, scenarios/taps_rectangle.yaml and tests/tools/test_evaluate.py",
-    "twin.core.poses.Pose and twin.sensing.perception.GPConfig (the noise floor).",
-    "hardware.protocol.RequestDecoder; the `twin.backends` entry point",
-    "runs/cal/calibration.yaml and out/bench are written by the commands",
-    "scenarios/contour_*.yaml, the `test_dir` argument, tests/test_docs.py::test_what_exists_passes",
-])
+@pytest.mark.parametrize(
+    "text",
+    [
+        "`twin/core/poses.py`, scenarios/taps_rectangle.yaml and tests/test_public_api.py::test_public_names",
+        "twin.core.poses.Pose and twin.sensing.perception.GPConfig (the noise floor).",
+        "hardware.protocol.RequestDecoder; the `twin.backends` entry point",
+        "runs/cal/calibration.yaml and out/bench are written by the commands",
+        "scenarios/contour_*.yaml, the `test_dir` argument, tests/test_docs.py::test_what_exists_passes",
+    ],
+)
 def test_what_exists_passes(text):
     assert problems({"example.md": text}) == []
 
@@ -250,9 +268,13 @@ def test_the_readme_lists_every_command_and_option():
     commands = next(a for a in parser._actions if a.dest == "command").choices
     rows = _readme_command_rows()
     assert set(rows) == set(commands), "the README's commands table against twin --help"
-    missing = [f"twin {name} {option}" for name, sub in commands.items() for action in sub._actions
-               for option in action.option_strings if option.startswith("--") and option != "--help"
-               and option not in rows[name]]
+    missing = [
+        f"twin {name} {option}"
+        for name, sub in commands.items()
+        for action in sub._actions
+        for option in action.option_strings
+        if option.startswith("--") and option != "--help" and option not in rows[name]
+    ]
     assert missing == [], "options twin --help lists and the README's table does not"
 
 
