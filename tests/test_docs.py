@@ -275,7 +275,15 @@ def test_the_readme_lists_every_command_and_option():
         for option in action.option_strings
         if option.startswith("--") and option != "--help" and option not in rows[name]
     ]
-    assert missing == [], "options twin --help lists and the README's table does not"
+    missing += [  # a positional argument's choices: `twin bench [all|render|...]`
+        f"twin {name} {choice}"
+        for name, sub in commands.items()
+        for action in sub._actions
+        if not action.option_strings and action.choices
+        for choice in action.choices
+        if choice not in re.split(r"[\s\[\]|\\]+", re.match(r"\| `([^`]*)`", rows[name]).group(1))
+    ]
+    assert missing == [], "options and choices twin --help lists and the README's table does not"
 
 
 def test_the_readme_reads_in_ten_minutes():
