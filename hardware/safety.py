@@ -1,6 +1,6 @@
 """Software safety limits of the real rig, checked before any command leaves the PC.
 
-All limits are in the **work frame** (README "Conventions"): +z points *into* the object,
+All limits are in the **work frame** (docs/conventions.md): +z points *into* the object,
 so the indentation depth of a pose is its z (mm) and `max_depth_mm` caps z. Bounds are
 inclusive: a value equal to a limit passes, anything beyond it (even by one ulp) or not
 finite (NaN, ±inf) is refused with a `SafetyError` naming the field, value and limit.

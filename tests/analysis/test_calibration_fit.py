@@ -298,7 +298,7 @@ def test_a_camera_beyond_the_settings_bounds_is_named_not_a_crash(real, tmp_path
 
 def test_recovers_where_the_base_holds_the_skin(tmp_path, monkeypatch) -> None:
     """Where the base holds the compliant dome's skin decides whether the shell follows
-    contours (README, "Where the skin is held") and nothing in the geometry fixes it, so it
+    contours (docs/dome/skins.md, "Where the skin is held") and nothing in the geometry fixes it, so it
     is what a rig's taps must measure: a "real" shell held at 72° (rendered with camera
     noise and tracked, another seed) is calibrated back from a twin held at 80°, fitting
     only `material.skin_held_deg` (one physics dimension: the BracketSearch, which reaches
@@ -333,6 +333,6 @@ def test_recovers_where_the_base_holds_the_skin(tmp_path, monkeypatch) -> None:
     # 8° of hold move the pins by 1.8 px RMS; the fit is held to a degree (the 65° and 70°
     # shells differ by 4° of contour error) and to what its own pin residual resolves
     assert abs(u["value"] - 72.0) < min(1.0, r["after"]["groups"]["contact"] / u["pin_rms_px_per_unit"]), u
-    # the lattice's steps in χ² (README, "Where the skin is held") leave a little above the floor
+    # the lattice's steps in χ² (docs/dome/skins.md, "Where the skin is held") leave a little above the floor
     assert r["before"]["groups"]["contact"] > max(1.0, 10 * floor) and r["after"]["groups"]["contact"] < 1.5 * floor
     assert load_calibration(r["calibration_file"]).dome_material["skin_held_deg"] == pytest.approx(u["value"])

@@ -182,7 +182,7 @@ def test_mesh_refinement_of_the_pins():
     half-space: 0.21 / 0.25 / 0.18 and 1.24 / 1.41 / 0.87 px) — the pins beside the edge
     line, where the corner's pressure peak turns the skin most and the nodes place the
     line to within half a spacing. (The aim of every pin within 0.5 px is not met there; with the edge elsewhere
-    between the nodes the worst pin is 1.4–3.2 px: README, "Where refinement falls short".)"""
+    between the nodes the worst pin is 1.4–3.2 px: docs/dome/compliant.md, "Where refinement falls short".)"""
     def frames(spacing_mm: float) -> list[np.ndarray]:
         env = _env(spacing_mm=spacing_mm, x_mm=60.0)
         out = []

@@ -24,7 +24,7 @@ MEMBRANE = "default+membrane"
 WITH_MEMBRANE = LEVELS + [MEMBRANE]
 #: the default level with the skin as a thin shell (membrane and bending)
 SHELL = "default+shell"
-#: the shell held by the base at the cap's rim (README, "Where the skin is held")
+#: the shell held by the base at the cap's rim (docs/dome/skins.md, "Where the skin is held")
 SHELL_HELD_65 = "default+shell_held_65"
 SKINS = {MEMBRANE: SKIN_PHYSICS["membrane"], SHELL: SKIN_PHYSICS["shell"],
          SHELL_HELD_65: SKIN_PHYSICS["shell_held_65"]}

@@ -28,7 +28,7 @@ from twin.runs.sim_env import SimEnvironment
 from twin.world.stimuli import builtin_stimulus
 from twin.world.stimuli.outlines import SpiralParams
 
-#: the compliant dome also with its optional skin membrane (README "The compliant dome"),
+#: the compliant dome also with its optional skin membrane (docs/dome/compliant.md),
 #: whose coupling of normal and tangential motion is the contact solver's hardest input
 MEMBRANE = SKIN_PHYSICS["membrane"]
 FIDELITY = [pytest.param(dome, level, id=f"{dome}-{level}")
@@ -185,7 +185,7 @@ def _spiral_tightest_turn(arc_mm: float = 27.0, step_mm: float = 3.0) -> tuple[n
     """(path in work mm, tightest point in work mm): the last `arc_mm` of the spiral's trace
     path, which ends at the inner end, where the outer edge's radius of curvature is smallest.
 
-    The outer edge is r(t) = centre_radius(t) + width/2 (twin.world.stimuli.SpiralParams), smallest at
+    The outer edge is r(t) = centre_radius(t) + width/2 (twin.world.stimuli.outlines.SpiralParams), smallest at
     t = 0, the inner end; tracing runs outside-in and ends there.
     """
     p = SpiralParams()

@@ -1,7 +1,7 @@
 """The environment interface shared by the simulated and the real rig.
 
 Everything downstream of `Observation` (tracker, perception, controller, recording) is
-the same code for both backends. Units follow README "Conventions": poses in mm/deg in
+the same code for both backends. Units follow docs/conventions.md: poses in mm/deg in
 the scenario's work frame, pins in px, time in s.
 """
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 A pose is (x, y, z, α, β, γ): position in mm and extrinsic XYZ Euler angles in degrees
 (R = Rz(γ)·Ry(β)·Rx(α)), of the tool frame (TCP at the dome apex) in a named work
-frame. See README "Conventions".
+frame. See docs/conventions.md.
 """
 from __future__ import annotations
 
@@ -108,7 +108,7 @@ def wrap_deg(angle) -> np.ndarray:
 
 def object_to_work_xy(points_mm: np.ndarray) -> np.ndarray:
     """Object-frame (x, y) mm → work-frame (x, y) mm. The default work frame is the object
-    frame turned 180° about x (README "Conventions"), so y flips; the flip is its own inverse."""
+    frame turned 180° about x (docs/conventions.md), so y flips; the flip is its own inverse."""
     p = np.atleast_2d(np.asarray(points_mm, float))
     return np.column_stack([p[:, 0], -p[:, 1]])
 

@@ -15,7 +15,7 @@ from twin.core.sensor import CameraModel
 from twin.core.validation import PoseList, RunName, no_link_out, StrictModel, bounded, bounded_list, read_yaml, validate_mapping
 
 EFFECTS = ("contact", "friction", "arm_dynamics", "render", "camera_noise", "lighting")
-#: Approach choreography shared by every protocol (work frame, README "Conventions"):
+#: Approach choreography shared by every protocol (work frame, docs/conventions.md):
 #: an episode starts at START_POSE, out of contact; the sensor approaches and leaves a
 #: surface by hovering at HOVER_Z_MM (5 mm above the object's top), at DEFAULT_SPEED_MM_S.
 START_POSE = Pose(0.0, 0.0, -10.0, 0.0, 0.0, 0.0)
@@ -185,7 +185,7 @@ Protocol = Annotated[Union[RenderProtocol, TapProtocol, SlideProtocol, ShearedTa
 
 
 class Scenario(StrictModel):
-    """One run. README.md, "Scenarios", shows a whole file; every field's unit and range is in
+    """One run. docs/scenarios.md shows a whole file; every field's unit and range is in
     its model's description here (ObjectSpec, SensorSpec, the protocols) and, for `physics`,
     in the dome model's settings (twin.world.dome.flex.FlexSettings,
     twin.world.dome.compliant.CompliantSettings)."""

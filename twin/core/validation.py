@@ -49,7 +49,7 @@ def _angles_within_a_turn(values: list[float]) -> list[float]:
     return values
 
 
-#: A pose [x, y, z, α, β, γ] (mm, deg; README "Conventions"): positions within ±1000 mm
+#: A pose [x, y, z, α, β, γ] (mm, deg; docs/conventions.md): positions within ±1000 mm
 #: (the IRB120 reaches 580 mm), angles within one turn either way.
 PoseList = Annotated[
     list[Annotated[float, Field(ge=-1000, le=1000)]],

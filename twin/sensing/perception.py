@@ -44,7 +44,7 @@ Pipeline (method "pca"):
    ρ separates the lateral positions finely, and then it reads a tap between the training
    depths as a tap at another lateral position: the compliant dome's held-out taps (2.5
    and 3.5 mm deep against 2 and 4) read 2.5–5.8 mm wrong with the sensor's centre 1–5 mm
-   on the object, 0.15–0.27 mm without ρ (measured; README, "Perception: the lateral GP
+   on the object, 0.15–0.27 mm without ρ (measured; docs/paper.md, "Perception: the lateral GP
    reads φ, not ρ"). The paper
    gives all three GPs v; it does not say how its GPs weighed ρ.
    Kernel ConstantKernel · Matern(ν = 5/2, one length scale per input (ARD)) + WhiteKernel.
@@ -861,7 +861,7 @@ def synthetic_tap_pins(
     noise_px: float = 0.0,
     rng: np.random.Generator | None = None,
 ) -> np.ndarray:
-    """(N, 127, 2) px pins of a smooth analytic tap model (not physics; for tests/benchmarks).
+    """(N, 127, 2) px pins of a smooth analytic tap model (not physics; for tests and benchmarks).
 
     Built to have the structure the paper's method assumes: pin displacements (tool plane,
     mm) are a(d, l)·[cos β(l)·S + sin β(l)·D(θ)] + 0.1·d·min(c(l), 1)·S, where S is a

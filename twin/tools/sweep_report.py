@@ -160,7 +160,7 @@ def _ratio_cell(r: dict) -> str:
 
 
 def markdown_table(rows: list[dict], meta: dict) -> str:
-    """The README's table: one line per setting, then the verdict and how it was measured."""
+    """The sweep's table (in docs/accuracy-cost.md): one line per setting, then the verdict and how it was measured."""
     head = ("| setting | knob | physics | render | tracking | perception | **total ms/frame** | × default | "
             "pin err px (phys / track) | settling err px | θ err ° | l err mm | contour err mm (steps, end) | front | "
             "contour front |")

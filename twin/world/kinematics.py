@@ -1,6 +1,6 @@
 """Forward and inverse kinematics of the ABB IRB120 (assets/irb120/irb120.xml).
 
-Frames and units follow README "Conventions": `world` is the robot base frame (+z up,
+Frames and units follow docs/conventions.md: `world` is the robot base frame (+z up,
 +x forward), lengths in m, angles in rad, transforms 4×4 named `a2b`. The flange frame is
 ABB's tool0 (body `flange`: +z out of the flange).
 

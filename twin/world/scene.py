@@ -14,7 +14,7 @@ only rendered, never stepped.
 |               | the dome model gets friction coefficient 0)                          |
 | render, camera_noise, lighting | nothing here: twin.world.render                          |
 
-World = robot base frame on the table top (README "Conventions").
+World = robot base frame on the table top (docs/conventions.md).
 """
 from __future__ import annotations
 

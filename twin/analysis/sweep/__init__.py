@@ -47,7 +47,7 @@ twin.tools.sweep_report.CSV_COLUMNS):
   frame (`SensorPhysics.converged_pins`; not timed, and the simulation then continues as
   if it had not happened). The pin error cannot see what a settle tolerance costs: ≈ 4 px
   of it is the coarse grid's discretisation, which hides the tenths of a px a settle
-  tolerance leaves (README). Not measured (None) without contact.
+  tolerance leaves (docs/accuracy-cost.md). Not measured (None) without contact.
 * perception error on the slide probe: orientation RMS (deg, wrapped) and lateral RMS
   (mm) of the PCA + GP model trained on the setting's own tap probe.
 * contour error on the rectangle: mean distance of the sensor path from the contour

@@ -18,7 +18,7 @@ ERROR_MARGIN_REL = 0.02
 #: rendered pins to 0.08 px RMS, the pin error against the reference is ≈ 2 px either way
 #: (2.14 px at the default 0.1 px band and at 0.05 px), and a frictionless slide ends
 #: 9 / 13 / 18 µm (≈ 0.1–0.2 px) from the static press at settle 0.025 / 0.05 / 0.1 px
-#: (tests/test_dome.py asks < 20 µm). Settle ×2 (0.28 vs 0.12 px) stays distinguishable.
+#: (tests/world/test_dome.py asks < 20 µm). Settle ×2 (0.28 vs 0.12 px) stays distinguishable.
 ERROR_MARGIN_ABS = {"pin_rms_px": 0.02, "pin_settling_rms_px": 0.05, "theta_rms_deg": 0.5,
                     "contour_completed_mm": 0.1}
 

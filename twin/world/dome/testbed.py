@@ -1,5 +1,5 @@
 """A minimal dome scene for tests and benchmarks: the TacTip pressed onto a straight box
-edge, built without a scenario (tool frame, m; README "Conventions")."""
+edge, built without a scenario (tool frame, m; docs/conventions.md)."""
 from __future__ import annotations
 
 import mujoco

@@ -6,7 +6,7 @@ Every stimulus is a flat object described by a 2D outline and a thickness.
 origin at the object's *reference point* (the centre of the outline; the spiral's pole
 for the spiral), +x right and +y up as seen from above, +z up. The *top surface is at
 z = 0* and the solid fills z ∈ [−thickness, 0]. The scene places the object so that its
-reference point on the top surface is the work-frame origin (README "Conventions":
+reference point on the top surface is the work-frame origin (docs/conventions.md:
 the work frame is this frame rotated 180° about x, so work +z points into the object).
 
 **Contour following** runs counter-clockwise seen from above (object on the left of the

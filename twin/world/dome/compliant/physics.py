@@ -81,7 +81,7 @@ class CompliantParams:
     membrane_young (Pa): the skin as a membrane over the gel (twin.world.dome.compliant.compliance.
       membrane_stiffness), 0 = none; `young` is then the gel's own modulus. Off by default
       (SKIN_PHYSICS: a 0.6 MPa skin over a 41.9 kPa gel, the same 4.3 N; what it changes
-      is measured in the README).
+      is measured in docs/dome/skins.md).
     skin_bending: the skin membrane also resists bending, as a thin shell of the same
       modulus and thickness (twin.world.dome.compliant.compliance.bending_stiffness); needs
       membrane_young. Off by default (assets/tactip/README.md).
@@ -131,7 +131,7 @@ COMPLIANT_LEVELS: dict[str, CompliantParams] = {
 
 #: The skin over the gel, as scenario `physics` entries (`dome: compliant`): a membrane, or a
 #: thin shell (membrane and bending), held by the base at the equator; and the shell held at
-#: the cap's rim, just beyond the pins (README, "Where the skin is held"). Each over a gel
+#: the cap's rim, just beyond the pins (docs/dome/skins.md, "Where the skin is held"). Each over a gel
 #: whose modulus is calibrated so that the 4 mm press centred on a straight edge takes the
 #: default solid's 4.3 N (assets/tactip/README.md, "The compliant dome's material").
 SKIN_PHYSICS: dict[str, dict[str, float | bool]] = {

@@ -26,7 +26,7 @@ Pin tips move with the gel around them (they are interpolated vertices, read by
 ``pin_tips_tool`` in the tool frame); the grid is too coarse for the skin's local bending
 at the border of a contact, which twin.world.dome.flex.skin adds to every settled frame (SensorPhysics).
 
-Frames and units: README "Conventions". Tool frame: origin at the undeformed dome apex
+Frames and units: docs/conventions.md. Tool frame: origin at the undeformed dome apex
 (the TCP), +z along the sensor axis out of the tip. All lengths in m, forces in N.
 
 Attaching: ``add_tactip(spec, spec.worldbody, geometry, params, friction)`` adds a
@@ -76,8 +76,8 @@ class DomeParams:
         whole cap along (along-edge slides on PLA, μ 0.7, 3 mm: pins 17–20 px common-mode,
         tap-trained orientation error 48–68° RMS); the real skin is a rubber membrane
         that carries tangential load to the clamped rim. 3e5 Pa (a soft Agilus/Tango
-        skin is 0.3–1 MPa): 5–6.5 px, 9–19° (measured, README "Reproducing the
-        paper"); 1e6 Pa made a slide's pins oscillate unsettled. The membrane has no
+        skin is 0.3–1 MPa): 5–6.5 px, 9–19° (measured, docs/paper.md,
+        "How the twin gets there"); 1e6 Pa made a slide's pins oscillate unsettled. The membrane has no
         bending stiffness and lies flat, so it barely stiffens a press (4.3 → 4.7 N at
         4 mm). 0 = gel only.
       damping (s): Rayleigh stiffness-proportional damping β (damping matrix = β·K). It
@@ -117,7 +117,7 @@ class DomeParams:
         in a 40 × 40 × 20 mm box; the pin field is as smooth as this grid.
         5×5×2 (young 4.5e4 for the same 4.3 N) is as fast and 0.2 px closer to the
         reference, but a 90° turn of the sensor turned its pin pattern by 60° instead
-        of 90° (tests/test_dome.py), so 4×4×2 stays the default.
+        of 90° (tests/world/test_dome.py), so 4×4×2 stays the default.
       pin_ghost_nodes: pin the grid nodes in the bounding box's corner columns (outside the
         dome's footprint). Unpinned, they have ~no stiffness and no Rayleigh damping, drift
         and kicked the pins by 0.1–0.3 mm seconds after lift-off (measured).
@@ -129,7 +129,7 @@ class DomeParams:
       skin_spacing (m), skin_extent_deg (deg): the sub-grid skin layer (twin.world.dome.flex.skin): node
         spacing on the outer skin and half-angle of the cap it covers; 0 spacing = off
         (scenario `physics: {skin_spacing_mm: 0}`). At 1.5 mm the layer makes taps readable
-        (README "Reproducing the paper") for ≈ 0.5 ms of physics per frame. It swings the
+        (docs/paper.md, "How the twin gets there") for ≈ 0.5 ms of physics per frame. It swings the
         pins at a contact's border up to 0.7 spacing off their neighbours' motion (measured
         on twin taps and slides); the tracker follows them (twin.sensing.tracker.PinTracker, step 5).
         55° holds a 7 mm press (a contact reaching the cap's outer ring raises PhysicsError).
@@ -152,7 +152,7 @@ class DomeParams:
         no pin's image moved more than this. The per-step band is not the distance to
         equilibrium (settling converges geometrically, so the rest of the way is a few
         bands): a frictionless slide ends 9 / 13 / 18 / 80 µm from the static press at
-        the same pose at 0.025 / 0.05 / 0.1 / 0.2 px (tests/test_dome.py asks < 20 µm),
+        the same pose at 0.025 / 0.05 / 0.1 / 0.2 px (tests/world/test_dome.py asks < 20 µm),
         and the sweep's settling error (RMS distance of a frame from its converged state)
         is 0.02 / 0.05 / 0.12 px at 0.025 / 0.05 / 0.1 px. 0.1 px: its 0.12 px is below
         the tracker's error on rendered frames and changes neither the pin error against
@@ -230,7 +230,7 @@ class DomeParams:
 
 #: The fidelity levels (scenario field `fidelity`); `twin bench physics` measures their
 #: cost (twin.tools.bench.benchmark_physics). Every level runs the taps, the slides and full
-#: contour traces of all six objects without PhysicsError (tests/test_physics_hard_cases.py
+#: contour traces of all six objects without PhysicsError (tests/world/test_physics_hard_cases.py
 #: holds the hard cases). Against `reference`, the default's pins differ by ≈ 3 px RMS
 #: (median over 31 edge frames; the coarser grid), far more than its settling tolerance.
 FIDELITY_LEVELS: dict[str, DomeParams] = {

@@ -31,9 +31,9 @@ dependence (shear comes from the flex's friction) and vanishes out of contact.
 Measured on the edge scene (paper's 288 taps to train, held-out taps at θ + 10°, odd
 lateral positions, 3 mm): orientation error 59° → 19° RMS; a uniform 2 px image shift
 of the held-out taps (the form shear takes) raises it from 11° to 57° without the layer
-and from 7° to 9° with it (README "Reproducing the paper").
+and from 7° to 9° with it (docs/paper.md, "How the twin gets there").
 
-Frames and units: tool frame, m (README "Conventions").
+Frames and units: tool frame, m (docs/conventions.md).
 """
 from __future__ import annotations
 
