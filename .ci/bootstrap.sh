@@ -55,6 +55,9 @@ export MUJOCO_GL=${MUJOCO_GL:-egl} PYOPENGL_PLATFORM=${PYOPENGL_PLATFORM:-${MUJO
 case "$job" in
   demo) exec .venv/bin/twin demo "$@" ;;
   test)
+    # lint (pyflakes, bugbear, import order) and format, as configured in pyproject.toml
+    .venv/bin/ruff check . && .venv/bin/ruff format --check . \
+      || die "ruff: fix with .venv/bin/ruff check --fix . && .venv/bin/ruff format ."
     # the docs site: a broken link, anchor, snippet or API reference is a warning, and --strict fails on it
     NO_MKDOCS_2_WARNING=1 .venv/bin/mkdocs build --strict || die "the docs do not build (mkdocs build --strict, above)"
     set +e

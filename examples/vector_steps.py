@@ -8,6 +8,7 @@ the vector against one env's, measured in the same run.
 context), sync runs them one after another in this one. Envs are seeded per env: reset
 with seed s seeds env i with s + i.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -46,8 +47,9 @@ def main() -> None:
 
     def make(n: int, mode: str) -> gym.vector.VectorEnv:
         kwargs = {"context": "forkserver"} if mode == "async" else {}
-        return gym.make_vec(twin.GYM_ID, num_envs=n, vectorization_mode=mode, vector_kwargs=kwargs,
-                            scenario=args.scenario)
+        return gym.make_vec(
+            twin.GYM_ID, num_envs=n, vectorization_mode=mode, vector_kwargs=kwargs, scenario=args.scenario
+        )
 
     one = make(1, "sync")
     try:
@@ -59,8 +61,10 @@ def main() -> None:
         vector = steps_per_second(envs, args.frames, args.seed)
     finally:
         envs.close()
-    print(f"{args.scenario}: 1 env {single:.1f} steps/s; {args.envs} envs ({args.mode}) {vector:.1f} steps/s "
-          f"= {vector / single:.2f}x one env ({np.round(vector / single / args.envs, 2)} of {args.envs}x)")
+    print(
+        f"{args.scenario}: 1 env {single:.1f} steps/s; {args.envs} envs ({args.mode}) {vector:.1f} steps/s "
+        f"= {vector / single:.2f}x one env ({np.round(vector / single / args.envs, 2)} of {args.envs}x)"
+    )
 
 
 if __name__ == "__main__":

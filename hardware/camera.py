@@ -27,6 +27,7 @@ Failures raise `HardwareError`: the device cannot be opened ("camera 0 not found
 is not width×height, or `max_identical` consecutive frames are bit-identical (a frozen
 driver re-delivering one buffer — a live TacTip image always has sensor noise).
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -213,7 +214,7 @@ class TactipCamera:
         if cap is not None:
             cap.release()
 
-    def __enter__(self) -> "TactipCamera":
+    def __enter__(self) -> TactipCamera:
         return self
 
     def __exit__(self, *exc) -> None:

@@ -4,6 +4,7 @@ Errors name the file, the field and the offending value and are raised as `UserE
 (the CLI prints them without a traceback). See `hardware/example_config.yaml` and
 `hardware/README.md` for every field with its unit.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -12,8 +13,9 @@ from typing import Annotated, Literal
 from pydantic import Field, field_validator
 
 from hardware.safety import SafetyLimits
-from twin.core.validation import PoseList, StrictModel, bounded, read_yaml, validate_mapping
 from twin.core.poses import Pose
+from twin.core.validation import PoseList, StrictModel, bounded, read_yaml, validate_mapping
+
 
 class RobotConfig(StrictModel):
     """The IRB120's RAPID server and the frames/speeds it is set up with."""

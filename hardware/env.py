@@ -15,6 +15,7 @@ One exception, logged: a robot found outside the limits (parked elsewhere when t
 starts) may only be sent to the config's start pose, and that approach is not covered by
 the limits — keep the controller's own world zones set.
 """
+
 from __future__ import annotations
 
 import logging
@@ -46,7 +47,9 @@ class HardwareEnvironment(Environment):
         camera: TactipCamera | None = None,
     ) -> None:
         self.config = config
-        self.camera = camera_model if camera_model is not None else CameraModel(config.camera.width, config.camera.height)
+        self.camera = (
+            camera_model if camera_model is not None else CameraModel(config.camera.width, config.camera.height)
+        )
         if (self.camera.width, self.camera.height) != (config.camera.width, config.camera.height):
             raise UserError(
                 f"camera model is {self.camera.width}×{self.camera.height} but the hardware config's camera "
@@ -61,7 +64,11 @@ class HardwareEnvironment(Environment):
         self.sensor: TactipCamera | None = None
         try:
             self.robot = robot or RobotDriver(
-                r.host, r.port, client=r.client, connect_timeout_s=r.connect_timeout_s, reply_timeout_s=r.reply_timeout_s
+                r.host,
+                r.port,
+                client=r.client,
+                connect_timeout_s=r.connect_timeout_s,
+                reply_timeout_s=r.reply_timeout_s,
             )
             self.robot.configure(r.tcp, r.work_frame, r.linear_speed_mm_s, r.angular_speed_deg_s)
             c = config.camera
@@ -73,13 +80,15 @@ class HardwareEnvironment(Environment):
         self._at: Pose | None = None  # the pose last reached by a move (work frame), None = ask the robot
 
     @classmethod
-    def from_scenario(cls, scenario, config_path: str | None = None) -> "HardwareEnvironment":
+    def from_scenario(cls, scenario, config_path: str | None = None) -> HardwareEnvironment:
         """The rig for a scenario: its `hardware_config` file (or `config_path`), with the
         scenario's camera resolution."""
         name = config_path or scenario.hardware_config
         if name is None:
-            raise UserError(f"{scenario.source}: the hardware backend needs a config file: set field "
-                            "'hardware_config' or pass --hardware-config (see hardware/example_config.yaml)")
+            raise UserError(
+                f"{scenario.source}: the hardware backend needs a config file: set field "
+                "'hardware_config' or pass --hardware-config (see hardware/example_config.yaml)"
+            )
         config = load_hardware_config(scenario.resolve(name))
         calibration = scenario.calibration()
         if calibration is not None and any(calibration.tcp_offset_mm):
@@ -106,11 +115,17 @@ class HardwareEnvironment(Environment):
         if self.safety.allows(start):
             self.safety.check_path(start, pose)
         elif pose != self.config.robot.start_pose:
-            raise SafetyError(f"the robot is at {start}, outside the safety limits: from there it may only be sent "
-                              f"to the start pose (robot.start_pose_mm_deg; reset())")
+            raise SafetyError(
+                f"the robot is at {start}, outside the safety limits: from there it may only be sent "
+                f"to the start pose (robot.start_pose_mm_deg; reset())"
+            )
         else:
-            log.warning("the robot is at %s, outside the safety limits: approaching the start pose %s in a straight "
-                        "line, a path the limits do not cover", start, pose)
+            log.warning(
+                "the robot is at %s, outside the safety limits: approaching the start pose %s in a straight "
+                "line, a path the limits do not cover",
+                start,
+                pose,
+            )
         if speed != self._speed_mm_s:
             robot.set_speed(speed, self.config.robot.angular_speed_deg_s)
             self._speed_mm_s = speed

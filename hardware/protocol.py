@@ -45,6 +45,7 @@ Semantics (as on the controller):
 Replies have no length prefix either, so a reader must know the command it is waiting
 for: `reply_value_count` gives the number of float32 values after an OK status.
 """
+
 from __future__ import annotations
 
 import math
@@ -228,7 +229,7 @@ class RequestDecoder:
             if len(self._buf) < CODE_SIZE + layout.size:
                 break
             args = layout.unpack_from(self._buf, CODE_SIZE)
-            del self._buf[:CODE_SIZE + layout.size]
+            del self._buf[: CODE_SIZE + layout.size]
             out.append(Request(command, args))
         return out
 
@@ -310,8 +311,10 @@ def wire_number(field: str, value: object, unit: str = "", *, refuse_underflow: 
         raise SafetyError(f"{shown} is beyond the robot's float32 range (±{FLOAT32_MAX:.7g})")
     if refuse_underflow and 0.0 < abs(number) < FLOAT32_TINY:
         sent = float(np.float32(number))
-        raise SafetyError(f"{shown} is too small to send: the robot's float32 carries it as {sent:.6g} "
-                          f"(the smallest normal float32 is {FLOAT32_TINY:.7g})")
+        raise SafetyError(
+            f"{shown} is too small to send: the robot's float32 carries it as {sent:.6g} "
+            f"(the smallest normal float32 is {FLOAT32_TINY:.7g})"
+        )
     return number
 
 

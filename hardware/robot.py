@@ -23,6 +23,7 @@ Every failure of the link raises `HardwareError` naming ``host:port``: connectio
 no reply within the timeout, connection closed. After such a failure the connection is
 closed (a late reply would desynchronise the stream); make a new driver to reconnect.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -31,7 +32,8 @@ import logging
 import socket
 import struct
 import time
-from typing import Literal, Protocol as TypingProtocol
+from typing import Literal
+from typing import Protocol as TypingProtocol
 
 import numpy as np
 
@@ -111,14 +113,16 @@ class NativeClient:
             if size is None:  # GET_INFO: text without a length; take what arrives promptly
                 return self._read_available(deadline).decode("ascii", errors="replace")
             return decode_reply_values(command, self._read_exactly(size, deadline, command))
-        except (TimeoutError, socket.timeout):
+        except TimeoutError:
             self.close()
             raise HardwareError(
                 f"the robot at {self.address} did not answer {command.name} within {timeout_s:.1f} s"
             ) from None
         except (OSError, ProtocolError) as err:
             self.close()
-            raise HardwareError(f"lost the connection to the robot at {self.address} during {command.name}: {err}") from None
+            raise HardwareError(
+                f"lost the connection to the robot at {self.address} during {command.name}: {err}"
+            ) from None
 
     def _read_exactly(self, n: int, deadline: float, command: Command) -> bytes:
         buf = bytearray()
@@ -139,7 +143,7 @@ class NativeClient:
             self._sock.settimeout(idle_s)
             try:
                 chunk = self._sock.recv(4096)
-            except (TimeoutError, socket.timeout):
+            except TimeoutError:
                 break
             if not chunk:
                 break
@@ -217,7 +221,7 @@ class CriClient:
             return ()
         except self._failed:
             raise RobotCommandRefused(f"the robot at {self.address} refused {command.name} {_fmt_args(args)}") from None
-        except (TimeoutError, socket.timeout):
+        except TimeoutError:
             self.close()
             raise HardwareError(
                 f"the robot at {self.address} did not answer {command.name} within {timeout_s:.1f} s"
@@ -226,8 +230,7 @@ class CriClient:
             # struct.error: cri unpacked an empty reply, i.e. the controller closed the socket
             self.close()
             raise HardwareError(
-                f"lost the connection to the robot at {self.address} during {command.name}: "
-                f"{err or type(err).__name__}"
+                f"lost the connection to the robot at {self.address} during {command.name}: {err or type(err).__name__}"
             ) from None
 
     def close(self) -> None:
@@ -276,9 +279,14 @@ class RobotDriver:
     ) -> None:
         if isinstance(port, bool) or not isinstance(port, int) or not 1 <= port <= 65535:
             raise UserError(f"robot port = {show_value(port)} is not a TCP port (1-65535)")
-        for name, value in (("connect_timeout_s", connect_timeout_s), ("reply_timeout_s", reply_timeout_s),
-                            ("move_timeout_factor", move_timeout_factor)):
-            if not (isinstance(value, (int, float)) and not isinstance(value, bool) and 0 < value <= MAX_MOVE_TIMEOUT_S):
+        for name, value in (
+            ("connect_timeout_s", connect_timeout_s),
+            ("reply_timeout_s", reply_timeout_s),
+            ("move_timeout_factor", move_timeout_factor),
+        ):
+            if not (
+                isinstance(value, (int, float)) and not isinstance(value, bool) and 0 < value <= MAX_MOVE_TIMEOUT_S
+            ):
                 raise UserError(f"robot {name} = {show_value(value)} must be a number in (0, {MAX_MOVE_TIMEOUT_S:g}]")
         self.host, self.port = host, port
         self.reply_timeout_s = float(reply_timeout_s)
@@ -304,7 +312,9 @@ class RobotDriver:
         return self._transport is not None
 
     # ------------------------------------------------------------------ set-up
-    def configure(self, tool2flange: Pose, work2world: Pose, linear_speed_mm_s: float, angular_speed_deg_s: float) -> None:
+    def configure(
+        self, tool2flange: Pose, work2world: Pose, linear_speed_mm_s: float, angular_speed_deg_s: float
+    ) -> None:
         """Tool, work frame, speeds and a fine-point zone, in that order."""
         self.set_tool(tool2flange)
         self.set_work_frame(work2world)
@@ -331,12 +341,15 @@ class RobotDriver:
         """Linear TCP speed (mm/s) and reorientation speed (deg/s), sent together. SafetyError
         for a speed that is not a number the wire carries (one too small to send included)."""
         speeds = []
-        for name, v, unit, slowest in (("linear speed", linear_mm_s, "mm/s", MIN_LINEAR_SPEED_MM_S),
-                                       ("angular speed", angular_deg_s, "deg/s", MIN_ANGULAR_SPEED_DEG_S)):
+        for name, v, unit, slowest in (
+            ("linear speed", linear_mm_s, "mm/s", MIN_LINEAR_SPEED_MM_S),
+            ("angular speed", angular_deg_s, "deg/s", MIN_ANGULAR_SPEED_DEG_S),
+        ):
             speed = wire_number(name, v, unit, refuse_underflow=True)
             if not speed >= slowest:
-                raise SafetyError(f"{name} = {show_value(v)} {unit} is below the slowest speed the driver sends, "
-                                  f"{slowest} {unit}")
+                raise SafetyError(
+                    f"{name} = {show_value(v)} {unit} is below the slowest speed the driver sends, {slowest} {unit}"
+                )
             speeds.append(speed)
         self._request(Command.SET_SPEED, tuple(speeds))
         self._linear_speed_mm_s, self._angular_speed_deg_s = speeds
@@ -351,8 +364,11 @@ class RobotDriver:
 
     def set_zone(self, zone: Zone = FINE_POINT) -> None:
         """Fine point (default: moves reply when stopped) or fly-by zone."""
-        for name, value, unit in (("zone pzone_tcp", zone.pzone_tcp_mm, "mm"), ("zone pzone_ori", zone.pzone_ori_mm, "mm"),
-                                  ("zone zone_ori", zone.zone_ori_deg, "deg")):
+        for name, value, unit in (
+            ("zone pzone_tcp", zone.pzone_tcp_mm, "mm"),
+            ("zone pzone_ori", zone.pzone_ori_mm, "mm"),
+            ("zone zone_ori", zone.zone_ori_deg, "deg"),
+        ):
             if not wire_number(name, value, unit) >= 0:
                 raise SafetyError(f"{name} = {show_value(value)} {unit} must be ≥ 0")
         self._request(Command.SET_ZONE, zone.as_args())
@@ -378,7 +394,10 @@ class RobotDriver:
         start = self._last_joints_deg if self._last_joints_deg is not None else self.get_joints()
         # bound on the TCP path: every joint swings the TCP on a radius < _REACH_BOUND_M
         path_mm = float(np.sum(np.abs(np.radians(q - start)))) * _REACH_BOUND_M * 1e3
-        duration = max(path_mm / (self._linear_speed_mm_s or 1.0), float(np.sum(np.abs(q - start))) / (self._angular_speed_deg_s or 1.0))
+        duration = max(
+            path_mm / (self._linear_speed_mm_s or 1.0),
+            float(np.sum(np.abs(q - start))) / (self._angular_speed_deg_s or 1.0),
+        )
         self._last_joints_deg = None
         self._request(Command.MOVE_JOINTS, tuple(float(v) for v in q), self._move_timeout(duration))
         self._last_joints_deg = q
@@ -430,7 +449,7 @@ class RobotDriver:
         finally:
             transport.close()
 
-    def __enter__(self) -> "RobotDriver":
+    def __enter__(self) -> RobotDriver:
         return self
 
     def __exit__(self, *exc) -> None:

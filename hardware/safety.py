@@ -24,24 +24,26 @@ between two legal tilts with a large turn of γ can leave the α/β box on the w
 These limits are a second line of defence: keep the controller's own world zones (the
 RAPID server defines a workspace box) configured as well.
 """
+
 from __future__ import annotations
 
 import math
 from typing import Annotated
 
 import numpy as np
+from pydantic import Field, ValidationInfo, field_validator, model_validator
 from scipy.optimize import minimize_scalar
 from scipy.spatial.transform import Rotation
-
-from pydantic import Field, ValidationInfo, field_validator, model_validator
 
 from hardware.protocol import check_pose_numbers, format_pose, wire_number
 from twin.core.errors import SafetyError
 from twin.core.poses import EULER_AXES, Pose
 from twin.core.validation import StrictModel, bounded
 
-Range = Annotated[tuple[Annotated[float, Field(ge=-1000, le=1000)], Annotated[float, Field(ge=-1000, le=1000)]],
-                  Field(description="[min, max], inclusive (mm or deg; each in [-1000, 1000])")]
+Range = Annotated[
+    tuple[Annotated[float, Field(ge=-1000, le=1000)], Annotated[float, Field(ge=-1000, le=1000)]],
+    Field(description="[min, max], inclusive (mm or deg; each in [-1000, 1000])"),
+]
 
 
 class SafetyLimits(StrictModel):
@@ -67,7 +69,7 @@ class SafetyLimits(StrictModel):
         return value
 
     @model_validator(mode="after")
-    def _depth(self) -> "SafetyLimits":
+    def _depth(self) -> SafetyLimits:
         if self.z_mm[0] > self.max_depth_mm:
             raise ValueError(f"z_mm min {self.z_mm[0]} is deeper than max_depth_mm {self.max_depth_mm}")
         return self
@@ -122,7 +124,9 @@ class SafetyLimits(StrictModel):
         s = np.linspace(0.0, 1.0, n)
 
         def tilt(si) -> np.ndarray:  # (len, 2) α, β (deg) at path fractions si
-            return (Rotation.from_rotvec(np.outer(np.atleast_1d(si), turn)) * r0).as_euler(EULER_AXES, degrees=True)[:, :2]
+            return (Rotation.from_rotvec(np.outer(np.atleast_1d(si), turn)) * r0).as_euler(EULER_AXES, degrees=True)[
+                :, :2
+            ]
 
         ab = tilt(s)
         for k, (name, (lo, hi)) in enumerate((("alpha", self.alpha_deg), ("beta", self.beta_deg))):
@@ -130,15 +134,20 @@ class SafetyLimits(StrictModel):
                 i = int(np.argmax(sign * ab[:, k]))
                 worst = float(ab[i, k])
                 if sign * (worst - bound) > -PATH_REFINE_DEG:  # near the limit: refine between the neighbours
-                    found = minimize_scalar(lambda x: -sign * tilt(x)[0, k], bounds=(s[max(i - 1, 0)], s[min(i + 1, n - 1)]),
-                                            method="bounded", options={"xatol": 1e-12})
+                    found = minimize_scalar(
+                        lambda x, sign=sign, k=k: -sign * tilt(x)[0, k],
+                        bounds=(s[max(i - 1, 0)], s[min(i + 1, n - 1)]),
+                        method="bounded",
+                        options={"xatol": 1e-12},
+                    )
                     worst = float(tilt(found.x)[0, k]) if sign * tilt(found.x)[0, k] > sign * worst else worst
                 if sign * (worst - bound) > PATH_TOL_DEG:
                     field = f"safety.{name}_deg"
                     raise SafetyError(
                         f"move {format_pose(start)} → {format_pose(end)}: {name} reaches {worst:.6g} deg on the way "
                         f"(the controller slerps the orientation), beyond the limit {bound} deg ({field}); "
-                        "split the move: turn γ first, then tilt")
+                        "split the move: turn γ first, then tilt"
+                    )
 
     def allows(self, pose: Pose) -> bool:
         """True if `check_pose` would pass."""
@@ -152,9 +161,13 @@ class SafetyLimits(StrictModel):
     def _check_range(pose: Pose, name: str, value: float, bounds: tuple[float, float], unit: str, field: str) -> None:
         lo, hi = bounds
         if value < lo:
-            raise SafetyError(f"pose {format_pose(pose)}: {name} = {float(value)!r} {unit} is below the limit {lo} {unit} ({field})")
+            raise SafetyError(
+                f"pose {format_pose(pose)}: {name} = {float(value)!r} {unit} is below the limit {lo} {unit} ({field})"
+            )
         if value > hi:
-            raise SafetyError(f"pose {format_pose(pose)}: {name} = {float(value)!r} {unit} is above the limit {hi} {unit} ({field})")
+            raise SafetyError(
+                f"pose {format_pose(pose)}: {name} = {float(value)!r} {unit} is above the limit {hi} {unit} ({field})"
+            )
 
 
 #: path sampling of `check_path`: every PATH_STEP_DEG of rotation; a sampled α/β within

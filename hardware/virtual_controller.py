@@ -27,6 +27,7 @@ Differences from the real controller, on purpose: moves are checked *before* mov
 replies come at once unless `realtime_factor` > 0 (then a move takes
 `realtime_factor` × its simulated duration of wall time).
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -90,8 +91,10 @@ MAX_REALTIME_WAIT_S = 3.2e7
 
 
 def _pose_ranges(prefix: str, limit_mm: float) -> tuple[tuple[str, float, float, str], ...]:
-    return (*((f"{prefix}{c}", -limit_mm, limit_mm, "mm") for c in "xyz"),
-            *((f"{prefix}q{c}", -QUAT_LIMIT, QUAT_LIMIT, "") for c in "wxyz"))
+    return (
+        *((f"{prefix}{c}", -limit_mm, limit_mm, "mm") for c in "xyz"),
+        *((f"{prefix}q{c}", -QUAT_LIMIT, QUAT_LIMIT, "") for c in "wxyz"),
+    )
 
 
 #: (field, lowest, highest, unit) of each number of each request, in wire order; inclusive
@@ -101,17 +104,25 @@ FIELD_RANGES: dict[Command, tuple[tuple[str, float, float, str], ...]] = {
     Command.MOVE_CIRCULAR: _pose_ranges("via ", POSITION_LIMIT_MM) + _pose_ranges("end ", POSITION_LIMIT_MM),
     Command.SET_TOOL: _pose_ranges("tool ", TOOL_LIMIT_MM),
     Command.SET_WORK_OBJECT: _pose_ranges("work object ", POSITION_LIMIT_MM),
-    Command.SET_SPEED: (("linear speed", MIN_LINEAR_SPEED_MM_S, MAX_LINEAR_SPEED_MM_S, "mm/s"),
-                        ("angular speed", MIN_ANGULAR_SPEED_DEG_S, MAX_ANGULAR_SPEED_DEG_S, "deg/s")),
-    Command.SET_ZONE: (("point_motion", 0, 1, ""), ("pzone_tcp", 0.0, MAX_ZONE_MM, "mm"),
-                       ("pzone_ori", 0.0, MAX_ZONE_MM, "mm"), ("zone_ori", 0.0, MAX_ZONE_DEG, "deg")),
+    Command.SET_SPEED: (
+        ("linear speed", MIN_LINEAR_SPEED_MM_S, MAX_LINEAR_SPEED_MM_S, "mm/s"),
+        ("angular speed", MIN_ANGULAR_SPEED_DEG_S, MAX_ANGULAR_SPEED_DEG_S, "deg/s"),
+    ),
+    Command.SET_ZONE: (
+        ("point_motion", 0, 1, ""),
+        ("pzone_tcp", 0.0, MAX_ZONE_MM, "mm"),
+        ("pzone_ori", 0.0, MAX_ZONE_MM, "mm"),
+        ("zone_ori", 0.0, MAX_ZONE_DEG, "deg"),
+    ),
 }
 
 
 #: FIELD_RANGES' bounds as they arrive in float32 (0.01 arrives as 0.0099999998): a bound
 #: sent by a client is inside
-_WIRE_BOUNDS = {command: tuple((float(np.float32(lo)), float(np.float32(hi))) for _, lo, hi, _ in ranges)
-                for command, ranges in FIELD_RANGES.items()}
+_WIRE_BOUNDS = {
+    command: tuple((float(np.float32(lo)), float(np.float32(hi))) for _, lo, hi, _ in ranges)
+    for command, ranges in FIELD_RANGES.items()
+}
 
 
 def check_request_ranges(command: Command, args: tuple[float, ...]) -> None:
@@ -132,9 +143,13 @@ class ArmBackend(Protocol):
     which case the arm must not have moved.
     """
 
-    def move_linear(self, tool2world: np.ndarray, tool2flange: np.ndarray, linear_speed_m_s: float, angular_speed_rad_s: float) -> float: ...
+    def move_linear(
+        self, tool2world: np.ndarray, tool2flange: np.ndarray, linear_speed_m_s: float, angular_speed_rad_s: float
+    ) -> float: ...
 
-    def move_joints(self, q_rad: np.ndarray, tool2flange: np.ndarray, linear_speed_m_s: float, angular_speed_rad_s: float) -> float: ...
+    def move_joints(
+        self, q_rad: np.ndarray, tool2flange: np.ndarray, linear_speed_m_s: float, angular_speed_rad_s: float
+    ) -> float: ...
 
     def get_joints(self) -> np.ndarray: ...
 
@@ -157,7 +172,6 @@ class KinematicArm:
         max_joint_step_rad: float = math.radians(30.0),
     ) -> None:
         if kinematics is None:
-
             kinematics = Irb120Kinematics()
         self.kinematics = kinematics
         self.q = np.array(kinematics.home_q if q0_rad is None else q0_rad, dtype=float)
@@ -175,7 +189,9 @@ class KinematicArm:
         """tool2world (4×4, m) at the current joints."""
         return self.kinematics.forward(self.q) @ tool2flange
 
-    def move_linear(self, tool2world: np.ndarray, tool2flange: np.ndarray, linear_speed_m_s: float, angular_speed_rad_s: float) -> float:
+    def move_linear(
+        self, tool2world: np.ndarray, tool2flange: np.ndarray, linear_speed_m_s: float, angular_speed_rad_s: float
+    ) -> float:
         start = self.get_pose(tool2flange)
         distance = float(np.linalg.norm(tool2world[:3, 3] - start[:3, 3]))
         angle = math.radians(angle_between_rotations_deg(start[:3, :3], tool2world[:3, :3]))
@@ -185,8 +201,10 @@ class KinematicArm:
         joint_time = 0.0
         for i in range(1, n + 1):
             s = i / n
-            target = tool2world if i == n else make_transform(
-                slerp([s]).as_matrix()[0], (1 - s) * start[:3, 3] + s * tool2world[:3, 3]
+            target = (
+                tool2world
+                if i == n
+                else make_transform(slerp([s]).as_matrix()[0], (1 - s) * start[:3, 3] + s * tool2world[:3, 3])
             )
             q_next = self.kinematics.inverse(target, tool2flange, q)
             step = np.abs(q_next - q)
@@ -203,7 +221,9 @@ class KinematicArm:
         self.time_s += duration
         return duration
 
-    def move_joints(self, q_rad: np.ndarray, tool2flange: np.ndarray, linear_speed_m_s: float, angular_speed_rad_s: float) -> float:
+    def move_joints(
+        self, q_rad: np.ndarray, tool2flange: np.ndarray, linear_speed_m_s: float, angular_speed_rad_s: float
+    ) -> float:
         q = np.asarray(q_rad, dtype=float)
         self._check_limits(q)
         start, end = self.get_pose(tool2flange), self.kinematics.forward(q) @ tool2flange
@@ -288,10 +308,14 @@ class VirtualRobotServer:
         if log_limit is not None and (isinstance(log_limit, bool) or not isinstance(log_limit, int) or log_limit < 0):
             raise UserError(f"virtual robot: log limit = {log_limit!r} must be a count ≥ 0 (commands and moves kept)")
         if not (math.isfinite(realtime_factor) and 0 <= realtime_factor <= 1000):
-            raise UserError(f"virtual robot: realtime factor = {realtime_factor!r} must be in [0, 1000] "
-                            "(0 = instant moves, 1 = real durations)")
+            raise UserError(
+                f"virtual robot: realtime factor = {realtime_factor!r} must be in [0, 1000] "
+                "(0 = instant moves, 1 = real durations)"
+            )
         if not allow_remote and not _is_loopback(host):
-            raise UserError(f"virtual robot: host {host!r} is not a loopback address; pass allow_remote=True to serve on it")
+            raise UserError(
+                f"virtual robot: host {host!r} is not a loopback address; pass allow_remote=True to serve on it"
+            )
         self.backend: ArmBackend = backend if backend is not None else KinematicArm()
         self.realtime_factor = float(realtime_factor)
         self.info_text = info
@@ -330,7 +354,7 @@ class VirtualRobotServer:
         return f"{self.host}:{self.port}"
 
     # ------------------------------------------------------------------ lifecycle
-    def start(self) -> "VirtualRobotServer":
+    def start(self) -> VirtualRobotServer:
         """Serve in a background (daemon) thread; returns self."""
         if self._thread is None:
             self._thread = threading.Thread(target=self.serve_forever, name=f"virtual-robot-{self.port}", daemon=True)
@@ -343,7 +367,7 @@ class VirtualRobotServer:
             while not self._stop.is_set():
                 try:
                     conn, peer = self._listener.accept()
-                except (TimeoutError, socket.timeout):
+                except TimeoutError:
                     continue
                 except OSError:
                     break  # listener closed by shutdown()
@@ -375,7 +399,7 @@ class VirtualRobotServer:
         with contextlib.suppress(OSError):
             self._listener.close()
 
-    def __enter__(self) -> "VirtualRobotServer":
+    def __enter__(self) -> VirtualRobotServer:
         return self.start()
 
     def __exit__(self, *exc) -> None:
@@ -396,11 +420,14 @@ class VirtualRobotServer:
             while not self._stop.is_set():
                 try:
                     chunk = conn.recv(4096)
-                except (TimeoutError, socket.timeout):
+                except TimeoutError:
                     quiet = time.monotonic() - last_byte
                     if decoder.pending and quiet > self.stall_timeout_s:
-                        return self._drop(peer, f"stalled mid-command ({decoder.pending} bytes of a request, "
-                                                f"nothing more for {quiet:.1f} s > stall timeout {self.stall_timeout_s:g} s)")
+                        return self._drop(
+                            peer,
+                            f"stalled mid-command ({decoder.pending} bytes of a request, "
+                            f"nothing more for {quiet:.1f} s > stall timeout {self.stall_timeout_s:g} s)",
+                        )
                     if not decoder.pending and quiet > self.idle_timeout_s:
                         return self._drop(peer, f"idle for {quiet:.1f} s > idle timeout {self.idle_timeout_s:g} s")
                     continue
@@ -430,8 +457,13 @@ class VirtualRobotServer:
                     conn.sendall(reply)
         finally:
             if refusals > MAX_LOGGED_REFUSALS:
-                log.warning("virtual robot %s: client %s: %d refusals in all (%d not logged)", self.address, peer,
-                            refusals, refusals - MAX_LOGGED_REFUSALS)
+                log.warning(
+                    "virtual robot %s: client %s: %d refusals in all (%d not logged)",
+                    self.address,
+                    peer,
+                    refusals,
+                    refusals - MAX_LOGGED_REFUSALS,
+                )
 
     def _drop(self, peer, reason: str) -> None:
         self.dropped.append(f"{peer}: {reason}")
@@ -446,8 +478,12 @@ class VirtualRobotServer:
     def _refused(self, n: int, error: str) -> None:
         self.last_error = error
         if n <= MAX_LOGGED_REFUSALS:
-            log.warning("virtual robot %s: refused %s%s", self.address, error,
-                        " (further refusals from this client are counted, not logged)" if n == MAX_LOGGED_REFUSALS else "")
+            log.warning(
+                "virtual robot %s: refused %s%s",
+                self.address,
+                error,
+                " (further refusals from this client are counted, not logged)" if n == MAX_LOGGED_REFUSALS else "",
+            )
 
     def _execute(self, command: Command, args: tuple[float, ...]) -> tuple[bytes, float, str | None]:
         """(reply bytes, simulated duration s, why it was refused or None) of one request."""
@@ -492,8 +528,9 @@ class VirtualRobotServer:
             if command is Command.MOVE_LINEAR:
                 end = tuple(float(a) for a in args)
                 self._check_frame(args)
-                duration = self.backend.move_linear(self._work2world @ wire_to_matrix(args), self._tool2flange,
-                                                    *self._speeds_si)
+                duration = self.backend.move_linear(
+                    self._work2world @ wire_to_matrix(args), self._tool2flange, *self._speeds_si
+                )
             else:
                 end = ()
                 duration = self.backend.move_joints(np.radians(args), self._tool2flange, *self._speeds_si)
@@ -540,13 +577,29 @@ def _is_loopback(host: str) -> bool:
         return False
 
 
-def serve_robot(host: str = "127.0.0.1", port: int = DEFAULT_PORT, *, realtime_factor: float = 0.0,
-                backend: ArmBackend | None = None, idle_timeout_s: float = 300.0, stall_timeout_s: float = 5.0,
-                log_limit: int | None = 10_000) -> None:
+def serve_robot(
+    host: str = "127.0.0.1",
+    port: int = DEFAULT_PORT,
+    *,
+    realtime_factor: float = 0.0,
+    backend: ArmBackend | None = None,
+    idle_timeout_s: float = 300.0,
+    stall_timeout_s: float = 5.0,
+    log_limit: int | None = 10_000,
+) -> None:
     """Run the virtual controller in the foreground until Ctrl-C or SIGTERM (for the CLI)."""
-    server = VirtualRobotServer(host, port, backend, realtime_factor=realtime_factor, idle_timeout_s=idle_timeout_s,
-                                stall_timeout_s=stall_timeout_s, log_limit=log_limit)
-    print(f"virtual IRB120 controller (RAPID server protocol) listening on {server.address}; Ctrl-C stops it", flush=True)
+    server = VirtualRobotServer(
+        host,
+        port,
+        backend,
+        realtime_factor=realtime_factor,
+        idle_timeout_s=idle_timeout_s,
+        stall_timeout_s=stall_timeout_s,
+        log_limit=log_limit,
+    )
+    print(
+        f"virtual IRB120 controller (RAPID server protocol) listening on {server.address}; Ctrl-C stops it", flush=True
+    )
     try:
         server.serve_forever()  # Ctrl-C and SIGTERM reach the CLI, which exits 130 or 143
     finally:

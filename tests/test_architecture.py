@@ -3,6 +3,7 @@
 The layer rule itself is the import-linter contract in pyproject.toml ([tool.importlinter]):
 twin.tools > twin.analysis > twin.runs | hardware > twin.control > twin.sensing > twin.world > twin.core.
 """
+
 from __future__ import annotations
 
 import ast
@@ -61,8 +62,11 @@ def test_layers_hold_at_run_time(modules: str) -> None:
     assert result.returncode == 0, result.stderr[-3000:]
     loaded = set(result.stdout.split())
     assert not loaded & {"mujoco", "sklearn", "gymnasium", "OpenGL", "pyrender", "numba", "cv2"}, sorted(loaded)
-    above = sorted(m for m in loaded if m.startswith(("twin.world", "twin.sensing", "twin.control", "twin.runs",
-                                                      "twin.tools", "twin.analysis")))
+    above = sorted(
+        m
+        for m in loaded
+        if m.startswith(("twin.world", "twin.sensing", "twin.control", "twin.runs", "twin.tools", "twin.analysis"))
+    )
     assert not above, above
 
 
@@ -81,5 +85,7 @@ def test_analysis_draws_nothing() -> None:
     (twin.tools), so a plot never sits inside the logic a test or a script calls."""
     files = sorted((ROOT / "twin" / "analysis").rglob("*.py"))
     assert files
-    drawing = [str(f.relative_to(ROOT)) for f in files if any(n.split(".")[0] == "matplotlib" for n in _imported_modules(f))]
+    drawing = [
+        str(f.relative_to(ROOT)) for f in files if any(n.split(".")[0] == "matplotlib" for n in _imported_modules(f))
+    ]
     assert not drawing, "matplotlib imported in twin.analysis (draw in twin.tools): " + ", ".join(drawing)

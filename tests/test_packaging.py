@@ -43,7 +43,9 @@ def test_requirements_are_ranges_that_hold_the_locked_versions() -> None:
         operators = {spec.operator for spec in req.specifier}
         assert operators == {">=", "<"}, f"{req}: want a range such as 'numpy>=2.4,<3'"
         assert req.specifier.contains(locked[req.name]), f"{req}: uv.lock has {req.name} {locked[req.name]}"
-        assert req.specifier == type(req.specifier)(recorded[req.name]), f"{req}: run `uv lock` (it has {recorded[req.name]})"
+        assert req.specifier == type(req.specifier)(recorded[req.name]), (
+            f"{req}: run `uv lock` (it has {recorded[req.name]})"
+        )
 
 
 def _uv() -> str:
@@ -67,12 +69,16 @@ def test_wheel_installs_and_runs_outside_the_repository(tmp_path: Path) -> None:
     _run([uv, "build", "--wheel", "-q", "-o", dist], cwd=ROOT)
     wheel = next(dist.glob("tactip_twin-*.whl"))
     # the locked dependency set (pyrender's PyOpenGL pin overridden as in pyproject.toml)
-    _run([uv, "export", "--frozen", "--no-dev", "--no-emit-project", "--no-hashes", "-q", "-o", dist / "req.txt"],
-         cwd=ROOT)
+    _run(
+        [uv, "export", "--frozen", "--no-dev", "--no-emit-project", "--no-hashes", "-q", "-o", dist / "req.txt"],
+        cwd=ROOT,
+    )
     venv = tmp_path / "venv"
     _run([uv, "venv", "-q", "--python", sys.executable, venv], cwd=tmp_path)
-    _run([uv, "pip", "install", "-q", "--python", venv / "bin" / "python", "-r", dist / "req.txt", "--no-deps", wheel],
-         cwd=tmp_path)
+    _run(
+        [uv, "pip", "install", "-q", "--python", venv / "bin" / "python", "-r", dist / "req.txt", "--no-deps", wheel],
+        cwd=tmp_path,
+    )
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
     env.update(TWIN_CACHE=str(tmp_path / "cache"), MUJOCO_GL=env.get("MUJOCO_GL", "egl"))
     env["PYOPENGL_PLATFORM"] = env["MUJOCO_GL"]

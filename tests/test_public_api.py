@@ -14,8 +14,17 @@ README = Path(__file__).resolve().parents[1] / "README.md"
 
 
 def test_public_names() -> None:
-    for name in ("load_scenario", "make_environment", "Pose", "PinReader", "PerceptionModel", "tap_model",
-                 "ContourFollower", "GYM_ID", "run_scenario"):
+    for name in (
+        "load_scenario",
+        "make_environment",
+        "Pose",
+        "PinReader",
+        "PerceptionModel",
+        "tap_model",
+        "ContourFollower",
+        "GYM_ID",
+        "run_scenario",
+    ):
         assert hasattr(twin, name), name
     assert set(twin.__all__) <= set(dir(twin))
     assert set(twin.__all__) == set(twin._PUBLIC)
@@ -25,8 +34,14 @@ def test_public_names() -> None:
 def _fresh_import(code: str, **env: str) -> list[str]:
     """Run `code` in a new interpreter without any GL variables set; returns its printed words."""
     clean = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM", "TWIN_GL")}
-    result = subprocess.run([sys.executable, "-c", code], env={**clean, **env}, capture_output=True, text=True,
-                            timeout=300, cwd=Path(__file__).resolve().parents[1])
+    result = subprocess.run(
+        [sys.executable, "-c", code],
+        env={**clean, **env},
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=Path(__file__).resolve().parents[1],
+    )
     assert result.returncode == 0, result.stderr[-3000:]
     return result.stdout.split()
 
@@ -42,13 +57,16 @@ def test_import_twin_loads_nothing_until_a_name_is_used() -> None:
 def test_gl_backend_is_selected_before_mujoco_loads_and_only_then() -> None:
     """Importing a lower module selects nothing; the first `import mujoco` (here the user's
     own, after twin) selects one backend for both MuJoCo and PyOpenGL."""
-    code = ("import os, sys, twin.core.scenario; print(os.environ.get('MUJOCO_GL', 'unset')); "
-            "import mujoco; print(os.environ['MUJOCO_GL'], os.environ['PYOPENGL_PLATFORM'], *sys.modules)")
+    code = (
+        "import os, sys, twin.core.scenario; print(os.environ.get('MUJOCO_GL', 'unset')); "
+        "import mujoco; print(os.environ['MUJOCO_GL'], os.environ['PYOPENGL_PLATFORM'], *sys.modules)"
+    )
     before, mujoco_gl, pyopengl, *loaded = _fresh_import(code)
     assert before == "unset" and mujoco_gl == pyopengl and mujoco_gl in ("egl", "osmesa")
     assert "twin.world.gl" in loaded and "gymnasium" not in loaded
-    forced = _fresh_import("import os, twin, mujoco; print(os.environ['MUJOCO_GL'], os.environ['PYOPENGL_PLATFORM'])",
-                           TWIN_GL="osmesa")
+    forced = _fresh_import(
+        "import os, twin, mujoco; print(os.environ['MUJOCO_GL'], os.environ['PYOPENGL_PLATFORM'])", TWIN_GL="osmesa"
+    )
     assert forced == ["osmesa", "osmesa"]
 
 

@@ -24,13 +24,13 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from twin.control.contour import ContourStep
-    from twin.runs.contour_run import ScenarioFollower as ContourFollower
     from twin.control.controllers import Controller, PaperController, Percept
     from twin.core.environment import Environment, Observation
     from twin.core.errors import PhysicsError, TwinError, UserError
     from twin.core.poses import Pose
     from twin.core.scenario import Scenario, load_scenario, scenario_from_dict
     from twin.runs.backends import make_environment
+    from twin.runs.contour_run import ScenarioFollower as ContourFollower
     from twin.runs.gym_env import ContourFollowingEnv
     from twin.runs.gym_registration import GYM_ID
     from twin.runs.run import run_scenario
@@ -65,9 +65,28 @@ _PUBLIC = {
 }
 
 __all__ = [
-    "GYM_ID", "ContourFollower", "ContourFollowingEnv", "ContourStep", "Controller", "Environment", "Observation",
-    "PaperController", "Percept", "PerceptionModel", "PhysicsError", "PinReader", "PinReading", "Pose", "Scenario",
-    "TwinError", "UserError", "load_scenario", "make_environment", "run_scenario", "scenario_from_dict", "tap_model",
+    "GYM_ID",
+    "ContourFollower",
+    "ContourFollowingEnv",
+    "ContourStep",
+    "Controller",
+    "Environment",
+    "Observation",
+    "PaperController",
+    "Percept",
+    "PerceptionModel",
+    "PhysicsError",
+    "PinReader",
+    "PinReading",
+    "Pose",
+    "Scenario",
+    "TwinError",
+    "UserError",
+    "load_scenario",
+    "make_environment",
+    "run_scenario",
+    "scenario_from_dict",
+    "tap_model",
 ]
 
 

@@ -2,6 +2,7 @@
 parameters (camera focal length and distortion, rest pin layout, TCP offset, friction),
 recorded with another seed, rendered with camera noise and tracked, is calibrated back
 with projected pins; plus what it refuses (exit 2), non-convergence (exit 1) and resuming."""
+
 from __future__ import annotations
 
 import json
@@ -26,17 +27,42 @@ from twin.runs.run import run_scenario
 from twin.tools.calibration_report import calibrate_and_report
 from twin.tools.cli import main
 
-TRUTH = {"camera": {"focal_px": 462.0, "distortion": {"k1": 0.08}}, "tcp_offset_mm": [0.0, 0.0, 0.4], "friction": 0.5,
-         "rest_pin_offsets_px": np.random.default_rng(0).normal(0.0, 0.8, (127, 2)).round(3).tolist()}
-TWIN = {"name": "calibration_twin", "object": {"name": "rectangle"}, "seed": 0, "effects": ["contact", "friction"],
-        "protocol": {"kind": "taps"}}
-REAL_TAPS = {**TWIN, "name": "real_taps", "seed": 5, "effects": ["contact", "friction", "render", "camera_noise"],
-             "sensor": {"calibration": TRUTH},
-             "protocol": {"kind": "taps", "orientations_deg": [30], "lateral_mm": [2, -3], "depths_mm": [2.5, 4]}}
-REAL_REST = {**REAL_TAPS, "name": "real_rest", "protocol": {"kind": "render", "poses": [[60, 0, -5, 0, 0, 0], [60, 0, -5, 0, 0, 90]]}}
-FIT = {"parameters": {"camera.focal_px": {"fit": True}, "camera.k1": {"fit": True}, "material.young_kpa": {"fit": False},
-                      "friction": {"fit": True}, "tcp.z_mm": {"fit": True}},
-       "optimiser": {"popsize": 6, "max_generations": 10, "patience": 2, "tol_relative": 0.005, "seed": 3}}
+TRUTH = {
+    "camera": {"focal_px": 462.0, "distortion": {"k1": 0.08}},
+    "tcp_offset_mm": [0.0, 0.0, 0.4],
+    "friction": 0.5,
+    "rest_pin_offsets_px": np.random.default_rng(0).normal(0.0, 0.8, (127, 2)).round(3).tolist(),
+}
+TWIN = {
+    "name": "calibration_twin",
+    "object": {"name": "rectangle"},
+    "seed": 0,
+    "effects": ["contact", "friction"],
+    "protocol": {"kind": "taps"},
+}
+REAL_TAPS = {
+    **TWIN,
+    "name": "real_taps",
+    "seed": 5,
+    "effects": ["contact", "friction", "render", "camera_noise"],
+    "sensor": {"calibration": TRUTH},
+    "protocol": {"kind": "taps", "orientations_deg": [30], "lateral_mm": [2, -3], "depths_mm": [2.5, 4]},
+}
+REAL_REST = {
+    **REAL_TAPS,
+    "name": "real_rest",
+    "protocol": {"kind": "render", "poses": [[60, 0, -5, 0, 0, 0], [60, 0, -5, 0, 0, 90]]},
+}
+FIT = {
+    "parameters": {
+        "camera.focal_px": {"fit": True},
+        "camera.k1": {"fit": True},
+        "material.young_kpa": {"fit": False},
+        "friction": {"fit": True},
+        "tcp.z_mm": {"fit": True},
+    },
+    "optimiser": {"popsize": 6, "max_generations": 10, "patience": 2, "tol_relative": 0.005, "seed": 3},
+}
 
 
 @pytest.fixture(scope="module")
@@ -45,8 +71,12 @@ def real(tmp_path_factory) -> dict:
     (root / "twin.yaml").write_text(yaml.safe_dump(TWIN))
     taps = run_scenario(scenario_from_dict(REAL_TAPS), root / "taps", workers=1, progress=False)
     rest = run_scenario(scenario_from_dict(REAL_REST), root / "rest", workers=1, progress=False)
-    return {"root": root, "runs": [taps, rest], "scenario": scenario_from_dict(TWIN, str(root / "twin.yaml")),
-            "noise_floor_px": _noise_floor_px(taps)}
+    return {
+        "root": root,
+        "runs": [taps, rest],
+        "scenario": scenario_from_dict(TWIN, str(root / "twin.yaml")),
+        "noise_floor_px": _noise_floor_px(taps),
+    }
 
 
 def _noise_floor_px(run_dir: Path) -> float:
@@ -78,8 +108,8 @@ def test_recovers_the_perturbed_sensor(real, recovered) -> None:
     floor = real["noise_floor_px"]
     assert 0.05 < floor < 0.6
     assert r["status"] == "converged"
-    assert r["before"]["groups"]["contact"] > 10 * floor          # the nominal twin is far from this sensor ...
-    assert r["after"]["groups"]["contact"] < 1.25 * floor         # ... the calibrated one at the noise floor
+    assert r["before"]["groups"]["contact"] > 10 * floor  # the nominal twin is far from this sensor ...
+    assert r["after"]["groups"]["contact"] < 1.25 * floor  # ... the calibrated one at the noise floor
     truth = {"camera.focal_px": 462.0, "camera.k1": 0.08, "friction": 0.5, "tcp.z_mm": 0.4}
     for name, u in r["uncertainty"]["parameters"].items():
         if not u["identifiable"]:
@@ -108,8 +138,11 @@ def test_taps_do_not_identify_friction(real, recovered) -> None:
     u = r["uncertainty"]["parameters"]["friction"]
     assert not u["identifiable"] and "friction" in r["not_identifiable"], u
     assert load_calibration(r["calibration_file"]).friction == u["default"]  # left at the scenario's value
-    row = next(line for line in (Path(r["calibration_file"]).parent / "report.md").read_text().splitlines()
-               if line.startswith("| friction |"))
+    row = next(
+        line
+        for line in (Path(r["calibration_file"]).parent / "report.md").read_text().splitlines()
+        if line.startswith("| friction |")
+    )
     assert "**no** (" in row and u["not_identifiable_because"][0] in row
 
 
@@ -123,8 +156,8 @@ def test_cluster_robust_error_andvariance_inflation() -> None:
     s2 = float(r @ r / (r.size - 2))
     gauss_newton = np.diag(np.linalg.inv(jac.T @ jac)) * s2
     robust = robust_variances(jac, r, sample, jac.T @ jac, s2)
-    assert robust[0] > 50 * gauss_newton[0]                      # the shared offset: about 254× the variance
-    assert robust[1] >= gauss_newton[1]                          # never below Gauss–Newton
+    assert robust[0] > 50 * gauss_newton[0]  # the shared offset: about 254× the variance
+    assert robust[1] >= gauss_newton[1]  # never below Gauss–Newton
     independent = rng.normal(size=sample.size)
     s2 = float(independent @ independent / (r.size - 2))
     assert robust_variances(jac, independent, sample, jac.T @ jac, s2)[0] < 3 * np.linalg.inv(jac.T @ jac)[0, 0] * s2
@@ -133,7 +166,7 @@ def test_cluster_robust_error_andvariance_inflation() -> None:
     c -= np.column_stack([a, b]) @ np.linalg.lstsq(np.column_stack([a, b]), c, rcond=None)[0]  # ⟂ a and b
     near = a + b + 0.01 * np.linalg.norm(a + b) / np.linalg.norm(c) * c
     vif = variance_inflation(np.column_stack([a, b, near, np.zeros(500)]))
-    assert vif[2] == pytest.approx(1 + 1 / 0.01 ** 2, rel=0.05) and vif[3] == np.inf
+    assert vif[2] == pytest.approx(1 + 1 / 0.01**2, rel=0.05) and vif[3] == np.inf
     assert variance_inflation(np.column_stack([a, c]))[0] == pytest.approx(1.0, abs=1e-9)
 
 
@@ -143,6 +176,7 @@ def test_bracket_search_finds_one_parameter(target: float) -> None:
     a parabola plus 2 % of its range in steps 0.02 wide. The search reaches the minimum
     (at a bound too) to its tolerance, 1e-3 of the range, in log(1000) / log(3.5) ≈ 6
     generations of 6, and a pickled search (the checkpoint) goes on exactly as the original."""
+
     def chi2(u: float) -> float:
         return (u - target) ** 2 + 0.02 * abs(u - target) * (math.floor(u / 0.02) % 2)
 
@@ -164,15 +198,30 @@ def test_bracket_search_finds_one_parameter(target: float) -> None:
 
 def test_camera_only_and_what_the_data_cannot_identify(real, tmp_path) -> None:
     # with the rest layout fitted and no distortion, the principal point moves no displacement: not identifiable
-    data = {"parameters": {"camera.focal_px": {"fit": True}, "camera.k1": {"fit": False}, "camera.cx_px": {"fit": True},
-                           "material.young_kpa": {"fit": False}, "tcp.z_mm": {"fit": False}}}
-    r = calibrate_and_report(real["runs"], real["scenario"], tmp_path / "cam", load_settings(_settings(tmp_path, data)), workers=1,
-                  progress=False)
-    assert r["not_identifiable"] == ["camera.focal_px", "camera.cx_px"] and r["simulations"] == 1  # no CMA: one simulation
+    data = {
+        "parameters": {
+            "camera.focal_px": {"fit": True},
+            "camera.k1": {"fit": False},
+            "camera.cx_px": {"fit": True},
+            "material.young_kpa": {"fit": False},
+            "tcp.z_mm": {"fit": False},
+        }
+    }
+    r = calibrate_and_report(
+        real["runs"],
+        real["scenario"],
+        tmp_path / "cam",
+        load_settings(_settings(tmp_path, data)),
+        workers=1,
+        progress=False,
+    )
+    assert (
+        r["not_identifiable"] == ["camera.focal_px", "camera.cx_px"] and r["simulations"] == 1
+    )  # no CMA: one simulation
     cx = r["uncertainty"]["parameters"]["camera.cx_px"]
     assert len(cx["not_identifiable_because"]) == 3  # a zero column: no error, resolution or column of its own
     cal = load_calibration(tmp_path / "cam" / "calibration.yaml")
-    assert cal.camera.principal_point_px == pytest.approx([319.5, 239.5])   # left at the default
+    assert cal.camera.principal_point_px == pytest.approx([319.5, 239.5])  # left at the default
     # the TCP offset (0.4 mm deeper) is not fitted here: the focal length makes up for the larger displacements
     # and runs into its bound, which the report says; the misfit left (≈ 2 px, 10× the noise) differs from tap
     # to tap, so the cluster-robust error says the focal length is not determined, and it is not written
@@ -186,8 +235,19 @@ def test_camera_only_and_what_the_data_cannot_identify(real, tmp_path) -> None:
 
 def test_not_converged_keeps_the_best_point_and_resumes(real, tmp_path) -> None:
     one = _settings(tmp_path, {**FIT, "optimiser": {**FIT["optimiser"], "max_generations": 1}})
-    args = ["calibrate", *map(str, real["runs"]), "--scenario", str(real["root"] / "twin.yaml"), "--out",
-            str(tmp_path / "cal"), "--settings", str(one), "--workers", "1", "--quiet"]
+    args = [
+        "calibrate",
+        *map(str, real["runs"]),
+        "--scenario",
+        str(real["root"] / "twin.yaml"),
+        "--out",
+        str(tmp_path / "cal"),
+        "--settings",
+        str(one),
+        "--workers",
+        "1",
+        "--quiet",
+    ]
     assert main(args) == 1
     assert (tmp_path / "cal" / "best_calibration.yaml").exists()
     history = [json.loads(line) for line in (tmp_path / "cal" / "history.jsonl").read_text().splitlines()]
@@ -210,10 +270,28 @@ def test_a_partial_run_is_calibrated_with_a_warning(real, tmp_path, capsys) -> N
     (cut / "samples.jsonl").write_text("".join(lines[:2]) + lines[2][:30])  # 2 of 4 samples and a torn line
     meta = json.loads((cut / "run.json").read_text())
     (cut / "run.json").write_text(json.dumps({**meta, "status": "interrupted"}))
-    camera = {"parameters": {"camera.focal_px": {"fit": True}, "camera.k1": {"fit": False},
-                             "material.young_kpa": {"fit": False}, "tcp.z_mm": {"fit": False}}}
-    args = ["calibrate", str(cut), str(real["runs"][1]), "--scenario", str(real["root"] / "twin.yaml"), "--out",
-            str(tmp_path / "cal"), "--settings", str(_settings(tmp_path, camera)), "--workers", "1", "--quiet"]
+    camera = {
+        "parameters": {
+            "camera.focal_px": {"fit": True},
+            "camera.k1": {"fit": False},
+            "material.young_kpa": {"fit": False},
+            "tcp.z_mm": {"fit": False},
+        }
+    }
+    args = [
+        "calibrate",
+        str(cut),
+        str(real["runs"][1]),
+        "--scenario",
+        str(real["root"] / "twin.yaml"),
+        "--out",
+        str(tmp_path / "cal"),
+        "--settings",
+        str(_settings(tmp_path, camera)),
+        "--workers",
+        "1",
+        "--quiet",
+    ]
     assert main(args) == 0
     assert f"warning: {cut}: run did not finish (interrupted; 2 samples)" in capsys.readouterr().err
 
@@ -224,8 +302,19 @@ def test_a_planted_checkpoint_is_never_unpickled(real, tmp_path, capsys) -> None
     marker = tmp_path / "ran"
     (out / "checkpoint.pkl").write_bytes(pickle.dumps(_Planted(str(marker))))
     (out / "checkpoint.json").write_text(json.dumps({"format": "twin calibration checkpoint 1", "key": "x"}))
-    args = ["calibrate", *map(str, real["runs"]), "--scenario", str(real["root"] / "twin.yaml"), "--out", str(out),
-            "--settings", str(_settings(tmp_path, FIT)), "--workers", "1", "--quiet"]
+    args = [
+        "calibrate",
+        *map(str, real["runs"]),
+        "--scenario",
+        str(real["root"] / "twin.yaml"),
+        "--out",
+        str(out),
+        "--settings",
+        str(_settings(tmp_path, FIT)),
+        "--workers",
+        "1",
+        "--quiet",
+    ]
     assert main(args) == 2
     assert "checkpoint.json: field 'generation' missing or of the wrong type" in capsys.readouterr().err
     assert not marker.exists()
@@ -286,10 +375,27 @@ def test_a_camera_beyond_the_settings_bounds_is_named_not_a_crash(real, tmp_path
     # the rest layout would absorb what the focal length cannot: beyond the calibration's
     # ±50 px offsets, a one-line error (it was an internal fault writing calibration.yaml)
     runs = [_scaled_pins(run, tmp_path / run.name, 1.6) for run in real["runs"]]
-    camera = {"parameters": {"camera.focal_px": {"fit": True}, "camera.k1": {"fit": False},
-                             "material.young_kpa": {"fit": False}, "tcp.z_mm": {"fit": False}}}
-    args = ["calibrate", *map(str, runs), "--scenario", str(real["root"] / "twin.yaml"), "--out",
-            str(tmp_path / "cal"), "--settings", str(_settings(tmp_path, camera)), "--workers", "1", "--quiet"]
+    camera = {
+        "parameters": {
+            "camera.focal_px": {"fit": True},
+            "camera.k1": {"fit": False},
+            "material.young_kpa": {"fit": False},
+            "tcp.z_mm": {"fit": False},
+        }
+    }
+    args = [
+        "calibrate",
+        *map(str, runs),
+        "--scenario",
+        str(real["root"] / "twin.yaml"),
+        "--out",
+        str(tmp_path / "cal"),
+        "--settings",
+        str(_settings(tmp_path, camera)),
+        "--workers",
+        "1",
+        "--quiet",
+    ]
     assert main(args) == 2
     err = capsys.readouterr().err
     assert "px from the fitted camera's (a calibration holds at most 50 px)" in err and "Traceback" not in err
@@ -308,23 +414,48 @@ def test_recovers_where_the_base_holds_the_skin(tmp_path, monkeypatch) -> None:
     monkeypatch.setenv("TWIN_CACHE", str(tmp_path / "cache"))
     compliance = tmp_path / "cache" / "compliance"
     shell = {"membrane_young_mpa": 0.6, "gel_young_kpa": 19.6, "skin_bending": True}
-    twin = {"name": "held_twin", "object": {"name": "rectangle"}, "seed": 0, "effects": ["contact", "friction"],
-            "dome": "compliant", "fidelity": "fast", "physics": {**shell, "skin_held_deg": 80.0},
-            "protocol": {"kind": "taps"}}
-    real = {**twin, "name": "held_real", "seed": 5, "effects": ["contact", "friction", "render", "camera_noise"],
-            "physics": {**shell, "skin_held_deg": 72.0},
-            "protocol": {"kind": "taps", "orientations_deg": [30], "lateral_mm": [2, -3], "depths_mm": [2.5, 4]}}
+    twin = {
+        "name": "held_twin",
+        "object": {"name": "rectangle"},
+        "seed": 0,
+        "effects": ["contact", "friction"],
+        "dome": "compliant",
+        "fidelity": "fast",
+        "physics": {**shell, "skin_held_deg": 80.0},
+        "protocol": {"kind": "taps"},
+    }
+    real = {
+        **twin,
+        "name": "held_real",
+        "seed": 5,
+        "effects": ["contact", "friction", "render", "camera_noise"],
+        "physics": {**shell, "skin_held_deg": 72.0},
+        "protocol": {"kind": "taps", "orientations_deg": [30], "lateral_mm": [2, -3], "depths_mm": [2.5, 4]},
+    }
     rest = {**real, "name": "held_rest", "protocol": {"kind": "render", "poses": [[60, 0, -5, 0, 0, 0]] * 2}}
     (tmp_path / "twin.yaml").write_text(yaml.safe_dump(twin))
     runs = [run_scenario(scenario_from_dict(s), tmp_path / s["name"], workers=1, progress=False) for s in (real, rest)]
     floor = _noise_floor_px(runs[0])
     users = set(compliance.glob("*.npz"))
     assert users  # the "real" shell's
-    fit = {"parameters": {"camera.focal_px": {"fit": False}, "camera.k1": {"fit": False}, "tcp.z_mm": {"fit": False},
-                          "material.young_kpa": {"fit": False}, "material.skin_held_deg": {"fit": True}},
-           "optimiser": {"popsize": 6, "max_generations": 15, "patience": 4, "tol_relative": 0.005, "seed": 3}}
-    r = calibrate_and_report(runs, scenario_from_dict(twin, str(tmp_path / "twin.yaml")), tmp_path / "cal",
-                  load_settings(_settings(tmp_path, fit)), workers=1, progress=False)
+    fit = {
+        "parameters": {
+            "camera.focal_px": {"fit": False},
+            "camera.k1": {"fit": False},
+            "tcp.z_mm": {"fit": False},
+            "material.young_kpa": {"fit": False},
+            "material.skin_held_deg": {"fit": True},
+        },
+        "optimiser": {"popsize": 6, "max_generations": 15, "patience": 4, "tol_relative": 0.005, "seed": 3},
+    }
+    r = calibrate_and_report(
+        runs,
+        scenario_from_dict(twin, str(tmp_path / "twin.yaml")),
+        tmp_path / "cal",
+        load_settings(_settings(tmp_path, fit)),
+        workers=1,
+        progress=False,
+    )
     assert r["status"] == "converged"
     assert set(compliance.glob("*.npz")) == users
     assert len(list((compliance / SEARCH_FOLDER).glob("*.npz"))) > 1

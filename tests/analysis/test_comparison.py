@@ -1,4 +1,5 @@
 """`twin compare` (twin.analysis.comparison) on two sim runs of one scenario at two fidelity levels."""
+
 from __future__ import annotations
 
 import json
@@ -9,18 +10,24 @@ from twin.runs.run import run_scenario
 from twin.runs.training import train_from_run
 from twin.tools.cli import main
 
-SCENARIO = {"name": "compare_taps", "object": {"name": "rectangle"}, "effects": ["contact", "friction", "render"],
-            "protocol": {"kind": "taps", "orientations_deg": [0, 90], "lateral_mm": [9.9, 2, -2], "depths_mm": [3]}}
+SCENARIO = {
+    "name": "compare_taps",
+    "object": {"name": "rectangle"},
+    "effects": ["contact", "friction", "render"],
+    "protocol": {"kind": "taps", "orientations_deg": [0, 90], "lateral_mm": [9.9, 2, -2], "depths_mm": [3]},
+}
 
 
 def test_compare_two_fidelity_levels(tmp_path, capsys) -> None:
     a = run_scenario(scenario_from_dict({**SCENARIO, "fidelity": "fast"}), tmp_path / "fast", workers=1, progress=False)
-    b = run_scenario(scenario_from_dict({**SCENARIO, "fidelity": "default"}), tmp_path / "default", workers=1, progress=False)
+    b = run_scenario(
+        scenario_from_dict({**SCENARIO, "fidelity": "default"}), tmp_path / "default", workers=1, progress=False
+    )
     model = train_from_run(load_run(b)).save(tmp_path / "model.npz")
     assert main(["compare", str(a), str(b), "--out", str(tmp_path / "cmp"), "--model", str(model)]) == 0
     result = json.loads((tmp_path / "cmp" / "comparison.json").read_text())
     assert result["n_pairs"] == 6 and result["pairing"] == "by target pose"
-    assert 0.0 < result["pin_rms_difference_px"] < 5.0          # close but not identical physics
+    assert 0.0 < result["pin_rms_difference_px"] < 5.0  # close but not identical physics
     assert result["pin_displacement_correlation"]["mean"] > 0.8
     assert 0.5 < result["ssim"]["mean"] <= 1.0 and result["ssim"]["frames"] == 6
     assert (tmp_path / "cmp" / "comparison.png").exists()

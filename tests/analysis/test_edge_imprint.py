@@ -1,5 +1,6 @@
 """The edge figures (twin.analysis.edge_imprint) on synthetic runs whose pins are built
 from known fields, so every figure has a value worked out beforehand."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -26,9 +27,14 @@ def _fields(seed: int = 1) -> dict[str, np.ndarray]:
     theta = rng.normal(0, 1.0, REST.shape)
     shift = np.tile([1.0, -0.5], (127, 1))
     shift -= (shift.ravel() @ theta.ravel()) / (theta.ravel() @ theta.ravel()) * theta  # orthogonal to θ's field
-    return {"theta": theta, "shift": shift, "along": K_DEG_PER_MM / 45.0 * theta + shift,
-            "across": rng.normal(0, 1.0, REST.shape), "twist": rng.normal(0, 0.3, REST.shape),
-            "depth": rng.normal(0, 0.5, REST.shape)}
+    return {
+        "theta": theta,
+        "shift": shift,
+        "along": K_DEG_PER_MM / 45.0 * theta + shift,
+        "across": rng.normal(0, 1.0, REST.shape),
+        "twist": rng.normal(0, 0.3, REST.shape),
+        "depth": rng.normal(0, 0.5, REST.shape),
+    }
 
 
 def sheared_run(n: int = 1500, seed: int = 0, noise_px: float = 0.01) -> Run:
@@ -39,12 +45,19 @@ def sheared_run(n: int = 1500, seed: int = 0, noise_px: float = 0.01) -> Run:
     samples = []
     for k, tap in enumerate(drawn_sheared_taps(protocol)):
         fade = FADE[float(np.round(tap.lateral_mm)) + 0.0]
-        pins = (REST + fade * tap.theta_deg / 45.0 * f["theta"] + tap.slide_along_mm / fade * f["along"]
-                + tap.slide_lateral_mm * f["across"] + tap.twist_deg * f["twist"] + tap.depth_offset_mm * f["depth"]
-                + rng.normal(0, noise_px, REST.shape))
+        pins = (
+            REST
+            + fade * tap.theta_deg / 45.0 * f["theta"]
+            + tap.slide_along_mm / fade * f["along"]
+            + tap.slide_lateral_mm * f["across"]
+            + tap.twist_deg * f["twist"]
+            + tap.depth_offset_mm * f["depth"]
+            + rng.normal(0, noise_px, REST.shape)
+        )
         labels = {**tap.model_dump(), "depth_mm": protocol.depth_mm + tap.depth_offset_mm, "tap": k}
-        samples.append({"index": k, "target": [0.0] * 6, "labels": labels,
-                        "pins_px": pins.tolist(), "found": [True] * 127})
+        samples.append(
+            {"index": k, "target": [0.0] * 6, "labels": labels, "pins_px": pins.tolist(), "found": [True] * 127}
+        )
     meta = {"scenario": {"name": "synthetic", "protocol": protocol.model_dump()}, "rest_pins_px": REST.tolist()}
     return Run(Path("synthetic"), meta, samples)
 
@@ -96,8 +109,11 @@ def test_drag_over_signal_is_the_slides_pin_motion_against_the_angles(run: Run) 
     for l, fade in FADE.items():
         m = bins == l
         c = {k: v[m] - v[m].mean() for k, v in x.items()}
-        drag = (c["slide_along_mm"][:, None, None] / fade * f["along"] + c["slide_lateral_mm"][:, None, None]
-                * f["across"] + c["twist_deg"][:, None, None] * f["twist"])
+        drag = (
+            c["slide_along_mm"][:, None, None] / fade * f["along"]
+            + c["slide_lateral_mm"][:, None, None] * f["across"]
+            + c["twist_deg"][:, None, None] * f["twist"]
+        )
         signal = c["theta_deg"][:, None, None] * fade / 45.0 * f["theta"]
         rms = {"drag_px": np.sqrt(np.mean(np.sum(drag**2, -1))), "signal_px": np.sqrt(np.mean(np.sum(signal**2, -1)))}
         assert figures[l]["drag_px"] == pytest.approx(rms["drag_px"], rel=0.01)
@@ -135,13 +151,18 @@ def test_reach_profile_finds_the_edge_side_in_the_image() -> None:
     centred = REST - REST.mean(axis=0)
     reach = centred.max()
     samples = []
-    for k, theta in enumerate(rng.uniform(-45, 45, 200)):
+    for theta in rng.uniform(-45, 45, 200):
         a = np.radians(-(theta + 30.0))  # the outward normal's direction in the image
         beyond = centred @ np.array([np.cos(a), np.sin(a)])
         magnitude = 1.0 + 0.5 * (1.0 - beyond / reach)  # 1 beyond the edge, 2 at the far object side
         pins = REST + magnitude[:, None] * np.array([np.cos(a), np.sin(a)])
-        samples.append({"pins_px": pins.tolist(), "found": None,
-                        "labels": {"theta_deg": theta, "lateral_mm": -4.0, "depth_mm": 3.0}})
+        samples.append(
+            {
+                "pins_px": pins.tolist(),
+                "found": None,
+                "labels": {"theta_deg": theta, "lateral_mm": -4.0, "depth_mm": 3.0},
+            }
+        )
     run = Run(Path("synthetic"), {"scenario": {"protocol": {"kind": "taps"}}, "rest_pins_px": REST.tolist()}, samples)
     phi0, sigma = E.edge_normal_in_image(run)
     assert sigma == -1.0 and phi0 == pytest.approx(-30.0, abs=1.0)
@@ -206,13 +227,22 @@ def test_calibration_simulates_a_square_lab_camera(tmp_path: Path) -> None:
     from twin.analysis.calibration_fit.space import Space
     from twin.core.scenario import scenario_from_dict
 
-    scenario = scenario_from_dict({"name": "lab", "object": {"name": "rectangle"}, "fidelity": "fast",
-                                   "sensor": {"camera": {"width": 256, "height": 256}}, "effects": ["contact"],
-                                   "protocol": {"kind": "sheared_taps"}})
+    scenario = scenario_from_dict(
+        {
+            "name": "lab",
+            "object": {"name": "rectangle"},
+            "fidelity": "fast",
+            "sensor": {"camera": {"width": 256, "height": 256}},
+            "effects": ["contact"],
+            "protocol": {"kind": "sheared_taps"},
+        }
+    )
     settings = tmp_path / "settings.yaml"  # the camera's bounds at 256×256 px
-    settings.write_text("parameters:\n  camera.focal_px: {fit: true, lower: 150.0, upper: 350.0, prior_std: null}\n"
-                        "  camera.cx_px: {fit: false, lower: 108.0, upper: 148.0, prior_std: null}\n"
-                        "  camera.cy_px: {fit: false, lower: 108.0, upper: 148.0, prior_std: null}\n")
+    settings.write_text(
+        "parameters:\n  camera.focal_px: {fit: true, lower: 150.0, upper: 350.0, prior_std: null}\n"
+        "  camera.cx_px: {fit: false, lower: 108.0, upper: 148.0, prior_std: null}\n"
+        "  camera.cy_px: {fit: false, lower: 108.0, upper: 148.0, prior_std: null}\n"
+    )
     physics = Space(scenario, load_settings(settings)).physics_scenario({})
     camera = physics.camera_model()
     assert (camera.width, camera.height) == (256, 256)

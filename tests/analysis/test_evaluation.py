@@ -1,5 +1,6 @@
 """Table I (twin.analysis.evaluation): RMS orientation error per sliding direction, on and off
 the object, with angles compared on the circle; figures worked out by hand."""
+
 from __future__ import annotations
 
 import math
@@ -47,11 +48,18 @@ def test_heldout_taps_per_lateral_position_with_wrap() -> None:
     from twin.tools.evaluation_report import format_heldout
 
     labels = [(179.0, 5.0), (10.0, 5.0), (-50.0, -3.0)]
-    run = Run(Path("synthetic"), {}, [{"labels": {"theta_deg": t, "lateral_mm": l}, "pins_px": None} for t, l in labels])
+    run = Run(
+        Path("synthetic"), {}, [{"labels": {"theta_deg": t, "lateral_mm": l}, "pins_px": None} for t, l in labels]
+    )
     # l = +5: θ errors 2 (−179 vs 179) and 4 -> RMS sqrt(10); lateral errors 1 and −3 -> sqrt(5)
     # l = −3: θ error 6, lateral error 0.5
-    pred = Prediction(theta_deg=np.array([-179.0, 14.0, -56.0]), lateral_mm=np.array([6.0, 2.0, -2.5]),
-                      std=np.zeros((3, 2)), ok=np.ones(3, bool), reason=("", "", ""))
+    pred = Prediction(
+        theta_deg=np.array([-179.0, 14.0, -56.0]),
+        lateral_mm=np.array([6.0, 2.0, -2.5]),
+        std=np.zeros((3, 2)),
+        ok=np.ones(3, bool),
+        reason=("", "", ""),
+    )
     table = heldout_table(run, {"PCA + GP": pred})["PCA + GP"]
     assert list(table) == [5.0, -3.0]
     assert table[5.0]["theta_rms_deg"] == pytest.approx(math.sqrt(10.0))
@@ -70,9 +78,20 @@ def test_evaluate_on_a_recorded_heldout_tap_run(tmp_path, capsys) -> None:
     from twin.tools.cli import main
 
     def record(name: str, orientations: list, lateral: list, depths: list) -> Path:
-        scenario = {"name": name, "object": {"name": "rectangle"}, "fidelity": "fast", "effects": ["contact", "friction"],
-                    "protocol": {"kind": "taps", "orientations_deg": orientations, "lateral_mm": lateral,
-                                 "depths_mm": depths, "edge_point_mm": [60, 0], "edge_normal_deg": 0}}
+        scenario = {
+            "name": name,
+            "object": {"name": "rectangle"},
+            "fidelity": "fast",
+            "effects": ["contact", "friction"],
+            "protocol": {
+                "kind": "taps",
+                "orientations_deg": orientations,
+                "lateral_mm": lateral,
+                "depths_mm": depths,
+                "edge_point_mm": [60, 0],
+                "edge_normal_deg": 0,
+            },
+        }
         path = tmp_path / f"{name}.yaml"
         path.write_text(yaml.safe_dump(scenario))
         assert main(["run", str(path), "--out", str(tmp_path / name), "--workers", "1", "--quiet"]) == 0
@@ -104,8 +123,9 @@ def test_compliant_dome_reads_taps_between_its_training_depths(tmp_path) -> None
 
     def record(name: str, **protocol) -> Path:
         scenario = load_scenario(scenario_path(name))
-        scenario = scenario.with_changes(dome="compliant", effects=["contact", "friction"],
-                                         protocol=scenario.protocol.model_dump() | protocol)
+        scenario = scenario.with_changes(
+            dome="compliant", effects=["contact", "friction"], protocol=scenario.protocol.model_dump() | protocol
+        )
         return run_scenario(scenario, tmp_path / name, workers=1, progress=False)
 
     train = record("taps_rectangle")
@@ -139,16 +159,21 @@ def test_the_along_edge_cells_weigh_the_drag_against_the_taps_orientation_signal
 
     def record(name: str, out: str, friction: float | None = None, **protocol) -> Path:
         scenario = load_scenario(scenario_path(name))
-        scenario = scenario.with_changes(dome="compliant", fidelity="fast", effects=["contact", "friction"],
-                                         object={"name": "rectangle", "friction": friction},
-                                         protocol=scenario.protocol.model_dump() | protocol)
+        scenario = scenario.with_changes(
+            dome="compliant",
+            fidelity="fast",
+            effects=["contact", "friction"],
+            object={"name": "rectangle", "friction": friction},
+            protocol=scenario.protocol.model_dump() | protocol,
+        )
         return run_scenario(scenario, tmp_path / out, workers=1, progress=False)
 
     orientations = [-120, 0, 120]
     taps = record("taps_rectangle", "taps", orientations_deg=orientations, lateral_mm=[9.9, 0, -6])
     slides = record("slides_rectangle", "slides", orientations_deg=orientations, directions_deg=[90, 270])
-    frictionless = record("slides_rectangle", "frictionless", 0.0, orientations_deg=orientations,
-                          directions_deg=[90, 270])
+    frictionless = record(
+        "slides_rectangle", "frictionless", 0.0, orientations_deg=orientations, directions_deg=[90, 270]
+    )
 
     signal = orientation_signal_px(load_run(taps))
     assert set(signal) == {2.0, 4.0} and all(set(row) == {9.9, 0.0, -6.0} for row in signal.values())

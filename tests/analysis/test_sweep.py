@@ -2,6 +2,7 @@
 (run as the CLI in its own process, as a user would); no timing asserts, only that the
 outputs exist and make sense. The Pareto rules and the failure reporting are checked on
 small inputs, the settling error's reference (SensorPhysics.converged_pins) on the edge scene."""
+
 from __future__ import annotations
 
 import csv
@@ -38,8 +39,13 @@ def _f(v: str) -> float:
 @pytest.mark.slow
 def test_quick_sweep_writes_a_consistent_table(tmp_path) -> None:
     out = tmp_path / "bench"
-    proc = subprocess.run([sys.executable, "-m", "twin.tools.cli", "bench", "sweep", "--quick", "--out", str(out)],
-                          cwd=ROOT, capture_output=True, text=True, timeout=900)
+    proc = subprocess.run(
+        [sys.executable, "-m", "twin.tools.cli", "bench", "sweep", "--quick", "--out", str(out)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     for name in ("sweep.csv", "sweep.md", "sweep.json", "pareto.png"):
         assert (out / name).is_file() and (out / name).stat().st_size > 0, name
@@ -71,11 +77,17 @@ def test_quick_sweep_writes_a_consistent_table(tmp_path) -> None:
             assert _f(r["pin_tracking_rms_px"]) == 0.0  # projected pins are the true pins
     # render changes how pins are read, never the physics: identical true pins
     assert by["render_off"]["pin_physics_rms_px"] == by[DEFAULT]["pin_physics_rms_px"]
-    assert by["render_off"]["pin_settling_rms_px"] == by[DEFAULT]["pin_settling_rms_px"] == by["msaa_4"][
-        "pin_settling_rms_px"]
+    assert (
+        by["render_off"]["pin_settling_rms_px"]
+        == by[DEFAULT]["pin_settling_rms_px"]
+        == by["msaa_4"]["pin_settling_rms_px"]
+    )
     assert _f(by[DEFAULT]["pin_physics_rms_px"]) > 0  # the default grid is coarser than the reference's
-    assert all(_f(by[DEFAULT][f"{ratio}_x_default{end}"]) == 1.0 for ratio in ("time", "physics")
-               for end in ("", "_min", "_max"))
+    assert all(
+        _f(by[DEFAULT][f"{ratio}_x_default{end}"]) == 1.0
+        for ratio in ("time", "physics")
+        for end in ("", "_min", "_max")
+    )
     # every ok row is flagged on or off the front, the default included
     assert all(r["on_front"] in ("True", "False") for r in rows)
     md = (out / "sweep.md").read_text()
@@ -89,10 +101,19 @@ def test_quick_sweep_writes_a_consistent_table(tmp_path) -> None:
 
 
 def test_failed_setting_is_recorded_counted_and_kept_off_the_front(tmp_path) -> None:
-    tiny = Probe(tap_orientations_deg=(0.0, 180.0), slide_orientations_deg=(0.0,), directions_deg=(0.0,),
-                 lateral_mm=(9.9, 4.0, 0.0, -4.0), tap_depths_mm=(2.0, 4.0), contour_max_steps=3, gp_restarts=0)
-    settings = [Setting(REFERENCE, "reference", "fast", effects=("contact", "friction")),
-                Setting("bad_timestep", "time step", physics={"timestep_s": 1.0})]
+    tiny = Probe(
+        tap_orientations_deg=(0.0, 180.0),
+        slide_orientations_deg=(0.0,),
+        directions_deg=(0.0,),
+        lateral_mm=(9.9, 4.0, 0.0, -4.0),
+        tap_depths_mm=(2.0, 4.0),
+        contour_max_steps=3,
+        gp_restarts=0,
+    )
+    settings = [
+        Setting(REFERENCE, "reference", "fast", effects=("contact", "friction")),
+        Setting("bad_timestep", "time step", physics={"timestep_s": 1.0}),
+    ]
     rows = sweep_and_report(tmp_path, settings=settings, probe=tiny, workers=1, verbose=False)
     ok, bad = rows
     assert ok["status"] == "ok" and ok["pin_rms_px"] == 0.0 and ok["on_front"] is True
@@ -104,8 +125,9 @@ def test_failed_setting_is_recorded_counted_and_kept_off_the_front(tmp_path) -> 
     assert csv_rows[1]["status"] == "failed" and "timestep_s" in csv_rows[1]["error"]
 
 
-def _row(name: str, ms: float, err: float, output: str = "frames", status: str = "ok",
-         settling: float | None = None) -> dict:
+def _row(
+    name: str, ms: float, err: float, output: str = "frames", status: str = "ok", settling: float | None = None
+) -> dict:
     row = {"setting": name, "output": output, "status": status, "total_ms": ms, "pin_rms_px": err}
     if settling is not None:
         row["pin_settling_rms_px"] = settling
@@ -113,12 +135,25 @@ def _row(name: str, ms: float, err: float, output: str = "frames", status: str =
 
 
 def test_pareto_front_with_noise_margins() -> None:
-    rows = [_row("slow_exact", 100.0, 0.0), _row("mid", 40.0, 3.0), _row("fast_rough", 20.0, 6.0),
-            _row("dominated", 60.0, 4.0), _row("noise_twin", 41.0, 3.01), _row("pins", 10.0, 3.0, output="pins"),
-            _row("broken", 1.0, 0.0, status="failed")]
+    rows = [
+        _row("slow_exact", 100.0, 0.0),
+        _row("mid", 40.0, 3.0),
+        _row("fast_rough", 20.0, 6.0),
+        _row("dominated", 60.0, 4.0),
+        _row("noise_twin", 41.0, 3.01),
+        _row("pins", 10.0, 3.0, output="pins"),
+        _row("broken", 1.0, 0.0, status="failed"),
+    ]
     flags = dict(zip([r["setting"] for r in rows], pareto_flags(rows, "pin_rms_px")))
-    assert flags == {"slow_exact": True, "mid": True, "fast_rough": True, "dominated": False,
-                     "noise_twin": True, "pins": True, "broken": None}
+    assert flags == {
+        "slow_exact": True,
+        "mid": True,
+        "fast_rough": True,
+        "dominated": False,
+        "noise_twin": True,
+        "pins": True,
+        "broken": None,
+    }
     # across output kinds the projected-pin setting dominates the rendered one of equal error
     assert dominates(rows[5], rows[1], "pin_rms_px")
     assert pareto_flags(rows, "pin_rms_px", by_output=False)[1] is False
@@ -127,12 +162,28 @@ def test_pareto_front_with_noise_margins() -> None:
 
 
 def test_markdown_reports_a_default_off_the_front() -> None:
-    rows = [dict(_row(REFERENCE, 100.0, 0.0, output="pins"), knob="reference", on_front=True),
-            dict(_row(DEFAULT, 50.0, 4.0), knob="default", on_front=False),
-            dict(_row("better", 30.0, 3.0), knob="x", on_front=True)]
-    meta = {"probe": {"tap_orientations_deg": [0], "lateral_mm": [0], "tap_depths_mm": [2], "slide_orientations_deg": [0],
-                      "directions_deg": [0], "contour_max_steps": 1}, "failures": [], "date": "today", "machine": "m",
-            "gl": "egl", "workers": 1, "quick": True, "wall_s": 1.0}
+    rows = [
+        dict(_row(REFERENCE, 100.0, 0.0, output="pins"), knob="reference", on_front=True),
+        dict(_row(DEFAULT, 50.0, 4.0), knob="default", on_front=False),
+        dict(_row("better", 30.0, 3.0), knob="x", on_front=True),
+    ]
+    meta = {
+        "probe": {
+            "tap_orientations_deg": [0],
+            "lateral_mm": [0],
+            "tap_depths_mm": [2],
+            "slide_orientations_deg": [0],
+            "directions_deg": [0],
+            "contour_max_steps": 1,
+        },
+        "failures": [],
+        "date": "today",
+        "machine": "m",
+        "gl": "egl",
+        "workers": 1,
+        "quick": True,
+        "wall_s": 1.0,
+    }
     md = markdown_table(rows, meta)
     assert "**The default is NOT on the Pareto front**" in md and "Failures: 0." in md
 
@@ -203,7 +254,11 @@ def test_converged_pins_are_near_the_frame_and_leave_the_simulation_untouched() 
     # the next frame continues bit-identically: pins, time, steps, forces, state
     assert np.array_equal(after.pins_tool, after0.pins_tool)
     assert (after.time, after.n_steps, after.settle_steps, after.contact_force) == (
-        after0.time, after0.n_steps, after0.settle_steps, after0.contact_force)
+        after0.time,
+        after0.n_steps,
+        after0.settle_steps,
+        after0.contact_force,
+    )
     assert physics.steps == physics0.steps
     assert np.array_equal(data.qpos, data0.qpos) and np.array_equal(data.qvel, data0.qvel)
     assert np.array_equal(data.qacc_warmstart, data0.qacc_warmstart)
@@ -215,14 +270,30 @@ def test_compliant_settings_are_measured_against_their_own_reference(tmp_path) -
     reference (the compliant reference against itself: 0), a skin (another material) has
     none, pin fronts never mix the models, the contour front does; without its reference a
     model's settings are refused."""
-    tiny = Probe(tap_orientations_deg=(0.0, 180.0), slide_orientations_deg=(0.0,), directions_deg=(90.0,),
-                 lateral_mm=(9.9, 4.0, 0.0, -4.0), tap_depths_mm=(2.0, 4.0), contour_max_steps=3, gp_restarts=0)
+    tiny = Probe(
+        tap_orientations_deg=(0.0, 180.0),
+        slide_orientations_deg=(0.0,),
+        directions_deg=(90.0,),
+        lateral_mm=(9.9, 4.0, 0.0, -4.0),
+        tap_depths_mm=(2.0, 4.0),
+        contour_max_steps=3,
+        gp_restarts=0,
+    )
     pins = ("contact", "friction")
-    settings = [Setting(REFERENCE, "reference", "fast", effects=pins),
-                Setting(COMPLIANT_REFERENCE, "compliant dome", "default", effects=pins, dome="compliant"),
-                Setting("compliant_fast", "compliant dome", "fast", effects=pins, dome="compliant"),
-                Setting("compliant_membrane", "compliant skin", "fast", physics=SKIN_PHYSICS["membrane"], effects=pins,
-                        dome="compliant", pins_comparable=False)]
+    settings = [
+        Setting(REFERENCE, "reference", "fast", effects=pins),
+        Setting(COMPLIANT_REFERENCE, "compliant dome", "default", effects=pins, dome="compliant"),
+        Setting("compliant_fast", "compliant dome", "fast", effects=pins, dome="compliant"),
+        Setting(
+            "compliant_membrane",
+            "compliant skin",
+            "fast",
+            physics=SKIN_PHYSICS["membrane"],
+            effects=pins,
+            dome="compliant",
+            pins_comparable=False,
+        ),
+    ]
     rows = sweep_and_report(tmp_path, settings=settings, probe=tiny, workers=1, verbose=False)
     flex_ref, ref, fast, membrane = rows
     assert all(r["status"] == "ok" for r in rows), [(r["setting"], r["error"]) for r in rows]
@@ -240,7 +311,9 @@ def test_compliant_settings_are_measured_against_their_own_reference(tmp_path) -
     md = (tmp_path / "sweep.md").read_text()
     assert "compliant_reference" in md and "contour front" in md
     with pytest.raises(UserError, match="compliant_reference"):
-        sweep_and_report(tmp_path / "no_ref", settings=settings[:1] + settings[2:], probe=tiny, workers=1, verbose=False)
+        sweep_and_report(
+            tmp_path / "no_ref", settings=settings[:1] + settings[2:], probe=tiny, workers=1, verbose=False
+        )
 
 
 def test_pin_fronts_stay_within_a_dome_model_and_the_contour_front_spans_both() -> None:

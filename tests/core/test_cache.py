@@ -1,6 +1,7 @@
 """The on-disk array cache (twin.core.resources.cached_arrays): computed once, loaded
 after, recomputed when an entry is damaged, never fatal when the directory is not
 writable."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -106,7 +107,7 @@ def test_the_least_recently_used_entries_make_room(cache):
     cached_arrays("test", {"x": 2}, compute, SHAPES)
     (second,) = set(cache.glob("*.npz")) - {first}
     size = first.stat().st_size
-    os.utime(first, (1000, 1000))   # x = 1 stored long ago ...
+    os.utime(first, (1000, 1000))  # x = 1 stored long ago ...
     os.utime(second, (2000, 2000))  # ... x = 2 later
     cached_arrays("test", {"x": 1}, compute, SHAPES)  # ... but x = 1 used now
     assert compute.calls == 2
@@ -157,9 +158,14 @@ def test_the_code_digest_follows_the_code_not_its_comments(tmp_path):
 
     stage = '"""A stage."""\nSCALE = 2.0  # mm\n\n\ndef scaled(x):\n    """Twice x."""\n    return SCALE * x\n'
     original = digest(stage)
-    assert digest('"""A stage, documented anew."""\n# units: mm\nSCALE = 2.0\n\ndef scaled(x):\n'
-                  '    """x, twice (mm)."""\n\n    return SCALE * x  # the same code\n') == original
-    assert digest('SCALE = 2.0\n\n\ndef scaled(x):\n    return SCALE * x\n') == original
+    assert (
+        digest(
+            '"""A stage, documented anew."""\n# units: mm\nSCALE = 2.0\n\ndef scaled(x):\n'
+            '    """x, twice (mm)."""\n\n    return SCALE * x  # the same code\n'
+        )
+        == original
+    )
+    assert digest("SCALE = 2.0\n\n\ndef scaled(x):\n    return SCALE * x\n") == original
     assert digest(stage.replace("SCALE = 2.0", "SCALE = 3.0")) != original
     digest(stage)
     (package / "extra.py").write_text("OFFSET = 1.0\n")

@@ -1,5 +1,6 @@
 """TactipCamera on a real MJPG video written with cv2.VideoWriter and read back through
 cv2.VideoCapture (no mocks), and on a device index that does not exist."""
+
 from __future__ import annotations
 
 import time

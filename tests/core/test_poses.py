@@ -1,5 +1,6 @@
 """The conventions module (twin.core.poses): Euler order, transforms, quaternion order,
 angle wrap and the object <-> work flip, each checked against an independent construction."""
+
 from __future__ import annotations
 
 import math
@@ -8,9 +9,17 @@ import mujoco
 import numpy as np
 import pytest
 
-from twin.core.poses import (Pose, angle_between_rotations_deg, invert_transform, object_to_work_deg,
-                             object_to_work_xy, quat_wxyz_to_matrix, transform_points, work_to_object_xy,
-                             wrap_deg)
+from twin.core.poses import (
+    Pose,
+    angle_between_rotations_deg,
+    invert_transform,
+    object_to_work_deg,
+    object_to_work_xy,
+    quat_wxyz_to_matrix,
+    transform_points,
+    work_to_object_xy,
+    wrap_deg,
+)
 
 
 def _rx(a: float) -> np.ndarray:
@@ -28,7 +37,12 @@ def _rz(a: float) -> np.ndarray:
     return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
 
 
-POSES = [Pose(10, -20, 3, 0, 0, 0), Pose(0, 0, 0, 30, 0, 0), Pose(1, 2, 3, 10, -20, 135), Pose(-5, 7, -2, -15, 25, -170)]
+POSES = [
+    Pose(10, -20, 3, 0, 0, 0),
+    Pose(0, 0, 0, 30, 0, 0),
+    Pose(1, 2, 3, 10, -20, 135),
+    Pose(-5, 7, -2, -15, 25, -170),
+]
 
 
 @pytest.mark.parametrize("pose", POSES)

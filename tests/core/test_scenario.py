@@ -1,16 +1,16 @@
 """Scenario validation: every shipped scenario is valid; bad files fail with exit 2,
 naming the file, the field and the value, without a traceback."""
+
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
-
 import pytest
 
-from twin.tools.cli import main
 from twin.core.errors import UserError
 from twin.runs.spec import load_scenario  # the scenario file with its dome model's `physics` checked
+from twin.tools.cli import main
 
 SCENARIOS = sorted(Path(__file__).resolve().parents[2].joinpath("scenarios").glob("*.yaml"))
 
@@ -23,25 +23,51 @@ def test_shipped_scenarios_validate(path: Path) -> None:
 BAD = {
     "unknown_object": ("name: x\nobject: {name: square}\n", "object", "square"),
     "bad_effect": ("name: x\nobject: {name: rectangle}\neffects: [render, fog]\n", "effects", "fog"),
-    "bad_depth": ("name: x\nobject: {name: rectangle}\nprotocol: {kind: taps, depths_mm: [2, deep]}\n", "depths_mm", "deep"),
+    "bad_depth": (
+        "name: x\nobject: {name: rectangle}\nprotocol: {kind: taps, depths_mm: [2, deep]}\n",
+        "depths_mm",
+        "deep",
+    ),
     "negative_gain": ("name: x\nobject: {name: rectangle}\nprotocol: {kind: contour, gain: -1}\n", "gain", "-1"),
-    "short_pose": ("name: x\nobject: {name: rectangle}\nprotocol: {kind: render, poses: [[0, 0, 1]]}\n", "poses", "[0, 0, 1]"),
+    "short_pose": (
+        "name: x\nobject: {name: rectangle}\nprotocol: {kind: render, poses: [[0, 0, 1]]}\n",
+        "poses",
+        "[0, 0, 1]",
+    ),
     "typo_field": ("name: x\nobject: {name: rectangle}\nfidelty: fast\n", "fidelty", "fast"),
     "friction_without_contact": ("name: x\nobject: {name: rectangle}\neffects: [friction]\n", "effects", "friction"),
     "not_yaml": ("name: [x\n", "line", "YAML"),
-    "flex_override_on_compliant": ("name: x\nobject: {name: rectangle}\ndome: compliant\nphysics: {cellcount: [4, 4, 2]}\n",
-                                   "physics.cellcount", "compliant"),
-    "sealed_gel_on_flex": ("name: x\nobject: {name: rectangle}\nphysics: {gel_enclosed: false}\n",
-                           "physics.gel_enclosed", "flex"),
-    "gel_modulus_on_flex": ("name: x\nobject: {name: rectangle}\nphysics: {gel_young_kpa: 26.9}\n",
-                            "physics.gel_young_kpa", "flex"),
-    "bending_without_membrane": ("name: x\nobject: {name: rectangle}\ndome: compliant\nphysics: {skin_bending: true}\n",
-                                 "skin_bending", "membrane_young_mpa"),
-    "skin_held_inside_the_cap": ("name: x\nobject: {name: rectangle}\ndome: compliant\nphysics: {skin_held_deg: 50}\n",
-                                 "physics.skin_held_deg", "50"),
+    "flex_override_on_compliant": (
+        "name: x\nobject: {name: rectangle}\ndome: compliant\nphysics: {cellcount: [4, 4, 2]}\n",
+        "physics.cellcount",
+        "compliant",
+    ),
+    "sealed_gel_on_flex": (
+        "name: x\nobject: {name: rectangle}\nphysics: {gel_enclosed: false}\n",
+        "physics.gel_enclosed",
+        "flex",
+    ),
+    "gel_modulus_on_flex": (
+        "name: x\nobject: {name: rectangle}\nphysics: {gel_young_kpa: 26.9}\n",
+        "physics.gel_young_kpa",
+        "flex",
+    ),
+    "bending_without_membrane": (
+        "name: x\nobject: {name: rectangle}\ndome: compliant\nphysics: {skin_bending: true}\n",
+        "skin_bending",
+        "membrane_young_mpa",
+    ),
+    "skin_held_inside_the_cap": (
+        "name: x\nobject: {name: rectangle}\ndome: compliant\nphysics: {skin_held_deg: 50}\n",
+        "physics.skin_held_deg",
+        "50",
+    ),
     "unknown_dome": ("name: x\nobject: {name: rectangle}\ndome: rubber\n", "dome", "rubber"),
-    "skin_held_on_flex": ("name: x\nobject: {name: rectangle}\nphysics: {skin_held_deg: 80}\n",
-                          "physics.skin_held_deg", "flex"),
+    "skin_held_on_flex": (
+        "name: x\nobject: {name: rectangle}\nphysics: {skin_held_deg: 80}\n",
+        "physics.skin_held_deg",
+        "flex",
+    ),
 }
 
 
@@ -73,12 +99,14 @@ def test_user_outline_object_named_in_a_scenario(tmp_path: Path) -> None:
 
     (tmp_path / "triangle.csv").write_text("x,y\n-30,-20\n30,-20\n0,30\n")
     path = tmp_path / "triangle.yaml"
-    path.write_text("name: triangle\nobject: {outline: triangle.csv, thickness_mm: 8}\nfidelity: fast\n"
-                    "effects: [contact, friction]\n")
+    path.write_text(
+        "name: triangle\nobject: {outline: triangle.csv, thickness_mm: 8}\nfidelity: fast\n"
+        "effects: [contact, friction]\n"
+    )
     assert main(["check", str(path)]) == 0
     with SimEnvironment(load_scenario(path)) as env:
         rest = env.reset().pins_px
-        pressed = env.step(Pose(0, 20, 3, 0, 0, 0)).pins_px   # the edge at y = −20 (object) = +20 (work)
+        pressed = env.step(Pose(0, 20, 3, 0, 0, 0)).pins_px  # the edge at y = −20 (object) = +20 (work)
     assert np.abs(pressed - rest).max() > 1.0
 
 

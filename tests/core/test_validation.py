@@ -1,5 +1,6 @@
 """One strict base for every validated file: every numeric field of every schema is
 bounded and states its unit; NaN and ±inf are refused wherever a float is read."""
+
 from __future__ import annotations
 
 import math
@@ -10,9 +11,9 @@ from pydantic import ValidationError
 
 from hardware.config import HardwareConfig
 from twin.core.scenario import Scenario
-from twin.world.dome.registry import DOME_MODELS
 from twin.core.validation import StrictModel
 from twin.sensing.perception import ModelHeader
+from twin.world.dome.registry import DOME_MODELS
 
 #: each dome model's scenario `physics` schema
 DOME_SETTINGS = tuple(b.settings for b in DOME_MODELS.values())
@@ -42,11 +43,19 @@ def test_every_numeric_field_is_bounded_and_has_a_unit(model: type[StrictModel])
     schema = model.model_json_schema()
     leaves = list(numeric_leaves(schema, schema.get("$defs", {})))
     assert len(leaves) > (3 if model in DOME_SETTINGS else 5)  # the walk finds them
-    unbounded = [p for p, s, _ in leaves if not ({"const", "enum"} & s.keys() or (
-        {"minimum", "exclusiveMinimum"} & s.keys() and {"maximum", "exclusiveMaximum"} & s.keys()))]
+    unbounded = [
+        p
+        for p, s, _ in leaves
+        if not (
+            {"const", "enum"} & s.keys()
+            or ({"minimum", "exclusiveMinimum"} & s.keys() and {"maximum", "exclusiveMaximum"} & s.keys())
+        )
+    ]
     assert not unbounded, f"numeric fields without physical bounds: {unbounded}"
-    unit = re.compile(r"\b(mm|deg|px|s|MPa|mm/s|deg/s|1/px|dimensionless|TCP port|index|frames|100 µs|restarts|"
-                      r"components|cells|steps|samples per px|grey levels)\b")
+    unit = re.compile(
+        r"\b(mm|deg|px|s|MPa|mm/s|deg/s|1/px|dimensionless|TCP port|index|frames|100 µs|restarts|"
+        r"components|cells|steps|samples per px|grey levels)\b"
+    )
     undocumented = [p for p, s, d in leaves if not ({"const", "enum"} & s.keys() or (d and unit.search(d)))]
     assert not undocumented, f"numeric fields without a unit in their description: {undocumented}"
 
@@ -77,14 +86,17 @@ def _types_in(annotation):
 
 
 @pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
-@pytest.mark.parametrize("where", [
-    {"placement": {"yaw_deg": None}},
-    {"placement": {"position_mm": [None, 0.0]}},
-    {"work_frame": [0, 0, None, 180, 0, 0]},
-    {"protocol": {"kind": "contour", "gain": None}},
-    {"protocol": {"kind": "taps", "depths_mm": [2.0, None]}},
-    {"sensor": {"camera": {"fov_y_deg": None}}},
-])
+@pytest.mark.parametrize(
+    "where",
+    [
+        {"placement": {"yaw_deg": None}},
+        {"placement": {"position_mm": [None, 0.0]}},
+        {"work_frame": [0, 0, None, 180, 0, 0]},
+        {"protocol": {"kind": "contour", "gain": None}},
+        {"protocol": {"kind": "taps", "depths_mm": [2.0, None]}},
+        {"sensor": {"camera": {"fov_y_deg": None}}},
+    ],
+)
 def test_scenario_non_finite_values_are_refused_naming_the_field(where: dict, bad: float) -> None:
     def fill(d):
         if isinstance(d, dict):
@@ -98,13 +110,16 @@ def test_scenario_non_finite_values_are_refused_naming_the_field(where: dict, ba
     assert "finite number" in str(err.value) or "greater than" in str(err.value) or "less than" in str(err.value)
 
 
-@pytest.mark.parametrize("field,value", [
-    ("robot", {"tcp_mm_deg": [0, 0, math.nan, 0, 0, 0]}),
-    ("robot", {"linear_speed_mm_s": math.inf}),
-    ("camera", {"exposure": math.nan}),
-    ("safety", {"x_mm": [-math.inf, 80]}),
-    ("safety", {"max_depth_mm": math.nan}),
-])
+@pytest.mark.parametrize(
+    "field,value",
+    [
+        ("robot", {"tcp_mm_deg": [0, 0, math.nan, 0, 0, 0]}),
+        ("robot", {"linear_speed_mm_s": math.inf}),
+        ("camera", {"exposure": math.nan}),
+        ("safety", {"x_mm": [-math.inf, 80]}),
+        ("safety", {"max_depth_mm": math.nan}),
+    ],
+)
 def test_hardware_config_non_finite_values_are_refused(field: str, value: dict) -> None:
     with pytest.raises(ValidationError) as err:
         HardwareConfig.model_validate({field: value})

@@ -1,4 +1,5 @@
 """The frames under golden-image test, shared by the test and the regeneration script."""
+
 from __future__ import annotations
 
 from pathlib import Path

@@ -5,6 +5,7 @@
 
 Only after checking by eye that the new image is right (tests/golden/<backend>/).
 """
+
 from __future__ import annotations
 
 import sys
@@ -14,8 +15,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 import cv2  # noqa: E402
 
-from twin.world import gl  # noqa: E402
 from tests.golden.frames import GOLDEN_FRAMES  # noqa: E402
+from twin.world import gl  # noqa: E402
 
 
 def main() -> None:

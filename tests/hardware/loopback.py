@@ -1,4 +1,5 @@
 """Loopback helpers shared by the hardware tests."""
+
 from __future__ import annotations
 
 import socket

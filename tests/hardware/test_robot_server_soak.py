@@ -7,6 +7,7 @@ well-formed requests whose numbers are float32 extremes (±3.4e38, denormals, ±
 tiny, NaN and ±inf bit patterns) over 100 connections: the server stays up, accepts no
 move with a number outside its ranges, never leaves its joint limits, and its memory
 stays flat. SIGTERM ends it with exit code 143 (README, exit codes)."""
+
 from __future__ import annotations
 
 import contextlib
@@ -22,7 +23,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from hardware.protocol import (
     MAX_REQUEST_SIZE,
@@ -42,7 +44,7 @@ from twin.world.kinematics import Irb120Kinematics
 N_COMMANDS = 10_000
 N_CYCLES = 200
 N_GARBAGE = 100
-LOG_LIMIT = 500             # the server's command and move logs (entries), full after the warm-up
+LOG_LIMIT = 500  # the server's command and move logs (entries), full after the warm-up
 RSS_GROWTH_LIMIT_KB = 1024  # after warm-up
 
 
@@ -63,8 +65,15 @@ def test_decoder_never_raises_on_arbitrary_bytes(data: bytes, cuts: list[int]) -
 
 
 _VALID = st.sampled_from([c for c in Command]).flatmap(
-    lambda c: st.tuples(st.just(c), st.lists(st.floats(width=32, allow_nan=False), min_size=REQUEST_LAYOUT[c].size // 4,
-                                             max_size=REQUEST_LAYOUT[c].size // 4)))
+    lambda c: st.tuples(
+        st.just(c),
+        st.lists(
+            st.floats(width=32, allow_nan=False),
+            min_size=REQUEST_LAYOUT[c].size // 4,
+            max_size=REQUEST_LAYOUT[c].size // 4,
+        ),
+    )
+)
 
 
 @settings(max_examples=200, deadline=None)
@@ -107,11 +116,11 @@ def test_a_stalled_or_idle_client_is_dropped_and_the_next_served(how: str, caplo
     with VirtualRobotServer("127.0.0.1", 0, KinematicArm(), stall_timeout_s=0.3, idle_timeout_s=0.6) as server:
         hog = socket.create_connection(("127.0.0.1", server.port), timeout=5.0)
         if how == "stall":
-            hog.sendall(encode_request(Command.MOVE_LINEAR, *range(7))[:9])   # half a command
+            hog.sendall(encode_request(Command.MOVE_LINEAR, *range(7))[:9])  # half a command
         t0 = time.monotonic()
-        assert len(_ask_joints(server.port)) == 6      # served once the hog is dropped
+        assert len(_ask_joints(server.port)) == 6  # served once the hog is dropped
         waited = time.monotonic() - t0
-        assert hog.recv(16) == b""                      # the hog's connection was closed
+        assert hog.recv(16) == b""  # the hog's connection was closed
         hog.close()
     limit = 0.3 if how == "stall" else 0.6
     assert limit <= waited < limit + 2.0
@@ -142,9 +151,25 @@ def served(tmp_path):
     file, which a pipe nobody reads during the soak could not take."""
     log_path = tmp_path / "serve-robot.log"
     with log_path.open("w") as log_file:
-        proc = subprocess.Popen([sys.executable, "-m", "twin.tools.cli", "serve-robot", "--port", str(free_port()),
-                                 "--stall-timeout", "0.2", "--idle-timeout", "1", "--log-limit", str(LOG_LIMIT)],
-                                stdout=subprocess.PIPE, stderr=log_file, text=True)
+        proc = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "twin.tools.cli",
+                "serve-robot",
+                "--port",
+                str(free_port()),
+                "--stall-timeout",
+                "0.2",
+                "--idle-timeout",
+                "1",
+                "--log-limit",
+                str(LOG_LIMIT),
+            ],
+            stdout=subprocess.PIPE,
+            stderr=log_file,
+            text=True,
+        )
     try:
         line = proc.stdout.readline()
         port = int(re.search(r"listening on [\d.]+:(\d+)", line).group(1))
@@ -155,7 +180,7 @@ def served(tmp_path):
         proc.communicate(timeout=20)
     err = log_path.read_text()
     assert alive, f"the server died: {err[-2000:]}"
-    assert proc.returncode == 143 and "Traceback" not in err, err[-2000:]   # README: SIGTERM exits 143
+    assert proc.returncode == 143 and "Traceback" not in err, err[-2000:]  # README: SIGTERM exits 143
     assert "internal fault" not in err, "every bad number is caught by a range check, not by the last resort"
     assert len(err.splitlines()) < 25 * 150, "the server's log is bounded (20 refusals per client, then a count)"
 
@@ -187,8 +212,10 @@ def _commands(sock: socket.socket, n: int, rng: np.random.Generator) -> None:
 
 
 def _setup(sock: socket.socket) -> None:
-    for cmd, args in ((Command.SET_TOOL, pose_to_wire(Pose(0, 0, 101, 0, 0, 0))),
-                      (Command.SET_WORK_OBJECT, pose_to_wire(Pose(400, 0, 50, 180, 0, 0)))):
+    for cmd, args in (
+        (Command.SET_TOOL, pose_to_wire(Pose(0, 0, 101, 0, 0, 0))),
+        (Command.SET_WORK_OBJECT, pose_to_wire(Pose(400, 0, 50, 180, 0, 0))),
+    ):
         sock.sendall(encode_request(cmd, *args))
         assert _recv_exactly(sock, 2) == b"\x00\x01"
     sock.sendall(encode_request(Command.MOVE_LINEAR, *pose_to_wire(Pose(0, 0, -10, 0, 0, 0))))
@@ -200,13 +227,13 @@ def test_soak_commands_drops_and_garbage(served, capsys) -> None:
     rng = np.random.default_rng(17)
     with socket.create_connection(("127.0.0.1", port), timeout=10) as sock:
         _setup(sock)
-        _commands(sock, 1000, rng)                  # warm-up: imports, caches, the logs' first entries
-    time.sleep(0.3)                                 # the server has seen the close
+        _commands(sock, 1000, rng)  # warm-up: imports, caches, the logs' first entries
+    time.sleep(0.3)  # the server has seen the close
     rss0, fds0 = _rss_kb(proc.pid), _fds(proc.pid)
     t0 = time.perf_counter()
 
     n_sent = 1000
-    for cycle in range(N_CYCLES):                   # connect/drop cycles, some mid-command, some abortive
+    for cycle in range(N_CYCLES):  # connect/drop cycles, some mid-command, some abortive
         s = socket.create_connection(("127.0.0.1", port), timeout=10)
         if cycle % 4 == 1:
             s.sendall(encode_request(Command.MOVE_LINEAR, *range(7))[: int(rng.integers(1, 30))])
@@ -219,10 +246,10 @@ def test_soak_commands_drops_and_garbage(served, capsys) -> None:
             n_sent += 43
         s.close()
     t1 = time.perf_counter()
-    for _ in range(N_GARBAGE):                      # random bytes: answered with ERROR or dropped, never a crash
+    for _ in range(N_GARBAGE):  # random bytes: answered with ERROR or dropped, never a crash
         with socket.create_connection(("127.0.0.1", port), timeout=10) as s:
             s.sendall(rng.bytes(int(rng.integers(1, 300))))
-            s.shutdown(socket.SHUT_WR)                  # done sending: the server sees the end and lets go
+            s.shutdown(socket.SHUT_WR)  # done sending: the server sees the end and lets go
             replies = b""
             with contextlib.suppress(ConnectionResetError):
                 while chunk := s.recv(4096):
@@ -237,11 +264,13 @@ def test_soak_commands_drops_and_garbage(served, capsys) -> None:
 
     time.sleep(0.3)
     rss1, fds1 = _rss_kb(proc.pid), _fds(proc.pid)
-    assert len(_ask_joints(port)) == 6              # still answering correctly
+    assert len(_ask_joints(port)) == 6  # still answering correctly
     with capsys.disabled():
-        print(f"\nserve-robot soak: {n_sent} commands checked, {N_CYCLES} connect/drop cycles, {N_GARBAGE} random-byte "
-              f"clients; RSS {rss0} -> {rss1} kB ({rss1 - rss0:+d} kB), fds {fds0} -> {fds1}; "
-              f"{t1 - t0:.1f} s cycles, {t2 - t1:.1f} s garbage, {t3 - t2:.1f} s commands")
+        print(
+            f"\nserve-robot soak: {n_sent} commands checked, {N_CYCLES} connect/drop cycles, {N_GARBAGE} random-byte "
+            f"clients; RSS {rss0} -> {rss1} kB ({rss1 - rss0:+d} kB), fds {fds0} -> {fds1}; "
+            f"{t1 - t0:.1f} s cycles, {t2 - t1:.1f} s garbage, {t3 - t2:.1f} s commands"
+        )
     assert fds1 == fds0
     assert rss1 - rss0 < RSS_GROWTH_LIMIT_KB
 
@@ -249,31 +278,69 @@ def test_soak_commands_drops_and_garbage(served, capsys) -> None:
 # ---------------------------------------------------------------------------- extreme numbers
 N_EXTREME_COMMANDS = 10_000
 N_EXTREME_CONNECTIONS = 100
-N_EXTREME_WARMUP = 1_000     # on 10 more connections, before memory is measured
+N_EXTREME_WARMUP = 1_000  # on 10 more connections, before memory is measured
 #: float32 bit patterns sent in place of numbers: ±max, ±smallest and largest denormals,
 #: ±smallest normal, ±0, ±inf, quiet and signalling NaNs (with payloads), huge, tiny
-EXTREME_WORDS = [bytes.fromhex(h) for h in (
-    "7f7fffff", "ff7fffff", "00000001", "80000001", "007fffff", "807fffff", "00800000", "80800000",
-    "00000000", "80000000", "7f800000", "ff800000", "7fc00000", "ffc00000", "7f800001", "7fbfffff",
-    "ffffffff", "7fc0dead")] + [struct.pack(">f", v) for v in (1e30, -1e30, 1e20, -1e20, 1e-30, -1e-30, 1e-20, -1e-20)]
+EXTREME_WORDS = [
+    bytes.fromhex(h)
+    for h in (
+        "7f7fffff",
+        "ff7fffff",
+        "00000001",
+        "80000001",
+        "007fffff",
+        "807fffff",
+        "00800000",
+        "80800000",
+        "00000000",
+        "80000000",
+        "7f800000",
+        "ff800000",
+        "7fc00000",
+        "ffc00000",
+        "7f800001",
+        "7fbfffff",
+        "ffffffff",
+        "7fc0dead",
+    )
+] + [struct.pack(">f", v) for v in (1e30, -1e30, 1e20, -1e20, 1e-30, -1e-30, 1e-20, -1e-20)]
 #: request mix: moves most, every command with numbers, the two readings
-EXTREME_MIX = {Command.MOVE_LINEAR: 0.2, Command.MOVE_JOINTS: 0.1, Command.MOVE_CIRCULAR: 0.05, Command.SET_TOOL: 0.12,
-               Command.SET_WORK_OBJECT: 0.12, Command.SET_SPEED: 0.13, Command.SET_ZONE: 0.12, Command.GET_POSE: 0.08,
-               Command.GET_JOINTS: 0.08}
+EXTREME_MIX = {
+    Command.MOVE_LINEAR: 0.2,
+    Command.MOVE_JOINTS: 0.1,
+    Command.MOVE_CIRCULAR: 0.05,
+    Command.SET_TOOL: 0.12,
+    Command.SET_WORK_OBJECT: 0.12,
+    Command.SET_SPEED: 0.13,
+    Command.SET_ZONE: 0.12,
+    Command.GET_POSE: 0.08,
+    Command.GET_JOINTS: 0.08,
+}
 #: joint limits of the simulated IRB120 (deg), with what float32 rounding may add
 JOINT_LIMITS_DEG = np.degrees(Irb120Kinematics().joint_limits_rad) + np.array([-1e-3, 1e-3])
 #: joints (deg) with the TCP above the middle of the plausible work objects (the soak's
 #: plausible joint moves stay near them, so that linear moves stay short: the simulated
 #: arm solves its IK every 5 mm and 5° of a path)
-_WORK_JOINTS_DEG = np.degrees(Irb120Kinematics().inverse(
-    Pose(400, 0, 50, 180, 0, 0).to_matrix() @ Pose(0, 0, -15).to_matrix(), Pose(0, 0, 100).to_matrix()))
+_WORK_JOINTS_DEG = np.degrees(
+    Irb120Kinematics().inverse(
+        Pose(400, 0, 50, 180, 0, 0).to_matrix() @ Pose(0, 0, -15).to_matrix(), Pose(0, 0, 100).to_matrix()
+    )
+)
 
 
 def _plausible_args(command: Command, rng: np.random.Generator) -> list[float]:
     """Numbers a lab client would send, so that some moves are carried out."""
+
     def target() -> tuple[float, ...]:
-        return pose_to_wire(Pose(*rng.uniform(-20, 20, 2), float(rng.uniform(-25, -5)), *rng.uniform(-5, 5, 2),
-                                 float(rng.uniform(-20, 20))))
+        return pose_to_wire(
+            Pose(
+                *rng.uniform(-20, 20, 2),
+                float(rng.uniform(-25, -5)),
+                *rng.uniform(-5, 5, 2),
+                float(rng.uniform(-20, 20)),
+            )
+        )
+
     if command is Command.MOVE_LINEAR:
         return list(target())
     if command is Command.MOVE_CIRCULAR:
@@ -304,8 +371,10 @@ def _extreme_request(rng: np.random.Generator) -> tuple[Command, bytes, bool]:
             else:
                 words[i] = EXTREME_WORDS[int(rng.integers(len(EXTREME_WORDS)))]
     values = [struct.unpack(">H" if len(w) == 2 else ">f", w)[0] for w in words]
-    in_range = all(float(np.float32(lo)) <= v <= float(np.float32(hi))
-                   for v, (_, lo, hi, _) in zip(values, FIELD_RANGES.get(command, ())))
+    in_range = all(
+        float(np.float32(lo)) <= v <= float(np.float32(hi))
+        for v, (_, lo, hi, _) in zip(values, FIELD_RANGES.get(command, ()))
+    )
     return command, struct.pack(">H", int(command)) + b"".join(words), in_range
 
 
@@ -313,6 +382,7 @@ def _extreme_connection(port: int, n: int, rng: np.random.Generator, tally: Coun
     """n extreme requests on one connection; each reply read and checked, each accepted
     move followed by readings (joints inside the limits, the pose where it was sent)."""
     with socket.create_connection(("127.0.0.1", port), timeout=30) as sock:
+
         def ask(data: bytes, n_values: int) -> tuple[float, ...] | None:
             sock.sendall(data)
             status = _recv_exactly(sock, 2)
@@ -362,14 +432,16 @@ def test_soak_extreme_float32_numbers(served, capsys) -> None:
     elapsed, server_cpu_s = time.perf_counter() - t0, _cpu_s(proc.pid) - cpu0
     time.sleep(0.3)
     rss1, fds1 = _rss_kb(proc.pid), _fds(proc.pid)
-    assert proc.poll() is None and len(_ask_joints(port)) == 6      # alive, answering correctly
+    assert proc.poll() is None and len(_ask_joints(port)) == 6  # alive, answering correctly
     with capsys.disabled():
-        print(f"\nserve-robot extreme soak: {tally['commands']} requests over {N_EXTREME_CONNECTIONS} connections in "
-              f"{elapsed:.1f} s (server CPU {server_cpu_s:.1f} s): {tally['refused']} refused, {tally['accepted']} accepted "
-              f"({tally['MOVE_LINEAR carried out']} linear and {tally['MOVE_JOINTS carried out']} joint moves carried out); "
-              f"accepted out of range {tally['accepted out of range']}, outside the joint limits "
-              f"{tally['moves outside the joint limits']}, not where sent {tally['moves not where they were sent']}; "
-              f"RSS {rss0} -> {rss1} kB ({rss1 - rss0:+d} kB), fds {fds0} -> {fds1}")
+        print(
+            f"\nserve-robot extreme soak: {tally['commands']} requests over {N_EXTREME_CONNECTIONS} connections in "
+            f"{elapsed:.1f} s (server CPU {server_cpu_s:.1f} s): {tally['refused']} refused, {tally['accepted']} accepted "
+            f"({tally['MOVE_LINEAR carried out']} linear and {tally['MOVE_JOINTS carried out']} joint moves carried out); "
+            f"accepted out of range {tally['accepted out of range']}, outside the joint limits "
+            f"{tally['moves outside the joint limits']}, not where sent {tally['moves not where they were sent']}; "
+            f"RSS {rss0} -> {rss1} kB ({rss1 - rss0:+d} kB), fds {fds0} -> {fds1}"
+        )
     assert tally["commands"] == N_EXTREME_COMMANDS
     assert tally["accepted out of range"] == 0 and tally["non-finite readings"] == 0
     assert tally["moves outside the joint limits"] == 0 and tally["moves not where they were sent"] == 0
@@ -380,4 +452,3 @@ def test_soak_extreme_float32_numbers(served, capsys) -> None:
     # request record per command (a CommandRecord holds ~400 bytes with a pose's 7 numbers,
     # measured with tracemalloc) would grow RSS by ~3 MB over these 10,000 requests
     assert rss1 - rss0 < RSS_GROWTH_LIMIT_KB
-

@@ -1,4 +1,5 @@
 """Safety limits: nothing outside the limits (or not finite) passes, everything inside does."""
+
 from __future__ import annotations
 
 import math
@@ -33,13 +34,24 @@ def oracle(limits: SafetyLimits, pose: Pose) -> bool:
     v = pose.as_array()
     if not all(math.isfinite(a) and abs(a) <= F32_MAX for a in v):
         return False
-    boxes = [limits.x_mm, limits.y_mm, (limits.z_mm[0], min(limits.z_mm[1], limits.max_depth_mm)), limits.alpha_deg, limits.beta_deg]
+    boxes = [
+        limits.x_mm,
+        limits.y_mm,
+        (limits.z_mm[0], min(limits.z_mm[1], limits.max_depth_mm)),
+        limits.alpha_deg,
+        limits.beta_deg,
+    ]
     return all(lo <= a <= hi for a, (lo, hi) in zip(v[:5], boxes))
 
 
 def bounds_of(limits: SafetyLimits) -> list[float]:
     return [
-        *limits.x_mm, *limits.y_mm, *limits.z_mm, limits.max_depth_mm, *limits.alpha_deg, *limits.beta_deg,
+        *limits.x_mm,
+        *limits.y_mm,
+        *limits.z_mm,
+        limits.max_depth_mm,
+        *limits.alpha_deg,
+        *limits.beta_deg,
     ]
 
 
@@ -74,7 +86,11 @@ def test_only_poses_inside_the_limits_pass(values):
 
 @settings(max_examples=300, deadline=None)
 @given(
-    st.floats(-80, 80), st.floats(-50, 70), st.floats(-60, 5), st.floats(-20, 15), st.floats(-10, 25),
+    st.floats(-80, 80),
+    st.floats(-50, 70),
+    st.floats(-60, 5),
+    st.floats(-20, 15),
+    st.floats(-10, 25),
     st.floats(allow_nan=False, allow_infinity=False, min_value=-1e6, max_value=1e6),
 )
 def test_every_pose_inside_passes(x, y, z, a, b, g):
@@ -90,8 +106,12 @@ def random_limits(draw):
     z = rng(-100, 20)
     depth = draw(st.floats(max(0.0, z[0]), 20.0))
     return SafetyLimits(
-        x_mm=rng(-300, 300), y_mm=rng(-300, 300), z_mm=z, max_depth_mm=depth,
-        alpha_deg=rng(-90, 90), beta_deg=rng(-90, 90),
+        x_mm=rng(-300, 300),
+        y_mm=rng(-300, 300),
+        z_mm=z,
+        max_depth_mm=depth,
+        alpha_deg=rng(-90, 90),
+        beta_deg=rng(-90, 90),
     )
 
 
@@ -115,8 +135,15 @@ def test_non_finite_values_are_named(field, bad):
 @pytest.mark.parametrize(
     "field, bound, outside",
     [
-        ("x", -80.0, -1), ("x", 80.0, 1), ("y", -50.0, -1), ("y", 70.0, 1), ("z", -60.0, -1),
-        ("alpha", -20.0, -1), ("alpha", 15.0, 1), ("beta", -10.0, -1), ("beta", 25.0, 1),
+        ("x", -80.0, -1),
+        ("x", 80.0, 1),
+        ("y", -50.0, -1),
+        ("y", 70.0, 1),
+        ("z", -60.0, -1),
+        ("alpha", -20.0, -1),
+        ("alpha", 15.0, 1),
+        ("beta", -10.0, -1),
+        ("beta", 25.0, 1),
     ],
 )
 def test_each_face_inclusive_and_one_nanometre_beyond_refused(field, bound, outside):
@@ -129,14 +156,17 @@ def test_each_face_inclusive_and_one_nanometre_beyond_refused(field, bound, outs
         assert f"{field} = {value!r}" in text and f"{bound}" in text and "safety." in text
 
 
-@pytest.mark.parametrize("value, match", [
-    (None, r"x = None is not a number \(NoneType\)"),
-    (True, r"x = True is not a number \(bool\)"),
-    (np.bool_(False), r"x = (np\.)?False_? is not a number \(bool_?\)"),
-    ("5", r"x = '5' is not a number \(str\)"),
-    (10**400, r"x = ~1e\+400 mm is beyond the robot's float32 range"),
-    (-3.5e38, r"x = -3\.5e\+38 mm is beyond the robot's float32 range"),
-])
+@pytest.mark.parametrize(
+    "value, match",
+    [
+        (None, r"x = None is not a number \(NoneType\)"),
+        (True, r"x = True is not a number \(bool\)"),
+        (np.bool_(False), r"x = (np\.)?False_? is not a number \(bool_?\)"),
+        ("5", r"x = '5' is not a number \(str\)"),
+        (10**400, r"x = ~1e\+400 mm is beyond the robot's float32 range"),
+        (-3.5e38, r"x = -3\.5e\+38 mm is beyond the robot's float32 range"),
+    ],
+)
 def test_pose_fields_the_wire_cannot_carry_are_named_in_one_line(value, match):
     with pytest.raises(SafetyError, match=r"^pose \(.*\): " + match) as err:
         LIMITS.check_pose(Pose(x=value))
@@ -144,16 +174,19 @@ def test_pose_fields_the_wire_cannot_carry_are_named_in_one_line(value, match):
 
 
 def test_a_coordinate_below_float32_normals_passes_as_the_zero_it_is():
-    LIMITS.check_pose(Pose(x=1e-40, gamma=-5e-324))   # arrives as a denormal or 0: off by < 1.2e-38 mm/deg
+    LIMITS.check_pose(Pose(x=1e-40, gamma=-5e-324))  # arrives as a denormal or 0: off by < 1.2e-38 mm/deg
 
 
-@pytest.mark.parametrize("value, match", [
-    (1e-300, r"linear speed = 1e-300 mm/s is too small to send: the robot's float32 carries it as 0 "),
-    (1e-40, r"linear speed = 1e-40 mm/s is too small to send: the robot's float32 carries it as 9\.99995e-41 "),
-    ("5", r"linear speed = '5' is not a number \(str\)"),
-    (10**400, r"linear speed = ~1e\+400 mm/s is beyond the robot's float32 range"),
-    (True, r"linear speed = True is not a number \(bool\)"),
-])
+@pytest.mark.parametrize(
+    "value, match",
+    [
+        (1e-300, r"linear speed = 1e-300 mm/s is too small to send: the robot's float32 carries it as 0 "),
+        (1e-40, r"linear speed = 1e-40 mm/s is too small to send: the robot's float32 carries it as 9\.99995e-41 "),
+        ("5", r"linear speed = '5' is not a number \(str\)"),
+        (10**400, r"linear speed = ~1e\+400 mm/s is beyond the robot's float32 range"),
+        (True, r"linear speed = True is not a number \(bool\)"),
+    ],
+)
 def test_speeds_the_wire_cannot_carry_are_named(value, match):
     with pytest.raises(SafetyError, match="^" + match):
         LIMITS.check_speed(value)
@@ -170,8 +203,12 @@ def test_speeds():
     LIMITS.check_speed(50.0, 30.0)
     LIMITS.check_speed(1e-9)
     for bad, match in [
-        (math.nan, "not a finite"), (math.inf, "not a finite"), (0.0, "must be > 0"), (-0.0, "must be > 0"),
-        (-5.0, "must be > 0"), (50.000001, r"exceeds the limit 50.0 mm/s \(safety.max_linear_speed_mm_s\)"),
+        (math.nan, "not a finite"),
+        (math.inf, "not a finite"),
+        (0.0, "must be > 0"),
+        (-0.0, "must be > 0"),
+        (-5.0, "must be > 0"),
+        (50.000001, r"exceeds the limit 50.0 mm/s \(safety.max_linear_speed_mm_s\)"),
     ]:
         with pytest.raises(SafetyError, match=match):
             LIMITS.check_speed(bad)

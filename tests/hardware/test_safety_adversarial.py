@@ -6,6 +6,7 @@ two legal poses whose slerped tilt leaves the α/β box) go through the hardware
 records every move it receives. An independent oracle walks each recorded move's whole
 path (position and slerped orientation, as the controller moves) and every SET_SPEED:
 zero of them may leave the safety limits."""
+
 from __future__ import annotations
 
 import math
@@ -45,24 +46,49 @@ def _video(path: Path) -> Path:
 
 def adversarial(rng: np.random.Generator, limits: SafetyLimits, at: Pose) -> tuple[str, Pose, float | None]:
     """(kind, pose, speed) of one adversarial command; `at` is where the robot is."""
-    box = {"x": limits.x_mm, "y": limits.y_mm, "z": (limits.z_mm[0], limits.z_max_mm),
-           "alpha": limits.alpha_deg, "beta": limits.beta_deg}
+    box = {
+        "x": limits.x_mm,
+        "y": limits.y_mm,
+        "z": (limits.z_mm[0], limits.z_max_mm),
+        "alpha": limits.alpha_deg,
+        "beta": limits.beta_deg,
+    }
 
     def legal(**fixed) -> dict:
         v = {k: float(rng.uniform(*b)) for k, b in box.items()} | {"gamma": float(rng.uniform(-180, 180))}
         return v | fixed
 
-    kind = rng.choice(["legal", "tilt_arc", "non_finite", "not_a_wire_number", "outside", "too_deep", "extreme_tilt",
-                       "bad_speed", "huge_gamma", "on_a_face"], p=[0.06, 0.1, 0.13, 0.05, 0.2, 0.1, 0.15, 0.13, 0.02, 0.06])
+    kind = rng.choice(
+        [
+            "legal",
+            "tilt_arc",
+            "non_finite",
+            "not_a_wire_number",
+            "outside",
+            "too_deep",
+            "extreme_tilt",
+            "bad_speed",
+            "huge_gamma",
+            "on_a_face",
+        ],
+        p=[0.06, 0.1, 0.13, 0.05, 0.2, 0.1, 0.15, 0.13, 0.02, 0.06],
+    )
     speed = None
     if kind == "legal":
         v = legal()
     elif kind == "tilt_arc":  # both ends legal; a big turn of γ with both tilts near opposite corners
         a, b = box["alpha"][int(rng.integers(2))], box["beta"][int(rng.integers(2))]
-        v = legal(alpha=-a * float(rng.uniform(0.8, 1.0)), beta=-b * float(rng.uniform(0.8, 1.0)),
-                  gamma=at.gamma + float(rng.choice([-1, 1]) * rng.uniform(60, 179)))
+        v = legal(
+            alpha=-a * float(rng.uniform(0.8, 1.0)),
+            beta=-b * float(rng.uniform(0.8, 1.0)),
+            gamma=at.gamma + float(rng.choice([-1, 1]) * rng.uniform(60, 179)),
+        )
     elif kind == "non_finite":
-        v = legal() | {str(rng.choice(["x", "y", "z", "alpha", "beta", "gamma"])): float(rng.choice([math.nan, math.inf, -math.inf]))}
+        v = legal() | {
+            str(rng.choice(["x", "y", "z", "alpha", "beta", "gamma"])): float(
+                rng.choice([math.nan, math.inf, -math.inf])
+            )
+        }
     elif kind == "not_a_wire_number":  # what float32 cannot carry, or not a number at all
         bad = [None, True, False, "5", 10**400, 3.5e38, -1e300]
         v = legal() | {str(rng.choice(["x", "y", "z", "alpha", "beta", "gamma"])): bad[int(rng.integers(len(bad)))]}
@@ -77,8 +103,23 @@ def adversarial(rng: np.random.Generator, limits: SafetyLimits, at: Pose) -> tup
         v = legal() | {str(rng.choice(["alpha", "beta"])): float(rng.choice([-1, 1]) * rng.uniform(20, 180))}
     elif kind == "bad_speed":
         v = legal(alpha=0.0, beta=0.0, gamma=at.gamma)
-        bad = [math.nan, math.inf, -math.inf, -1.0, 0.0, 1e9, limits.max_linear_speed_mm_s * (1 + 1e-12), 251.0,
-               1e-300, 1e-40, 1e-30, 5e-3, "5", True, 10**400]  # too small to send, or to move, or no number
+        bad = [
+            math.nan,
+            math.inf,
+            -math.inf,
+            -1.0,
+            0.0,
+            1e9,
+            limits.max_linear_speed_mm_s * (1 + 1e-12),
+            251.0,
+            1e-300,
+            1e-40,
+            1e-30,
+            5e-3,
+            "5",
+            True,
+            10**400,
+        ]  # too small to send, or to move, or no number
         speed = bad[int(rng.integers(len(bad)))]
     elif kind == "huge_gamma":
         v = legal(alpha=0.0, beta=0.0, gamma=float(rng.choice([-1, 1]) * 10 ** rng.uniform(3, 12)))
@@ -96,8 +137,11 @@ def path_violations(limits: SafetyLimits, start: Pose, end: Pose) -> list[str]:
     11 points of travel (the box is convex: the ends decide the position)."""
     out = []
     for p in (start, end):
-        for name, value, (lo, hi) in (("x", p.x, limits.x_mm), ("y", p.y, limits.y_mm),
-                                      ("z", p.z, (limits.z_mm[0], limits.z_max_mm))):
+        for name, value, (lo, hi) in (
+            ("x", p.x, limits.x_mm),
+            ("y", p.y, limits.y_mm),
+            ("z", p.z, (limits.z_mm[0], limits.z_max_mm)),
+        ):
             if not (math.isfinite(value) and lo - WIRE_TOL <= value <= hi + WIRE_TOL):
                 out.append(f"{name} = {value}")
     rotations = Rotation.from_euler(EULER_AXES, [start.as_array()[3:], end.as_array()[3:]], degrees=True)
@@ -114,10 +158,20 @@ def path_violations(limits: SafetyLimits, start: Pose, end: Pose) -> list[str]:
 def rig(tmp_path):
     kin = Irb120Kinematics()
     config = hardware_config_from_dict(
-        {"robot": {"port": 1, "client": "native", "tcp_mm_deg": list(TCP.as_array()), "work_frame_mm_deg": list(WORK.as_array())},
-         "camera": {"source": _video(tmp_path / "v.avi").name}}, "rig.yaml", base_dir=tmp_path)
+        {
+            "robot": {
+                "port": 1,
+                "client": "native",
+                "tcp_mm_deg": list(TCP.as_array()),
+                "work_frame_mm_deg": list(WORK.as_array()),
+            },
+            "camera": {"source": _video(tmp_path / "v.avi").name},
+        },
+        "rig.yaml",
+        base_dir=tmp_path,
+    )
     start = WORK.to_matrix() @ config.robot.start_pose.to_matrix()
-    q0 = kin.inverse(start, TCP.to_matrix())   # the arm waits at the start pose, inside the limits
+    q0 = kin.inverse(start, TCP.to_matrix())  # the arm waits at the start pose, inside the limits
     # the simulated arm solves its IK every 20 mm / 15° of a path (default 5 mm / 5°): the moves
     # are what this test counts, the arm's own path checks are tested in test_virtual_robot.py
     arm = KinematicArm(kin, q0_rad=q0, path_step_m=0.02, path_step_rad=math.radians(15))
@@ -145,7 +199,7 @@ def test_no_move_outside_the_limits_reaches_the_controller(rig, capsys) -> None:
             outcomes[kind, "sent"] += 1
         except SafetyError:
             outcomes[kind, "refused by the safety limits"] += 1
-        except RobotCommandRefused:     # the controller's own refusal (reach, joint limits)
+        except RobotCommandRefused:  # the controller's own refusal (reach, joint limits)
             outcomes[kind, "refused by the controller"] += 1
     elapsed = time.perf_counter() - t0
 
@@ -153,11 +207,19 @@ def test_no_move_outside_the_limits_reaches_the_controller(rig, capsys) -> None:
     assert len(moves) == sum(n for (_, how), n in outcomes.items() if how != "refused by the safety limits")
     bad = [(m, v) for m in moves if (v := path_violations(limits, wire_to_pose(m.start), wire_to_pose(m.end)))]
     speeds = [r.args for r in server.command_log if r.command is Command.SET_SPEED]
-    bad_speeds = [s for s in speeds if not (MIN_LINEAR_SPEED_MM_S * (1 - 1e-6) <= s[0] <= limits.max_linear_speed_mm_s * (1 + 1e-6)
-                                            and MIN_ANGULAR_SPEED_DEG_S * (1 - 1e-6) <= s[1] <= limits.max_angular_speed_deg_s * (1 + 1e-6))]
+    bad_speeds = [
+        s
+        for s in speeds
+        if not (
+            MIN_LINEAR_SPEED_MM_S * (1 - 1e-6) <= s[0] <= limits.max_linear_speed_mm_s * (1 + 1e-6)
+            and MIN_ANGULAR_SPEED_DEG_S * (1 - 1e-6) <= s[1] <= limits.max_angular_speed_deg_s * (1 + 1e-6)
+        )
+    ]
     with capsys.disabled():
-        print(f"\nsafety: {N_COMMANDS} adversarial commands in {elapsed:.1f} s; {len(moves)} moves and {len(speeds)} "
-              f"speed changes reached the controller; outside the limits: {len(bad)} moves, {len(bad_speeds)} speeds")
+        print(
+            f"\nsafety: {N_COMMANDS} adversarial commands in {elapsed:.1f} s; {len(moves)} moves and {len(speeds)} "
+            f"speed changes reached the controller; outside the limits: {len(bad)} moves, {len(bad_speeds)} speeds"
+        )
         for key in sorted(outcomes):
             print(f"  {key[0]:>17}: {key[1]:<28} {outcomes[key]}")
     assert not bad, bad[:3]

@@ -1,5 +1,6 @@
 """The virtual controller speaks the RAPID server protocol: the lab's cri client and our
 RobotDriver drive it over real loopback sockets (ephemeral ports, no mocks)."""
+
 from __future__ import annotations
 
 import socket
@@ -25,10 +26,10 @@ from hardware.protocol import (
     wire_to_pose,
 )
 from hardware.robot import RobotCommandRefused, RobotDriver
-from twin.core.errors import HardwareError, SafetyError, UserError
-from twin.world.kinematics import Irb120Kinematics
-from twin.core.poses import Pose, angle_between_rotations_deg, quat_wxyz_to_matrix
 from hardware.virtual_controller import KinematicArm, VirtualRobotServer
+from twin.core.errors import HardwareError, SafetyError, UserError
+from twin.core.poses import Pose, angle_between_rotations_deg, quat_wxyz_to_matrix
+from twin.world.kinematics import Irb120Kinematics
 
 TCP = Pose(0, 0, 101.0, 0, 0, 0)
 WORK = Pose(400, 0, 50, 180, 0, 0)
@@ -55,19 +56,36 @@ def assert_pose_close(a: Pose, b: Pose) -> None:
 # ---------------------------------------------------------------------------- codec
 def test_codec_round_trips_every_command():
     cases = {
-        Command.GET_INFO: (), Command.MOVE_JOINTS: tuple(range(6)), Command.MOVE_LINEAR: (1, 2, 3, 1, 0, 0, 0),
-        Command.MOVE_CIRCULAR: tuple(range(14)), Command.SET_TOOL: (0, 0, 89.5, 1, 0, 0, 0),
-        Command.SET_WORK_OBJECT: (400, 0, 50, 0, 1, 0, 0), Command.SET_SPEED: (20, 10),
-        Command.SET_ZONE: (1, 0.5, 0.5, 0.25), Command.GET_JOINTS: (), Command.GET_POSE: (), Command.CLOSE: (),
+        Command.GET_INFO: (),
+        Command.MOVE_JOINTS: tuple(range(6)),
+        Command.MOVE_LINEAR: (1, 2, 3, 1, 0, 0, 0),
+        Command.MOVE_CIRCULAR: tuple(range(14)),
+        Command.SET_TOOL: (0, 0, 89.5, 1, 0, 0, 0),
+        Command.SET_WORK_OBJECT: (400, 0, 50, 0, 1, 0, 0),
+        Command.SET_SPEED: (20, 10),
+        Command.SET_ZONE: (1, 0.5, 0.5, 0.25),
+        Command.GET_JOINTS: (),
+        Command.GET_POSE: (),
+        Command.CLOSE: (),
     }
     for command, args in cases.items():
         data = encode_request(command, *args)
         assert data[:2] == int(command).to_bytes(2, "big")
         assert decode_request(data) == (command, tuple(float(a) for a in args))
     # exact bytes: big-endian code, big-endian float32
-    assert encode_request(Command.SET_SPEED, 20, 10) == b"\x00\x06" + bytes.fromhex("41a00000") + bytes.fromhex("41200000")
+    assert encode_request(Command.SET_SPEED, 20, 10) == b"\x00\x06" + bytes.fromhex("41a00000") + bytes.fromhex(
+        "41200000"
+    )
     assert encode_reply(Command.GET_JOINTS, True, (1, 2, 3, 4, 5, 6))[:2] == b"\x00\x01"
-    assert decode_reply_values(Command.GET_POSE, encode_reply(Command.GET_POSE, True, (1, 2, 3, 1, 0, 0, 0))[2:]) == (1, 2, 3, 1, 0, 0, 0)
+    assert decode_reply_values(Command.GET_POSE, encode_reply(Command.GET_POSE, True, (1, 2, 3, 1, 0, 0, 0))[2:]) == (
+        1,
+        2,
+        3,
+        1,
+        0,
+        0,
+        0,
+    )
     assert encode_reply(Command.MOVE_LINEAR, False) == b"\x00\x00"
     with pytest.raises(ProtocolError, match="unknown command code 42"):
         decode_request(b"\x00\x2a")
@@ -103,7 +121,10 @@ def test_cri_controller_drives_the_virtual_robot(server, kinematics):
         ctrl.move_linear(target)
         pose = np.asarray(ctrl.pose)
         assert np.linalg.norm(pose[:3] - target[:3]) <= POS_TOL_MM
-        assert angle_between_rotations_deg(quat_wxyz_to_matrix(pose[3:]), quat_wxyz_to_matrix(np.array(target[3:]))) <= ANG_TOL_DEG
+        assert (
+            angle_between_rotations_deg(quat_wxyz_to_matrix(pose[3:]), quat_wxyz_to_matrix(np.array(target[3:])))
+            <= ANG_TOL_DEG
+        )
         expected = kinematics.forward(np.radians(ctrl.joint_angles)) @ TCP.to_matrix()
         assert np.allclose(expected[:3, 3] * 1e3, target[:3], atol=POS_TOL_MM)
 
@@ -227,8 +248,13 @@ def test_hardware_environment_with_virtual_robot_and_video(server, tmp_path):
     video = _write_video(tmp_path / "tactip.avi", 10)
     config = hardware_config_from_dict(
         {
-            "robot": {"port": server.port, "client": "native", "tcp_mm_deg": list(TCP.as_array()),
-                      "work_frame_mm_deg": list(WORK.as_array()), "linear_speed_mm_s": 30},
+            "robot": {
+                "port": server.port,
+                "client": "native",
+                "tcp_mm_deg": list(TCP.as_array()),
+                "work_frame_mm_deg": list(WORK.as_array()),
+                "linear_speed_mm_s": 30,
+            },
             "camera": {"source": video.name},
         },
         "test.yaml",

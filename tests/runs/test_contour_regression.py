@@ -3,6 +3,7 @@
 
 The six runs happen once per session, in one xdist group, and each object is its own test.
 """
+
 from __future__ import annotations
 
 import json
@@ -45,10 +46,14 @@ def test_baselines_cover_every_object(baselines) -> None:
 def test_contour_stays_within_its_baseline(name: str, contour_metrics, baselines) -> None:
     m, b = contour_metrics[name], baselines[name]
     assert m["completed"] == b["completed"], (m["stop_reason"], b["stop_reason"])
-    assert _within(m["orientation_rms_deg"], b["orientation_rms_deg"], ORIENTATION_TOL), \
-        (m["orientation_rms_deg"], b["orientation_rms_deg"])
-    assert _within(m["path_distance_mean_mm"], b["path_distance_mean_mm"], PATH_TOL), \
-        (m["path_distance_mean_mm"], b["path_distance_mean_mm"])
+    assert _within(m["orientation_rms_deg"], b["orientation_rms_deg"], ORIENTATION_TOL), (
+        m["orientation_rms_deg"],
+        b["orientation_rms_deg"],
+    )
+    assert _within(m["path_distance_mean_mm"], b["path_distance_mean_mm"], PATH_TOL), (
+        m["path_distance_mean_mm"],
+        b["path_distance_mean_mm"],
+    )
     if b["completed"]:  # a completed trace must not get worse beyond the tolerance
         assert m["steps"] > 0 and m["coverage"] >= b["coverage"] - 0.05
 

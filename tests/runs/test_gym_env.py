@@ -1,5 +1,6 @@
 """The Gymnasium wrapper: the standard API (check_env, no warnings), registration, a reward
 that measures progress, and seeds that reach the simulator."""
+
 from __future__ import annotations
 
 import warnings
@@ -12,10 +13,19 @@ import twin
 from twin.core.scenario import scenario_from_dict
 from twin.runs.gym_env import ContourFollowingEnv
 
-SCENARIO = {"name": "gym_circle", "object": {"name": "small_circle"}, "fidelity": "fast",
-            "effects": ["contact"], "protocol": {"kind": "contour", "max_steps": 5}}
-NOISY = {**SCENARIO, "name": "gym_noisy", "effects": ["contact", "render", "camera_noise"],
-         "sensor": {"camera": {"width": 320, "height": 240, "noise_std": 4}}}
+SCENARIO = {
+    "name": "gym_circle",
+    "object": {"name": "small_circle"},
+    "fidelity": "fast",
+    "effects": ["contact"],
+    "protocol": {"kind": "contour", "max_steps": 5},
+}
+NOISY = {
+    **SCENARIO,
+    "name": "gym_noisy",
+    "effects": ["contact", "render", "camera_noise"],
+    "sensor": {"camera": {"width": 320, "height": 240, "noise_std": 4}},
+}
 
 
 def test_check_env_passes_without_warnings() -> None:
@@ -77,9 +87,13 @@ def test_vector_envs_sync_and_async_are_seeded_per_env() -> None:
     the same observations for the same seed."""
     steps = {}
     for mode in ("sync", "async"):
-        envs = gym.make_vec(twin.GYM_ID, num_envs=2, vectorization_mode=mode,
-                            vector_kwargs={"context": "forkserver"} if mode == "async" else {},
-                            scenario=scenario_from_dict(NOISY))
+        envs = gym.make_vec(
+            twin.GYM_ID,
+            num_envs=2,
+            vectorization_mode=mode,
+            vector_kwargs={"context": "forkserver"} if mode == "async" else {},
+            scenario=scenario_from_dict(NOISY),
+        )
         try:
             first, _ = envs.reset(seed=5)
             after, *_ = envs.step(np.full((2, 2), 0.5, dtype=np.float32))

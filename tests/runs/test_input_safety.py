@@ -1,6 +1,7 @@
 """Nothing is read or written outside what the user named: a run name is one folder
 name; a symbolic link out of a scenario's folder is refused; a YAML alias bomb is refused
 before it expands; error messages name a bad file's line without quoting it."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -33,7 +34,7 @@ def test_an_alias_bomb_is_refused_before_it_expands(tmp_path: Path) -> None:
     lines += [f"{c}: &{c} [{', '.join(['*' + p] * 9)}]" for p, c in zip("abcdefgh", "bcdefghi")]
     bomb = tmp_path / "bomb.yaml"
     bomb.write_text("\n".join(lines))
-    assert bomb.stat().st_size < 400 and 9 ** 9 > MAX_YAML_NODES
+    assert bomb.stat().st_size < 400 and 9**9 > MAX_YAML_NODES
     with pytest.raises(UserError, match=f"bomb.yaml: not valid YAML: more than {MAX_YAML_NODES} values"):
         read_yaml(bomb, "scenario")
     (tmp_path / "fine.yaml").write_text("a: &a [1, 2]\nb: *a\n")  # aliases within the bound are fine

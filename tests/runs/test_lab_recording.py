@@ -1,6 +1,7 @@
 """Importing the lab's recording format (twin.runs.lab_recording) and the sheared-tap
 protocol it maps to (twin.runs.protocols.sheared_tap_moves), on small sets the tests
 make themselves in the lab's format."""
+
 from __future__ import annotations
 
 import csv
@@ -13,8 +14,7 @@ import yaml
 
 from twin.core.errors import UserError
 from twin.core.scenario import ShearedTapProtocol
-from twin.runs.lab_recording import (LabTargets, lab_pose_to_twin, lab_scenario, lab_to_twin_tap,
-                                     read_lab_targets)
+from twin.runs.lab_recording import LabTargets, lab_pose_to_twin, lab_scenario, lab_to_twin_tap, read_lab_targets
 from twin.runs.protocols import drawn_sheared_taps, sheared_tap_moves
 from twin.runs.record import load_run
 from twin.runs.runner import chunk_moves
@@ -37,18 +37,21 @@ def test_the_twins_taps_go_where_the_lab_arm_goes(object_side: int) -> None:
     poses[:, 1], poses[:, 2], poses[:, 5] = rng.uniform(-5, 5, 6), rng.uniform(-1, 1, 6), rng.uniform(-45, 45, 6)
     moves = np.zeros((6, 6))
     moves[:, 0], moves[:, 1], moves[:, 5] = rng.uniform(-5, 5, 6), rng.uniform(-5, 5, 6), rng.uniform(-5, 5, 6)
-    scenario = lab_scenario(LabTargets([f"frame_{k}_0.png" for k in range(6)], poses, moves), (256, 256), 3.0,
-                            object_side, "lab", "<test>")
+    scenario = lab_scenario(
+        LabTargets([f"frame_{k}_0.png" for k in range(6)], poses, moves), (256, 256), 3.0, object_side, "lab", "<test>"
+    )
     rest, *twin_moves = sheared_tap_moves(scenario.protocol)
     assert rest.record and rest.labels["no_contact"] and rest.pose.z < 0
     for k in range(6):
         arm = _collect(poses[k], moves[k])
         press, frame = twin_moves[4 * k + 1], twin_moves[4 * k + 2]
         assert frame.record and not press.record
-        np.testing.assert_allclose(frame.pose.as_array(), lab_pose_to_twin(arm["frame"], scenario.protocol,
-                                                                           object_side).as_array(), atol=1e-9)
-        np.testing.assert_allclose(press.pose.as_array(), lab_pose_to_twin(arm["press"], scenario.protocol,
-                                                                           object_side).as_array(), atol=1e-9)
+        np.testing.assert_allclose(
+            frame.pose.as_array(), lab_pose_to_twin(arm["frame"], scenario.protocol, object_side).as_array(), atol=1e-9
+        )
+        np.testing.assert_allclose(
+            press.pose.as_array(), lab_pose_to_twin(arm["press"], scenario.protocol, object_side).as_array(), atol=1e-9
+        )
         assert press.pose.z == frame.pose.z > 0  # pressed in, slid at that depth
         assert twin_moves[4 * k].pose.z < 0 and twin_moves[4 * k + 3].pose.z < 0  # approach and leave above it
     # each tap is one chunk (from a reset): the in-contact twist does not split it
@@ -59,8 +62,17 @@ def test_the_lab_convention_in_numbers() -> None:
     """The DigiTac set's first target, mapped by hand (module docstring): the object on the
     lab's +y side, so + pose_2 is onto it (twin l < 0); z up, so + pose_3 is shallower."""
     tap = lab_to_twin_tap(np.array([0, 2.1, -0.6, 0, 0, -45.0]), np.array([-2.6, -0.03, 0, 0, 0, -4.3]), 1)
-    assert tap == pytest.approx({"lateral_mm": -2.1, "along_mm": 0.0, "theta_deg": 45.0, "depth_offset_mm": 0.6,
-                                 "slide_along_mm": 2.6, "slide_lateral_mm": 0.03, "twist_deg": 4.3})
+    assert tap == pytest.approx(
+        {
+            "lateral_mm": -2.1,
+            "along_mm": 0.0,
+            "theta_deg": 45.0,
+            "depth_offset_mm": 0.6,
+            "slide_along_mm": 2.6,
+            "slide_lateral_mm": 0.03,
+            "twist_deg": 4.3,
+        }
+    )
 
 
 def test_drawn_taps_are_seeded_and_within_their_ranges() -> None:
@@ -87,8 +99,14 @@ def _write_lab_set(run_dir: Path, folder: Path, extra_rows: list[tuple[str, np.n
     run = load_run(run_dir)
     folder.mkdir()
     cv2.imwrite(str(folder / "init_0.png"), cv2.cvtColor(run.frame(0), cv2.COLOR_RGB2GRAY))  # the no-contact frame
-    columns = ["image_name", "data_name", "obj_id", "pose_id", *(f"pose_{k}" for k in range(1, 7)),
-               *(f"move_{k}" for k in range(1, 7))]
+    columns = [
+        "image_name",
+        "data_name",
+        "obj_id",
+        "pose_id",
+        *(f"pose_{k}" for k in range(1, 7)),
+        *(f"move_{k}" for k in range(1, 7)),
+    ]
     rows = []
     given = run.meta["scenario"]["protocol"]["given"]
     for k in range(len(run.samples) - 1):
@@ -108,13 +126,25 @@ def _write_lab_set(run_dir: Path, folder: Path, extra_rows: list[tuple[str, np.n
 def twin_sheared_run(tmp_path_factory) -> Path:
     """Three sheared taps on the twin (fast dome), rendered, after its no-contact frame."""
     tmp = tmp_path_factory.mktemp("sheared")
-    taps = [{"lateral_mm": 2.0, "theta_deg": 20.0, "depth_offset_mm": 0.5, "slide_along_mm": 1.5,
-             "slide_lateral_mm": -1.0, "twist_deg": 3.0},
-            {"lateral_mm": -3.0, "theta_deg": -30.0, "slide_along_mm": -2.0, "twist_deg": -2.0},
-            {"lateral_mm": 0.0, "theta_deg": 5.0, "depth_offset_mm": -0.5}]
-    scenario = {"name": "sheared", "object": {"name": "rectangle"}, "fidelity": "fast",
-                "effects": ["contact", "friction", "render"],
-                "protocol": {"kind": "sheared_taps", "depth_mm": 2.5, "taps": 3, "given": taps}}
+    taps = [
+        {
+            "lateral_mm": 2.0,
+            "theta_deg": 20.0,
+            "depth_offset_mm": 0.5,
+            "slide_along_mm": 1.5,
+            "slide_lateral_mm": -1.0,
+            "twist_deg": 3.0,
+        },
+        {"lateral_mm": -3.0, "theta_deg": -30.0, "slide_along_mm": -2.0, "twist_deg": -2.0},
+        {"lateral_mm": 0.0, "theta_deg": 5.0, "depth_offset_mm": -0.5},
+    ]
+    scenario = {
+        "name": "sheared",
+        "object": {"name": "rectangle"},
+        "fidelity": "fast",
+        "effects": ["contact", "friction", "render"],
+        "protocol": {"kind": "sheared_taps", "depth_mm": 2.5, "taps": 3, "given": taps},
+    }
     path = tmp / "sheared.yaml"
     path.write_text(yaml.safe_dump(scenario))
     assert main(["run", str(path), "--out", str(tmp / "run"), "--workers", "1", "--quiet"]) == 0
@@ -128,8 +158,22 @@ def test_import_round_trips_the_twins_own_taps(twin_sheared_run: Path, tmp_path:
     blank = np.zeros((480, 640), np.uint8)
     targets = _write_lab_set(twin_sheared_run, tmp_path / "lab", [("frame_3_0.png", blank), ("frame_4_0.png", None)])
     out = tmp_path / "imported"
-    assert main(["import-lab", str(tmp_path / "lab"), "--targets", str(targets), "--out", str(out),
-                 "--depth-mm", "2.5", "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "import-lab",
+                str(tmp_path / "lab"),
+                "--targets",
+                str(targets),
+                "--out",
+                str(out),
+                "--depth-mm",
+                "2.5",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     printed = capsys.readouterr().out
     assert "imported 6 frames" in printed and "4 with every pin tracked" in printed
     assert "1 with pins not found" in printed and "1 missing or unreadable" in printed
@@ -148,13 +192,48 @@ def test_import_round_trips_the_twins_own_taps(twin_sheared_run: Path, tmp_path:
 def test_replay_takes_an_imported_runs_taps_in_order(twin_sheared_run: Path, tmp_path: Path) -> None:
     """`twin run --taps-from` replays an imported recording's taps: the same targets, in order."""
     targets = _write_lab_set(twin_sheared_run, tmp_path / "lab")
-    assert main(["import-lab", str(tmp_path / "lab"), "--targets", str(targets), "--out", str(tmp_path / "imp"),
-                 "--depth-mm", "2.5", "--quiet"]) == 0
-    scenario = {"name": "replay", "object": {"name": "rectangle"}, "fidelity": "fast", "effects": ["contact"],
-                "protocol": {"kind": "sheared_taps", "depth_mm": 2.5}}
+    assert (
+        main(
+            [
+                "import-lab",
+                str(tmp_path / "lab"),
+                "--targets",
+                str(targets),
+                "--out",
+                str(tmp_path / "imp"),
+                "--depth-mm",
+                "2.5",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
+    scenario = {
+        "name": "replay",
+        "object": {"name": "rectangle"},
+        "fidelity": "fast",
+        "effects": ["contact"],
+        "protocol": {"kind": "sheared_taps", "depth_mm": 2.5},
+    }
     (tmp_path / "replay.yaml").write_text(yaml.safe_dump(scenario))
-    assert main(["run", str(tmp_path / "replay.yaml"), "--taps-from", str(tmp_path / "imp"), "--first-taps", "2",
-                 "--out", str(tmp_path / "replay"), "--workers", "1", "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                str(tmp_path / "replay.yaml"),
+                "--taps-from",
+                str(tmp_path / "imp"),
+                "--first-taps",
+                "2",
+                "--out",
+                str(tmp_path / "replay"),
+                "--workers",
+                "1",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     np.testing.assert_allclose(load_run(tmp_path / "replay").targets, load_run(tmp_path / "imp").targets[:3], atol=1e-5)
 
 
@@ -163,7 +242,9 @@ def test_bad_targets_name_the_file_row_and_column(tmp_path: Path, capsys) -> Non
     path.write_text("image_name,pose_1,pose_2\nframe_0_0.png,0,1\n")
     with pytest.raises(UserError, match="move_1"):
         read_lab_targets(path)
-    header = "image_name," + ",".join(f"pose_{k}" for k in range(1, 7)) + "," + ",".join(f"move_{k}" for k in range(1, 7))
+    header = (
+        "image_name," + ",".join(f"pose_{k}" for k in range(1, 7)) + "," + ",".join(f"move_{k}" for k in range(1, 7))
+    )
     path.write_text(header + "\nframe_0_0.png,0,x,0,0,0,0,0,0,0,0,0,0\n")
     with pytest.raises(UserError, match="row 2, column pose_2 = 'x'"):
         read_lab_targets(path)

@@ -1,5 +1,6 @@
 """Scale-out gives identical results: one process, two local processes and a local Ray
 instance record the same pins for the same scenario and seed."""
+
 from __future__ import annotations
 
 import math
@@ -8,13 +9,18 @@ import os
 import numpy as np
 import pytest
 
-from twin.runs.record import load_run
-from twin.runs.run import run_scenario
 from twin.core.scenario import scenario_from_dict
 from twin.runs.parallel import WorkerPool, map_ordered
+from twin.runs.record import load_run
+from twin.runs.run import run_scenario
 
-TAPS = {"name": "parallel_taps", "object": {"name": "rectangle"}, "fidelity": "fast", "effects": ["contact", "friction"],
-        "protocol": {"kind": "taps", "orientations_deg": [-40, 0, 40], "lateral_mm": [6, 0, -4], "depths_mm": [3]}}
+TAPS = {
+    "name": "parallel_taps",
+    "object": {"name": "rectangle"},
+    "fidelity": "fast",
+    "effects": ["contact", "friction"],
+    "protocol": {"kind": "taps", "orientations_deg": [-40, 0, 40], "lateral_mm": [6, 0, -4], "depths_mm": [3]},
+}
 
 
 def _pins(tmp_path, name: str, **kwargs) -> np.ndarray:
@@ -42,10 +48,12 @@ def test_one_blas_thread_covers_libraries_loaded_later() -> None:
     import subprocess
     import sys
 
-    code = ("from twin.runs.parallel import one_blas_thread; one_blas_thread()\n"
-            "import numpy, scipy.linalg, cv2, sklearn.gaussian_process\n"
-            "from threadpoolctl import threadpool_info\n"
-            "print(sorted({(i['filepath'], i['num_threads']) for i in threadpool_info()}))")
+    code = (
+        "from twin.runs.parallel import one_blas_thread; one_blas_thread()\n"
+        "import numpy, scipy.linalg, cv2, sklearn.gaussian_process\n"
+        "from threadpoolctl import threadpool_info\n"
+        "print(sorted({(i['filepath'], i['num_threads']) for i in threadpool_info()}))"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     pools = ast.literal_eval(out)
     assert len(pools) >= 2 and all(n == 1 for _, n in pools), pools
@@ -56,10 +64,12 @@ def test_worker_pool_keeps_its_processes() -> None:
     with WorkerPool(workers=2) as pool:
         pids = [set(pool.map_ordered(os.getpid, [()] * 4)) for _ in range(3)]
         assert len(set.union(*pids)) <= 2 and os.getpid() not in set.union(*pids)
-        assert list(pool.map_ordered(math.sqrt, [(9.0,), (4.0,)])) == [3.0, 2.0]      # in job order
+        assert list(pool.map_ordered(math.sqrt, [(9.0,), (4.0,)])) == [3.0, 2.0]  # in job order
         with pytest.raises(ValueError):
-            list(pool.map_ordered(math.sqrt, [(4.0,), (-1.0,), (1.0,)]))          # a failed job stops the workers ...
-        assert set(pool.map_ordered(os.getpid, [()] * 4)).isdisjoint(set.union(*pids))  # ... the next call starts new ones
+            list(pool.map_ordered(math.sqrt, [(4.0,), (-1.0,), (1.0,)]))  # a failed job stops the workers ...
+        assert set(pool.map_ordered(os.getpid, [()] * 4)).isdisjoint(
+            set.union(*pids)
+        )  # ... the next call starts new ones
     assert set(map_ordered(os.getpid, [()] * 4, workers=2)).isdisjoint(set.union(*pids))
 
 
@@ -77,8 +87,8 @@ def test_worker_pool_keeps_one_ray_instance() -> None:
 def _send_then_wait_for_flag(flag: str, send) -> None:
     """Send 'first', then whether `flag` appeared (the parent creates it on receiving
     'first') within 60 s: 'streamed', or 'not streamed' when the parent waited for the end."""
-    from pathlib import Path
     import time
+    from pathlib import Path
 
     send("first")
     deadline = time.monotonic() + 60.0
@@ -105,7 +115,7 @@ def test_streamed_items_arrive_while_the_job_runs(tmp_path) -> None:
             items.append(item)
             if item == "first":
                 flag.touch()
-        assert items[:2] == ["first", "streamed"]      # the first item came before its job ended
+        assert items[:2] == ["first", "streamed"]  # the first item came before its job ended
         assert items[2:] == ["first", "not streamed"]  # the second job's, after the first job's
         assert list(pool.map_streamed(_send_range, [(3,), (0,), (2,)])) == [0, 1, 2, 0, 1]  # in job order
         got = []

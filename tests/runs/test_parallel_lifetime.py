@@ -2,6 +2,7 @@
 (SIGKILL: checked by process id), and a SIGTERM keeps every sample the workers had
 finished or were working on, and so does Ctrl-C: the chunks in progress are recorded, not
 thrown away."""
+
 from __future__ import annotations
 
 import os
@@ -16,10 +17,14 @@ import yaml
 
 from twin.runs.record import load_run
 
-SCENARIO = {"name": "lifetime_taps", "object": {"name": "rectangle"}, "fidelity": "fast", "seed": 3,
-            "effects": ["contact", "friction"],
-            "protocol": {"kind": "taps", "orientations_deg": [-60, -20, 20, 60], "lateral_mm": [6, 0, -4],
-                         "depths_mm": [3]}}
+SCENARIO = {
+    "name": "lifetime_taps",
+    "object": {"name": "rectangle"},
+    "fidelity": "fast",
+    "seed": 3,
+    "effects": ["contact", "friction"],
+    "protocol": {"kind": "taps", "orientations_deg": [-60, -20, 20, 60], "lateral_mm": [6, 0, -4], "depths_mm": [3]},
+}
 CHUNK = 3  # samples per orientation: a chunk (twin.runs.runner.chunk_moves)
 
 pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads process trees from /proc")
@@ -56,9 +61,13 @@ def _start(tmp_path: Path) -> tuple[subprocess.Popen, Path]:
     scenario = tmp_path / "taps.yaml"
     scenario.write_text(yaml.safe_dump(SCENARIO))
     out = tmp_path / "run"
-    proc = subprocess.Popen([sys.executable, "-m", "twin.tools.cli", "run", str(scenario), "--out", str(out),
-                             "--workers", "2", "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            env=os.environ | {"PYTHONUNBUFFERED": "1"}, start_new_session=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "twin.tools.cli", "run", str(scenario), "--out", str(out), "--workers", "2", "--quiet"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        env=os.environ | {"PYTHONUNBUFFERED": "1"},
+        start_new_session=True,
+    )
     return proc, out
 
 

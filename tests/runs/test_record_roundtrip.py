@@ -2,6 +2,7 @@
 targets, labels, truth and frames; the status says how the run ended; a line cut by a
 kill is dropped, a corrupt line elsewhere is named. Floats are stored to 1e-6 of their unit
 (µpx, µm for poses in mm), so "exact" means equal after that rounding."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -19,10 +20,15 @@ SCENARIO = load_scenario("rectangle_render")
 
 
 def _observations(n: int, rng: np.random.Generator) -> list[Observation]:
-    return [Observation(time=0.1 * i, pose=Pose(*rng.normal(size=6)),
-                        frame=rng.integers(0, 256, (48, 64, 3), dtype=np.uint8),
-                        truth={"pins_px": rng.normal(320, 50, (127, 2)), "contact_force_n": float(i)})
-            for i in range(n)]
+    return [
+        Observation(
+            time=0.1 * i,
+            pose=Pose(*rng.normal(size=6)),
+            frame=rng.integers(0, 256, (48, 64, 3), dtype=np.uint8),
+            truth={"pins_px": rng.normal(320, 50, (127, 2)), "contact_force_n": float(i)},
+        )
+        for i in range(n)
+    ]
 
 
 def _record(out: Path, observations: list[Observation], rng: np.random.Generator) -> list[np.ndarray]:
@@ -30,8 +36,13 @@ def _record(out: Path, observations: list[Observation], rng: np.random.Generator
     with RunRecorder(out, SCENARIO, seed=3, backend="sim") as rec:
         for i, obs in enumerate(observations):
             pins.append(rng.normal(320, 50, (127, 2)))
-            rec.add(obs, Pose(i, 0, 1, 0, 0, 0), {"theta_deg": 10.0 * i, "on_object": i % 2 == 0}, pins_px=pins[-1],
-                    found=np.arange(127) % 3 > 0)
+            rec.add(
+                obs,
+                Pose(i, 0, 1, 0, 0, 0),
+                {"theta_deg": 10.0 * i, "on_object": i % 2 == 0},
+                pins_px=pins[-1],
+                found=np.arange(127) % 3 > 0,
+            )
     return pins
 
 

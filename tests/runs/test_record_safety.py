@@ -3,6 +3,7 @@ itself: a second recorder of a folder is refused by name; a full disk leaves the
 "failed" and a run that resumes to completion; a frame file exists before the line that
 names it; a sample naming a frame outside its run, or a field of the wrong type or shape,
 is refused by file, line and field."""
+
 from __future__ import annotations
 
 import json
@@ -22,7 +23,9 @@ SCENARIO = load_scenario("rectangle_render")
 
 
 def _observation(i: int, rng: np.random.Generator, size: int = 48) -> Observation:
-    return Observation(time=0.1 * i, pose=Pose(i, 0, 1, 0, 0, 0), frame=rng.integers(0, 256, (size, size, 3), dtype=np.uint8))
+    return Observation(
+        time=0.1 * i, pose=Pose(i, 0, 1, 0, 0, 0), frame=rng.integers(0, 256, (size, size, 3), dtype=np.uint8)
+    )
 
 
 def _record(out: Path, n: int, rng: np.random.Generator) -> None:
@@ -118,15 +121,18 @@ def test_a_frame_outside_its_run_is_refused_by_name(tmp_path: Path, frame: str) 
         load_run(out)
 
 
-@pytest.mark.parametrize("edit, field", [
-    (lambda row: "{}", "sample without the fields"),
-    (lambda row: json.dumps({**row, "pins_px": [[1.0, 2.0]] * 100}), "field 'pins_px'"),
-    (lambda row: json.dumps({**row, "target": "abc"}), "field 'target'"),
-    (lambda row: json.dumps({**row, "pose": [1, 2, 3, 4, 5, float("inf")]}), "field 'pose' holds NaN"),
-    (lambda row: json.dumps({**row, "labels": {"theta_deg": "abc"}}), "label 'theta_deg'"),
-    (lambda row: json.dumps({**row, "found": [1] * 127}), "field 'found'"),
-    (lambda row: "[" * 100_000 + "]" * 100_000, "not valid JSON"),
-])
+@pytest.mark.parametrize(
+    "edit, field",
+    [
+        (lambda row: "{}", "sample without the fields"),
+        (lambda row: json.dumps({**row, "pins_px": [[1.0, 2.0]] * 100}), "field 'pins_px'"),
+        (lambda row: json.dumps({**row, "target": "abc"}), "field 'target'"),
+        (lambda row: json.dumps({**row, "pose": [1, 2, 3, 4, 5, float("inf")]}), "field 'pose' holds NaN"),
+        (lambda row: json.dumps({**row, "labels": {"theta_deg": "abc"}}), "label 'theta_deg'"),
+        (lambda row: json.dumps({**row, "found": [1] * 127}), "field 'found'"),
+        (lambda row: "[" * 100_000 + "]" * 100_000, "not valid JSON"),
+    ],
+)
 def test_a_sample_of_the_wrong_type_is_refused_by_line_and_field(tmp_path: Path, edit, field: str) -> None:
     out = tmp_path / "run"
     _record(out, 2, np.random.default_rng(3))
@@ -136,11 +142,19 @@ def test_a_sample_of_the_wrong_type_is_refused_by_line_and_field(tmp_path: Path,
         load_run(out)
 
 
-@pytest.mark.parametrize("meta, field", [
-    ("[1, 2, 3]", "a JSON object"), ("{}", "format_version"), ("[" * 200_000 + "]" * 200_000, "nested too deep"),
-    ('{"format_version": 1, "scenario": {"name": "x", "fidelity": "fast", "protocol": {"kind": "taps"}}, '
-     '"seed": -5, "backend": "sim"}', "field 'seed'"),
-])
+@pytest.mark.parametrize(
+    "meta, field",
+    [
+        ("[1, 2, 3]", "a JSON object"),
+        ("{}", "format_version"),
+        ("[" * 200_000 + "]" * 200_000, "nested too deep"),
+        (
+            '{"format_version": 1, "scenario": {"name": "x", "fidelity": "fast", "protocol": {"kind": "taps"}}, '
+            '"seed": -5, "backend": "sim"}',
+            "field 'seed'",
+        ),
+    ],
+)
 def test_run_metadata_of_the_wrong_type_is_refused_by_field(tmp_path: Path, meta: str, field: str) -> None:
     out = tmp_path / "run"
     _record(out, 1, np.random.default_rng(4))

@@ -3,6 +3,7 @@
 continues either from its last complete sample to a run bit-identical to an
 uninterrupted one (rendered frames with seeded camera noise, so the generator's state
 matters too). Resuming with another scenario or seed is refused (exit 2)."""
+
 from __future__ import annotations
 
 import json
@@ -21,11 +22,15 @@ import yaml
 from twin.runs.record import load_run
 from twin.tools.cli import main
 
-SCENARIO = {"name": "resume_taps", "object": {"name": "rectangle"}, "fidelity": "fast", "seed": 7,
-            "effects": ["contact", "friction", "render", "camera_noise"],
-            "sensor": {"camera": {"width": 160, "height": 120, "noise_std": 4}},
-            "protocol": {"kind": "taps", "orientations_deg": [-40, 0, 40, 80], "lateral_mm": [6, 0, -4],
-                         "depths_mm": [2, 4]}}
+SCENARIO = {
+    "name": "resume_taps",
+    "object": {"name": "rectangle"},
+    "fidelity": "fast",
+    "seed": 7,
+    "effects": ["contact", "friction", "render", "camera_noise"],
+    "sensor": {"camera": {"width": 160, "height": 120, "noise_std": 4}},
+    "protocol": {"kind": "taps", "orientations_deg": [-40, 0, 40, 80], "lateral_mm": [6, 0, -4], "depths_mm": [2, 4]},
+}
 N_SAMPLES = 24
 
 
@@ -45,8 +50,23 @@ def reference(scenario_file: Path, tmp_path_factory) -> Path:
 
 def _start(scenario_file: Path, out: Path) -> subprocess.Popen:
     env = os.environ | {"PYTHONUNBUFFERED": "1"}
-    return subprocess.Popen([sys.executable, "-m", "twin.tools.cli", "run", str(scenario_file), "--out", str(out),
-                             "--workers", "1", "--quiet"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    return subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "twin.tools.cli",
+            "run",
+            str(scenario_file),
+            "--out",
+            str(out),
+            "--workers",
+            "1",
+            "--quiet",
+        ],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
 
 
 def _wait_for_samples(out: Path, n: int, proc: subprocess.Popen, timeout_s: float = 120.0) -> int:
@@ -64,9 +84,9 @@ def _assert_identical(run_dir: Path, reference: Path) -> None:
     run, ref = load_run(run_dir), load_run(reference)
     assert run.meta["status"] == "completed" and run.state == "completed"
     assert len(run.samples) == len(ref.samples) == N_SAMPLES
-    assert np.array_equal(run.pins_px, ref.pins_px)             # bit for bit (as recorded)
-    assert run.samples == ref.samples                           # poses, labels, truth, time, frame names
-    for s in ref.samples:                                       # the noisy frames, byte for byte
+    assert np.array_equal(run.pins_px, ref.pins_px)  # bit for bit (as recorded)
+    assert run.samples == ref.samples  # poses, labels, truth, time, frame names
+    for s in ref.samples:  # the noisy frames, byte for byte
         assert (run_dir / s["frame"]).read_bytes() == (reference / s["frame"]).read_bytes(), s["frame"]
 
 
@@ -97,7 +117,11 @@ def test_sigterm_is_an_interruption_and_resumes(scenario_file, reference, tmp_pa
     assert proc.returncode == 143, err.decode()
     assert b"Traceback" not in err and b"SIGTERM" in err
     run = load_run(out)
-    assert run.meta["status"] == "interrupted" and run.meta["error"] == "SIGTERM" and run.meta["samples"] == len(run.samples)
+    assert (
+        run.meta["status"] == "interrupted"
+        and run.meta["error"] == "SIGTERM"
+        and run.meta["samples"] == len(run.samples)
+    )
     assert 5 <= len(run.samples) < N_SAMPLES
 
     # another seed, another scenario: refused, the run untouched
@@ -110,18 +134,18 @@ def test_sigterm_is_an_interruption_and_resumes(scenario_file, reference, tmp_pa
 
     assert main(["run", str(scenario_file), "--resume", str(out), "--seed", "7", "--workers", "1", "--quiet"]) == 0
     _assert_identical(out, reference)
-    assert main(["run", "--resume", str(out), "--quiet"]) == 2   # complete: nothing to resume
+    assert main(["run", "--resume", str(out), "--quiet"]) == 2  # complete: nothing to resume
 
 
 def test_readers_say_a_killed_run_did_not_finish(reference, tmp_path, capsys) -> None:
     killed = tmp_path / "killed"
     killed.mkdir()
     lines = (reference / "samples.jsonl").read_text().splitlines(keepends=True)
-    (killed / "samples.jsonl").write_text("".join(lines[:10]) + lines[10][:40])   # a torn last line
+    (killed / "samples.jsonl").write_text("".join(lines[:10]) + lines[10][:40])  # a torn last line
     gone = subprocess.Popen(["true"])
     gone.wait()
     meta = json.loads((reference / "run.json").read_text())
-    meta.update(status="running", process=meta["process"] | {"pid": gone.pid})   # no end marker, process gone
+    meta.update(status="running", process=meta["process"] | {"pid": gone.pid})  # no end marker, process gone
     (killed / "run.json").write_text(json.dumps(meta))
     shutil.copytree(reference / "frames", killed / "frames")  # a link out of the run would be refused
     run = load_run(killed)

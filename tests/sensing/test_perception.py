@@ -1,4 +1,5 @@
 """PCA → spherical coordinates → GP perception on a synthetic labelled tap set (288 points)."""
+
 from __future__ import annotations
 
 import json
@@ -7,6 +8,7 @@ import numpy as np
 import pytest
 
 from twin.core.errors import UserError
+from twin.core.sensor import N_PINS, CameraModel
 from twin.sensing.perception import (
     NO_CONTACT,
     GPConfig,
@@ -20,7 +22,6 @@ from twin.sensing.perception import (
     tukey_keep,
     wrap_deg,
 )
-from twin.core.sensor import N_PINS, CameraModel
 from twin.sensing.tracker import PinTracker, render_pins_frame
 
 FAST = GPConfig(n_restarts=0)
@@ -125,7 +126,9 @@ def test_load_refuses_a_model_whose_header_and_gps_disagree(model: PerceptionMod
     _rewrite_header(path, tmp_path / "v1.npz", format_version=1)
     with pytest.raises(UserError, match="format_version 1.*fit a new model"):
         PerceptionModel.load(tmp_path / "v1.npz")
-    _rewrite_header(path, tmp_path / "inputs.npz", gp_inputs={"cos": [0, 1, 2, 3], "sin": [0, 1, 2, 3], "lat": [0, 1, 2, 3]})
+    _rewrite_header(
+        path, tmp_path / "inputs.npz", gp_inputs={"cos": [0, 1, 2, 3], "sin": [0, 1, 2, 3], "lat": [0, 1, 2, 3]}
+    )
     with pytest.raises(UserError, match="GP 'lat' was trained on 3 inputs"):
         PerceptionModel.load(tmp_path / "inputs.npz")
 

@@ -1,4 +1,5 @@
 """Pin tracker on synthetic TacTip frames (anti-aliased white discs, known positions)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -203,14 +204,19 @@ TWIN_TAPS = {"orientations_deg": [-120.0], "lateral_mm": [6.0, -4.0, 4.0], "dept
 
 @pytest.fixture(scope="module")
 def twin_taps():
-    from twin.runs.protocols import tap_moves
     from twin.core.scenario import scenario_from_dict
+    from twin.runs.protocols import tap_moves
     from twin.runs.sim_env import SimEnvironment
 
-    scenario = scenario_from_dict({
-        "name": "tracker_taps", "object": {"name": "rectangle"}, "fidelity": "fast",
-        "effects": ["contact", "render"], "protocol": {"kind": "taps", **TWIN_TAPS},
-    })
+    scenario = scenario_from_dict(
+        {
+            "name": "tracker_taps",
+            "object": {"name": "rectangle"},
+            "fidelity": "fast",
+            "effects": ["contact", "render"],
+            "protocol": {"kind": "taps", **TWIN_TAPS},
+        }
+    )
     frames, truth = [], []
     with SimEnvironment(scenario) as env:
         reference = env.reset()
@@ -246,15 +252,20 @@ CAMERA_SHAPES = [(96, 96), (160, 120), (120, 160), (480, 640), (1280, 960), (960
 def test_every_camera_shape_tracks_all_pins(width: int, height: int) -> None:
     """Rendered frames at any camera shape: the aperture fits the frame's short side, so all
     127 pins are seen and tracked, at rest and pressed 4 mm onto the edge."""
-    from twin.runs.protocols import tap_moves
     from twin.core.scenario import scenario_from_dict
+    from twin.runs.protocols import tap_moves
     from twin.runs.sim_env import SimEnvironment
 
-    scenario = scenario_from_dict({
-        "name": f"tracker_{width}x{height}", "object": {"name": "rectangle"}, "fidelity": "fast",
-        "effects": ["contact", "render"], "sensor": {"camera": {"width": width, "height": height}},
-        "protocol": {"kind": "taps", "orientations_deg": [-120.0], "lateral_mm": [4.0], "depths_mm": [4.0]},
-    })
+    scenario = scenario_from_dict(
+        {
+            "name": f"tracker_{width}x{height}",
+            "object": {"name": "rectangle"},
+            "fidelity": "fast",
+            "effects": ["contact", "render"],
+            "sensor": {"camera": {"width": width, "height": height}},
+            "protocol": {"kind": "taps", "orientations_deg": [-120.0], "lateral_mm": [4.0], "depths_mm": [4.0]},
+        }
+    )
     with SimEnvironment(scenario) as env:
         reference = env.reset()
         for move in tap_moves(scenario.protocol):

@@ -1,4 +1,5 @@
 """`twin bench` physics and throughput rows are consistent (no timing asserts: speed is printed, not tested)."""
+
 from __future__ import annotations
 
 import math
@@ -24,8 +25,18 @@ def test_physics_rows_are_consistent() -> None:
     rows = benchmark_physics(["fast"], repeats=1, verbose=False)
     assert [(r["dome"], r["level"]) for r in rows] == [("flex", "fast"), ("compliant", "fast")]
     for row in rows:
-        assert set(row) == {"dome", "level", "ms_per_frame", "steps_per_frame", "ms_per_step", "precompute_s",
-                            "cached_s", "ratio_to_flex_default", "ratio_min", "ratio_max"}
+        assert set(row) == {
+            "dome",
+            "level",
+            "ms_per_frame",
+            "steps_per_frame",
+            "ms_per_step",
+            "precompute_s",
+            "cached_s",
+            "ratio_to_flex_default",
+            "ratio_min",
+            "ratio_max",
+        }
         assert row["ms_per_frame"] > 0 and row["steps_per_frame"] >= 1
         assert row["ms_per_step"] * row["steps_per_frame"] == pytest.approx(row["ms_per_frame"])
         assert math.isnan(row["ratio_to_flex_default"])  # the flex default was not measured in this run
@@ -50,8 +61,14 @@ def test_physics_ratios_are_taken_round_by_round() -> None:
 @pytest.mark.slow
 def test_startup_rows_name_every_stage() -> None:
     rows = bench_startup(quick=True)
-    assert [r["stage"] for r in rows] == ["imports", "scene build", "environment", "first frame, one process",
-                                          "pool start", "twin run taps_rectangle --workers 2: first frame"]
+    assert [r["stage"] for r in rows] == [
+        "imports",
+        "scene build",
+        "environment",
+        "first frame, one process",
+        "pool start",
+        "twin run taps_rectangle --workers 2: first frame",
+    ]
     assert all(r["seconds"] > 0 and r["rounds"] == 1 for r in rows)
 
 

@@ -4,6 +4,7 @@ wrong types, missing and unknown keys, broken meshes and outlines. Each one eith
 with a message naming the file and the field (or the broken mesh/outline file). Zero
 tracebacks. TWIN_FUZZ_EXAMPLES sets how many are tried (default 30 in the suite;
 docs/reliability.md reports a longer run)."""
+
 from __future__ import annotations
 
 import contextlib
@@ -25,20 +26,43 @@ N_EXAMPLES = int(os.environ.get("TWIN_FUZZ_EXAMPLES", "30"))
 PROTOCOLS = {
     "render": {"kind": "render", "poses": [[0.0, 0.0, -5.0, 0.0, 0.0, 0.0], [0.0, 0.0, 2.0, 0.0, 0.0, 30.0]]},
     "taps": {"kind": "taps", "orientations_deg": [0.0], "lateral_mm": [2.0], "depths_mm": [2.0]},
-    "slides": {"kind": "slides", "orientations_deg": [0.0], "directions_deg": [90.0], "lateral_mm": [0.0, -2.0],
-               "depth_mm": 2.0},
+    "slides": {
+        "kind": "slides",
+        "orientations_deg": [0.0],
+        "directions_deg": [90.0],
+        "lateral_mm": [0.0, -2.0],
+        "depth_mm": 2.0,
+    },
 }
-BAD_VALUES = [math.nan, math.inf, -math.inf, 1e308, -1e308, -1.0, 0.0, 10**30, -(10**30), "twelve", None, [], {},
-              True, [math.nan] * 6, [1e9] * 6, "", [[]]]
+BAD_VALUES = [
+    math.nan,
+    math.inf,
+    -math.inf,
+    1e308,
+    -1e308,
+    -1.0,
+    0.0,
+    10**30,
+    -(10**30),
+    "twelve",
+    None,
+    [],
+    {},
+    True,
+    [math.nan] * 6,
+    [1e9] * 6,
+    "",
+    [[]],
+]
 
 STLS = {
     "empty.stl": b"",
     "garbage.stl": bytes(range(256)) * 4,
     "no_facets.stl": b"solid x\nendsolid x\n",
     "one_triangle.stl": b"solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 10 0 0\nvertex 0 10 0\n"
-                        b"endloop\nendfacet\nendsolid t\n",
+    b"endloop\nendfacet\nendsolid t\n",
     "nan_vertex.stl": b"solid t\nfacet normal 0 0 1\nouter loop\nvertex nan 0 0\nvertex 10 0 0\nvertex 0 10 0\n"
-                      b"endloop\nendfacet\nendsolid t\n",
+    b"endloop\nendfacet\nendsolid t\n",
 }
 OUTLINES = {
     "two_points.csv": "x,y\n0,0\n10,0\n",
@@ -62,8 +86,9 @@ def schema_paths(model: type, prefix: tuple = ()) -> list[tuple]:
     return out
 
 
-SHARED_PATHS = [p for p in schema_paths(Scenario) if p[0] not in ("protocol", "name", "description", "backend",
-                                                                     "hardware_config")] + [("name",)]
+SHARED_PATHS = [
+    p for p in schema_paths(Scenario) if p[0] not in ("protocol", "name", "description", "backend", "hardware_config")
+] + [("name",)]
 
 
 def _protocol_fields(kind: str) -> list[tuple]:
@@ -87,8 +112,13 @@ _MISSING = object()
 def scenarios(draw) -> tuple[dict, dict, list[str]]:
     """(scenario dict, extra files {name: bytes}, the field names mutated)."""
     kind = draw(st.sampled_from(sorted(PROTOCOLS)))
-    data = {"name": "fuzz", "object": {"name": "rectangle"}, "fidelity": "fast", "effects": ["contact", "friction"],
-            "protocol": dict(PROTOCOLS[kind])}
+    data = {
+        "name": "fuzz",
+        "object": {"name": "rectangle"},
+        "fidelity": "fast",
+        "effects": ["contact", "friction"],
+        "protocol": dict(PROTOCOLS[kind]),
+    }
     files: dict[str, bytes] = {}
     touched: list[str] = []
     source = draw(st.sampled_from(["builtin", "builtin", "stl", "outline"]))
@@ -105,9 +135,15 @@ def scenarios(draw) -> tuple[dict, dict, list[str]]:
     paths = SHARED_PATHS + _protocol_fields(kind)
     for _ in range(draw(st.integers(0, 3))):
         path = draw(st.sampled_from(paths))
-        value = draw(st.one_of(st.sampled_from(BAD_VALUES), st.just(_MISSING),
-                               st.floats(allow_nan=True, allow_infinity=True),
-                               st.integers(-(2**70), 2**70), st.text(max_size=5)))
+        value = draw(
+            st.one_of(
+                st.sampled_from(BAD_VALUES),
+                st.just(_MISSING),
+                st.floats(allow_nan=True, allow_infinity=True),
+                st.integers(-(2**70), 2**70),
+                st.text(max_size=5),
+            )
+        )
         _set(data, path, value)
         touched.append(path[-1])
     if draw(st.booleans()):
@@ -120,7 +156,7 @@ def scenarios(draw) -> tuple[dict, dict, list[str]]:
 def _cli(argv: list[str]) -> tuple[int, str]:
     err = io.StringIO()
     with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
-        rc = main(argv)   # anything escaping main here would be a traceback: the test fails
+        rc = main(argv)  # anything escaping main here would be a traceback: the test fails
     return rc, err.getvalue()
 
 
@@ -156,6 +192,8 @@ def test_adversarial_scenarios_pass_or_exit_2_naming_file_and_field(tmp_path_fac
 
     each()
     with capsys.disabled():
-        print(f"\nscenario fuzz: {sum(outcomes.values())} scenarios: "
-              + ", ".join(f"{k}: {v}" for k, v in sorted(outcomes.items())))
+        print(
+            f"\nscenario fuzz: {sum(outcomes.values())} scenarios: "
+            + ", ".join(f"{k}: {v}" for k, v in sorted(outcomes.items()))
+        )
     assert sum(outcomes.values()) >= min(N_EXAMPLES, 10)  # hypothesis really tried them

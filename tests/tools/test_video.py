@@ -1,6 +1,7 @@
 """Run videos and the viewer, headless: `twin video` / `twin run --video` write one H.264
 frame per sample whose camera panel is the recorded PNG; `twin compare --video` pairs two
 runs with their pin fields in two colours; `twin view` without a display exits 2."""
+
 from __future__ import annotations
 
 import json
@@ -22,8 +23,13 @@ from twin.sensing.perception import GPConfig, PerceptionModel, paper_training_la
 from twin.tools.cli import main
 from twin.tools.video import COMPARE_PANEL, PAIR_COLOURS, PANEL_HEIGHT, SIDE_SIZE, sensor_panel
 
-TAPS = {"name": "video_taps", "object": {"name": "rectangle"}, "fidelity": "fast", "effects": ["contact", "friction", "render"],
-        "protocol": {"kind": "taps", "orientations_deg": [0], "lateral_mm": [9.9, 2, -2], "depths_mm": [3]}}
+TAPS = {
+    "name": "video_taps",
+    "object": {"name": "rectangle"},
+    "fidelity": "fast",
+    "effects": ["contact", "friction", "render"],
+    "protocol": {"kind": "taps", "orientations_deg": [0], "lateral_mm": [9.9, 2, -2], "depths_mm": [3]},
+}
 #: H.264 (quality 8, 4:2:0 chroma) against the PNG where nothing is drawn over it: the mean
 #: absolute error measured 0.5–0.6 grey levels; 2 leaves room for other ffmpeg builds while
 #: a neighbouring sample's PNG (pins moved a few px) is ≥ 3× further away (asserted below).
@@ -47,11 +53,18 @@ def decoded_frames(path) -> list[np.ndarray]:
 def contour_run(tmp_path_factory):
     """A 4-step contour run on the small circle (fast dome, rendered and tracked frames)."""
     th, la, de = paper_training_labels()
-    model = PerceptionModel(gp=GPConfig(n_restarts=0)).fit(synthetic_tap_pins(th, la, de), th, la, de,
-                                                            np.random.default_rng(0))
-    scenario = scenario_from_dict({"name": "video_circle", "object": {"name": "small_circle"}, "fidelity": "fast",
-                                   "effects": ["contact", "friction", "render"],
-                                   "protocol": {"kind": "contour", "max_steps": 4}})
+    model = PerceptionModel(gp=GPConfig(n_restarts=0)).fit(
+        synthetic_tap_pins(th, la, de), th, la, de, np.random.default_rng(0)
+    )
+    scenario = scenario_from_dict(
+        {
+            "name": "video_circle",
+            "object": {"name": "small_circle"},
+            "fidelity": "fast",
+            "effects": ["contact", "friction", "render"],
+            "protocol": {"kind": "contour", "max_steps": 4},
+        }
+    )
     return run_contour(scenario, tmp_path_factory.mktemp("video") / "run", model=model, progress=False)
 
 
@@ -99,7 +112,7 @@ def test_run_and_compare_videos_from_the_command_line(tmp_path, capsys, monkeypa
     assert len(frames) == pairs == 3
     w, h = COMPARE_PANEL
     assert frames[0].shape == (h, 3 * w, 3)
-    overlay = frames[-1][60:-40, 2 * w:].astype(int)  # the pressed tap, both fields, without the text
+    overlay = frames[-1][60:-40, 2 * w :].astype(int)  # the pressed tap, both fields, without the text
     for colour in PAIR_COLOURS:
         assert (np.abs(overlay - colour).max(axis=2) < 50).sum() > 127, colour  # a dot per pin at least
     monkeypatch.delenv("DISPLAY", raising=False)
@@ -108,8 +121,9 @@ def test_run_and_compare_videos_from_the_command_line(tmp_path, capsys, monkeypa
     assert "twin view needs a display" in capsys.readouterr().err
 
 
-@pytest.mark.skipif(shutil.which("Xvfb") is None,
-                    reason="needs Xvfb (apt-get install xvfb; the README's test command installs it)")
+@pytest.mark.skipif(
+    shutil.which("Xvfb") is None, reason="needs Xvfb (apt-get install xvfb; the README's test command installs it)"
+)
 def test_view_runs_a_scenario_on_a_virtual_display(tmp_path) -> None:
     """`twin view` opens mujoco.viewer on a display, shows every sample and closes cleanly.
     In its own process: GLFW keeps its X connection until the process ends."""
@@ -118,9 +132,16 @@ def test_view_runs_a_scenario_on_a_virtual_display(tmp_path) -> None:
     try:
         time.sleep(1.0)
         path = tmp_path / "render.yaml"
-        path.write_text(yaml.safe_dump({**TAPS, "protocol": {"kind": "render", "poses": [[0, 0, -5, 0, 0, 0], [0, 0, 2, 0, 0, 0]]}}))
-        done = subprocess.run([sys.executable, "-m", "twin.tools.cli", "view", str(path), "--no-wait"],
-                              env={**os.environ, "DISPLAY": display}, capture_output=True, text=True, timeout=120)
+        path.write_text(
+            yaml.safe_dump({**TAPS, "protocol": {"kind": "render", "poses": [[0, 0, -5, 0, 0, 0], [0, 0, 2, 0, 0, 0]]}})
+        )
+        done = subprocess.run(
+            [sys.executable, "-m", "twin.tools.cli", "view", str(path), "--no-wait"],
+            env={**os.environ, "DISPLAY": display},
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
         assert done.returncode == 0, done.stderr
         assert "showed 2 samples" in done.stdout
     finally:

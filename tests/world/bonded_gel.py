@@ -3,6 +3,7 @@ hemisphere bonded to the sensor's rigid base at the equator, meshed by gmsh and 
 by scikit-fem (quadratic tetrahedra, linear elasticity). It has none of the closed-form
 model's approximations (a half-space tangent at every node, the volume kept by a
 Lagrange multiplier) and all of the geometry, so the tests compare the two."""
+
 from __future__ import annotations
 
 import math
@@ -32,7 +33,7 @@ class BondedGel:
     factor: object
 
     @classmethod
-    def build(cls, geometry: TacTipGeometry, size: float, poisson: float, inner_size: float = 0.005) -> "BondedGel":
+    def build(cls, geometry: TacTipGeometry, size: float, poisson: float, inner_size: float = 0.005) -> BondedGel:
         radius, centre_z = geometry.dome_outer_radius, geometry.sphere_centre_z
         gmsh.initialize()
         try:
@@ -64,7 +65,9 @@ class BondedGel:
         used = np.unique(tets)
         renumber = np.full(len(tags), -1)
         renumber[used] = np.arange(len(used))
-        mesh = skfem.MeshTet(np.ascontiguousarray(coords.reshape(-1, 3)[used].T), np.ascontiguousarray(renumber[tets].T))
+        mesh = skfem.MeshTet(
+            np.ascontiguousarray(coords.reshape(-1, 3)[used].T), np.ascontiguousarray(renumber[tets].T)
+        )
         basis = skfem.Basis(mesh, skfem.ElementVector(skfem.ElementTetP2()))
         stiffness = skfem.asm(linear_elasticity(*lame_parameters(2.0 * (1.0 + poisson), poisson)), basis)  # G = 1 Pa
         free = np.setdiff1d(np.arange(basis.N), basis.get_dofs(lambda x: np.abs(x[2] - centre_z) < 1e-9).all())
@@ -78,7 +81,7 @@ class BondedGel:
         distance = np.linalg.norm(offset, axis=1, keepdims=True)
         inside = centre + offset * np.minimum(distance, self.geometry.dome_outer_radius - 2e-4) / distance
         inside[:, 2] = np.maximum(inside[:, 2], centre[2] + 2e-4)
-        by_axis = self.basis.probes(inside.T).tocsr()                      # rows [axis, point]
+        by_axis = self.basis.probes(inside.T).tocsr()  # rows [axis, point]
         order = (np.arange(3)[None, :] * len(points) + np.arange(len(points))[:, None]).ravel()
         return by_axis[order][:, self.free]
 
@@ -87,9 +90,11 @@ class BondedGel:
         over its disc by DISC_RULE, as the closed-form kernel) and the pin tips' ((381, 3K),
         the posts of `post_tips` on this gel): `skin_on_gel`'s inputs."""
         radius = math.sqrt(surface.area / math.pi)
-        spread = sum(weight * self.probe(sheet.points + radius * (x * sheet.frames[:, 1] + y * sheet.frames[:, 2]))
-                     for x, y, weight in DISC_RULE)
-        displacement = self.factor.solve(np.asarray(spread.T.todense())) / shear_modulus   # (free, 3K)
+        spread = sum(
+            weight * self.probe(sheet.points + radius * (x * sheet.frames[:, 1] + y * sheet.frames[:, 2]))
+            for x, y, weight in DISC_RULE
+        )
+        displacement = self.factor.solve(np.asarray(spread.T.todense())) / shear_modulus  # (free, 3K)
         gel = spread @ displacement
         count = len(sheet.points)
         pins = post_tips(self.geometry, lambda points: (self.probe(points) @ displacement).reshape(-1, 3, count, 3))

@@ -1,14 +1,15 @@
 """Arm dynamics: off, the sensor is exactly where it was commanded; on, the IRB120's
 servos lag the commanded line while moving and settle onto the target."""
+
 from __future__ import annotations
 
 import numpy as np
 
-from twin.world.arm import ArmDynamics
 from twin.core.poses import Pose
 from twin.core.scenario import scenario_from_dict
-from twin.world.scene import TOOL2FLANGE, kinematics
 from twin.runs.sim_env import SimEnvironment
+from twin.world.arm import ArmDynamics
+from twin.world.scene import TOOL2FLANGE, kinematics
 
 
 def _scenario(effects: list[str]):
@@ -29,8 +30,8 @@ def test_with_arm_dynamics_the_arm_lags_then_settles() -> None:
         obs = env.step(Pose(60, 4, 3, 0, 0, 30))
         assert env.arm is not None
     error = np.abs(obs.pose.as_array() - [60, 4, 3, 0, 0, 30])
-    assert error[:3].max() < 0.01 and error[3:].max() < 0.01          # settled on the target (mm, deg)
-    assert error.max() > 0                                            # but measured, not copied
+    assert error[:3].max() < 0.01 and error[3:].max() < 0.01  # settled on the target (mm, deg)
+    assert error.max() > 0  # but measured, not copied
 
 
 def test_servo_lag_during_a_move() -> None:

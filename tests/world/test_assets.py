@@ -1,13 +1,13 @@
 """Every model in assets/ and every scenario's scene compiles and steps 1 s of simulated
 time with zero MuJoCo warnings (the MuJoCo Menagerie habit)."""
+
 from __future__ import annotations
 
 from pathlib import Path
 
+import mujoco
 import numpy as np
 import pytest
-
-import mujoco
 
 from twin.core.scenario import load_scenario
 from twin.runs.spec import scene_spec
@@ -22,7 +22,11 @@ def _step_one_second(model: mujoco.MjModel, data: mujoco.MjData) -> None:
     steps = int(np.ceil(1.0 / model.opt.timestep))
     for _ in range(steps):
         mujoco.mj_step(model, data)
-    warnings = {mujoco.mjtWarning(i).name: int(data.warning[i].number) for i in range(len(data.warning)) if data.warning[i].number}
+    warnings = {
+        mujoco.mjtWarning(i).name: int(data.warning[i].number)
+        for i in range(len(data.warning))
+        if data.warning[i].number
+    }
     assert not warnings, f"MuJoCo warnings: {warnings}"
     assert np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))
     assert data.time >= 1.0 - 1e-9

@@ -6,6 +6,7 @@ multiplier; the finite elements have the real body and its base. Both are presse
 frictionless, onto a flat and onto an edge (`solve_normal`) at the fast level's 2.5 mm
 nodes, and their pins and forces compared. No closed-form theory covers a sealed gel in
 a dome bonded to a base; this is the check that the approximations hold."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -19,7 +20,7 @@ from twin.world.dome.compliant.contact import solve_normal
 GEOMETRY = TacTipGeometry()
 SURFACE = CapSurface(GEOMETRY, 0.0025, 65.0)
 SHEET = SURFACE.skin_to(90.0)
-SOLID_G, SHELL_G, SKIN_E = 67e3 / 3, 34.1e3 / 3, 6e5          # Pa: the shipped solid and shell (ν = 0.5)
+SOLID_G, SHELL_G, SKIN_E = 67e3 / 3, 34.1e3 / 3, 6e5  # Pa: the shipped solid and shell (ν = 0.5)
 #: (depth m, the object's edge in x m: it covers x ≤ edge): a flat, the edge 6 mm from the
 #: centre (the paper's along-edge slides) and through it (contour following)
 PRESSES = [(depth, edge) for depth in (0.002, 0.004) for edge in (np.inf, 0.006, 0.0)]
@@ -47,8 +48,8 @@ def _press(nodes: np.ndarray, pins: np.ndarray, depth: float, edge: float) -> tu
     `depth` into the object's flat top (z = −depth, the tool frame's apex at 0)."""
     normals, points = SURFACE.normals, SURFACE.points
     nodes_on = np.flatnonzero((normals[:, 2] > 0.3) & (points[:, 0] <= edge))
-    gap = (-depth - points[nodes_on, 2]) / normals[nodes_on, 2]      # along each node's normal
-    block = nodes[np.ix_(nodes_on, range(3), nodes_on, range(3))]    # [source, axis, node, axis]
+    gap = (-depth - points[nodes_on, 2]) / normals[nodes_on, 2]  # along each node's normal
+    block = nodes[np.ix_(nodes_on, range(3), nodes_on, range(3))]  # [source, axis, node, axis]
     inward = np.einsum("ia,jbia,jb->ij", normals[nodes_on], block, normals[nodes_on])
     pressure, _, _ = solve_normal(inward, gap, np.zeros(len(nodes_on)), 1e-10, 20000)
     tips = np.einsum("jbpa,jb->pa", pins[nodes_on], -pressure[:, None] * normals[nodes_on])
@@ -56,7 +57,7 @@ def _press(nodes: np.ndarray, pins: np.ndarray, depth: float, edge: float) -> tu
 
 
 def _rms(px: np.ndarray) -> float:
-    return float(np.sqrt(np.mean(np.sum(px ** 2, axis=1))))
+    return float(np.sqrt(np.mean(np.sum(px**2, axis=1))))
 
 
 @pytest.mark.parametrize("depth, edge", PRESSES)

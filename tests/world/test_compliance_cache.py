@@ -2,6 +2,7 @@
 and cached on disk at unit shear modulus (twin.world.dome.compliant.compliance.sealed_gel): what
 that relies on, and that a cached dome is the computed one. And the compiled products
 that each contact increment takes of them are the matrices' own."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -9,8 +10,16 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from twin.core.sensor import TacTipGeometry
-from twin.world.dome.compliant.compliance import (CapSurface, DomeCompliance, disc_averaged_kernel, half_space_columns,
-                                        post_tip_kernel, sealed_gel, self_compliance, skinned)
+from twin.world.dome.compliant.compliance import (
+    CapSurface,
+    DomeCompliance,
+    disc_averaged_kernel,
+    half_space_columns,
+    post_tip_kernel,
+    sealed_gel,
+    self_compliance,
+    skinned,
+)
 
 SURFACE = CapSurface(TacTipGeometry(), 0.0025, 65.0)  # the fast level's nodes: quick to compute
 
@@ -71,7 +80,7 @@ def test_the_free_skin_to_the_equator_is_sealed_with_the_cap():
     points = np.concatenate([SURFACE.points, band_points])
     frames = np.concatenate([SURFACE.frames, band_frames])
     count, radius = len(points), np.sqrt(SURFACE.area / np.pi)
-    whole = disc_averaged_kernel(points, points, frames, radius, 0.5, 1.0)   # [point, a, source, b]
+    whole = disc_averaged_kernel(points, points, frames, radius, 0.5, 1.0)  # [point, a, source, b]
     whole[np.arange(count), :, np.arange(count), :] = self_compliance(frames[:, 0], SURFACE.area, 0.5, 1.0)
     whole = whole.reshape(3 * count, 3 * count)
     pins = post_tip_kernel(SURFACE.geometry, points, frames, radius, 0.5, 1.0).reshape(-1, 3 * count)
@@ -88,7 +97,7 @@ def test_the_free_skin_to_the_equator_is_sealed_with_the_cap():
     assert np.allclose(cap_pins.reshape(cap, -1).T, expected_pins, rtol=0, atol=1e-9 * np.abs(expected_pins).max())
 
     open_loss = np.abs(whole[:, :cap].T @ pressure).max()
-    assert np.abs(sealed[:, :cap].T @ pressure).max() < 0.005 * open_loss   # the whole free skin keeps it
+    assert np.abs(sealed[:, :cap].T @ pressure).max() < 0.005 * open_loss  # the whole free skin keeps it
     assert np.abs(sealed[:cap, :cap].T @ pressure[:cap]).max() > 0.05 * open_loss  # the cap alone does not
 
 
@@ -106,7 +115,7 @@ def test_a_cached_dome_is_the_computed_one_at_any_modulus(cache):
     assert np.allclose(softer.block(rows, rows) * 2.0e4, reference, rtol=1e-12, atol=1e-12 * np.abs(reference).max())
     assert list(cache.glob("*.npz")) == [entry]  # the same entry served both moduli
     DomeCompliance(SURFACE, 5.3e4, 0.45).precompute()
-    assert len(list(cache.glob("*.npz"))) == 2   # another ν is another entry
+    assert len(list(cache.glob("*.npz"))) == 2  # another ν is another entry
 
 
 def test_the_compiled_products_are_the_matrix_products():
@@ -121,7 +130,8 @@ def test_the_compiled_products_are_the_matrix_products():
     forces = np.random.default_rng(3).normal(size=(len(nodes), 3))
     everywhere = np.arange(SURFACE.count)
     expected = (dome.block(everywhere, nodes) @ forces.ravel()).reshape(-1, 3)
-    assert np.allclose(dome.surface_displacement(nodes, forces), expected, rtol=0.0,
-                       atol=1e-12 * np.abs(expected).max())
+    assert np.allclose(
+        dome.surface_displacement(nodes, forces), expected, rtol=0.0, atol=1e-12 * np.abs(expected).max()
+    )
     pins = sum(np.einsum("a,aib->ib", forces[k], dome._pins[node]) for k, node in enumerate(nodes))
     assert np.allclose(dome.pin_displacement(nodes, forces), pins, rtol=0.0, atol=1e-12 * np.abs(pins).max())

@@ -4,6 +4,7 @@ conditions themselves: no penetration and no pull, no gap where pressed, the tra
 inside the friction disc, no slip where it is inside, slip against the traction where it
 is on the rim. The two algorithms (semismooth Newton, the alternation) must agree, and
 Newton's step must be the one its residual's Jacobian gives (by finite differences)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -11,8 +12,15 @@ import pytest
 
 from twin.core.sensor import TacTipGeometry
 from twin.world.dome.compliant.compliance import CapSurface, DomeCompliance
-from twin.world.dome.compliant.contact import (_alart_curnier, _alart_curnier_residual, _newton_step, alternation_pass,
-                                    own_stiffness, solve_coulomb, unknowns_matrix)
+from twin.world.dome.compliant.contact import (
+    _alart_curnier,
+    _alart_curnier_residual,
+    _newton_step,
+    alternation_pass,
+    own_stiffness,
+    solve_coulomb,
+    unknowns_matrix,
+)
 
 TOLERANCE = 1e-8  # m
 MU = 0.7
@@ -41,13 +49,17 @@ def _coulomb_violation(matrix: np.ndarray, offset: np.ndarray, forces: np.ndarra
     f = forces.reshape(-1, 3)
     p, h, q, v = f[:, 0], w[:, 0], f[:, 1:], w[:, 1:]
     scale = 1.0 / np.diag(matrix)[0::3]  # N per m of the node's own motion
-    worst = [np.max(-p / scale), np.max(-h), np.max(np.abs(h[p > 0]), initial=0.0),
-             np.max((np.linalg.norm(q, axis=1) - MU * p) / scale)]
+    worst = [
+        np.max(-p / scale),
+        np.max(-h),
+        np.max(np.abs(h[p > 0]), initial=0.0),
+        np.max((np.linalg.norm(q, axis=1) - MU * p) / scale),
+    ]
     rim = np.linalg.norm(q, axis=1) > MU * p - 1e-9 * scale
     worst.append(np.max(np.linalg.norm(v[~rim], axis=1), initial=0.0))
     if rim.any():
         along = q[rim] / np.maximum(np.linalg.norm(q[rim], axis=1), 1e-300)[:, None]
-        worst.append(np.max(np.einsum("ij,ij->i", v[rim], along)))                     # slip opposes q
+        worst.append(np.max(np.einsum("ij,ij->i", v[rim], along)))  # slip opposes q
         worst.append(np.max(np.abs(v[rim, 0] * along[:, 1] - v[rim, 1] * along[:, 0])))  # and is parallel to it
     return float(max(worst))
 
@@ -97,7 +109,9 @@ def test_newtons_step_is_the_jacobians(membrane_young):
     for j in range(n):
         e = np.zeros(n)
         e[j] = h
-        jacobian[:, j] = (_alart_curnier_residual(matrix, offset, MU, forces + e, r_n, r_t)
-                          - _alart_curnier_residual(matrix, offset, MU, forces - e, r_n, r_t)) / (2 * h)
+        jacobian[:, j] = (
+            _alart_curnier_residual(matrix, offset, MU, forces + e, r_n, r_t)
+            - _alart_curnier_residual(matrix, offset, MU, forces - e, r_n, r_t)
+        ) / (2 * h)
     full = -np.linalg.solve(jacobian, phi)
     assert np.abs(step - full).max() < 1e-6 * np.abs(full).max()

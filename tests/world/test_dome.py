@@ -6,15 +6,16 @@ Scene: a box "rectangle" whose top face is z = 0 with a straight edge along y at
 Pixel scale: CameraModel focal ≈ 451 px; pin tips lie 30–45 mm from the camera, so
 1 µm lateral ≈ 0.010–0.015 px and the 2 µm rest tolerance ≈ 0.02–0.03 px (< 0.05 px).
 """
+
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from twin.world.dome.flex import FIDELITY_LEVELS, DomeParams
 from twin.core.errors import PhysicsError
-from twin.world.dome.testbed import edge_scene, sensor_down
 from twin.core.sensor import CameraModel
+from twin.world.dome.flex import FIDELITY_LEVELS, DomeParams
+from twin.world.dome.testbed import edge_scene, sensor_down
 
 SPEED = 15.0  # mm/s, the paper's robot
 REST_TOL = 2e-6  # m
@@ -82,8 +83,11 @@ def test_skin_membrane_carries_the_drag():
     camera = CameraModel()
     drag = {}
     for young in (0.0, FIDELITY_LEVELS["default"].membrane_young):
-        model, _, _, physics = edge_scene(FIDELITY_LEVELS["default"].with_(membrane_young=young),
-                                          object_friction=0.7, start_tool2world=sensor_down(0, -6, -1.0))
+        model, _, _, physics = edge_scene(
+            FIDELITY_LEVELS["default"].with_(membrane_young=young),
+            object_friction=0.7,
+            start_tool2world=sensor_down(0, -6, -1.0),
+        )
         assert model.nflex == (1 if young == 0 else 2)
         physics.move(sensor_down(0, -6, 3), SPEED)
         pressed = camera.project_tool_points(physics.settle().pins_tool)

@@ -4,6 +4,7 @@ PhysicsError naming the scenario, the increment, the pose and what failed.
 
 Work frame: +z into the object; the rectangle's +x edge is the line x = 60.
 """
+
 from __future__ import annotations
 
 import re
@@ -26,15 +27,25 @@ WITH_MEMBRANE = LEVELS + [MEMBRANE]
 SHELL = "default+shell"
 #: the shell held by the base at the cap's rim (docs/dome/skins.md, "Where the skin is held")
 SHELL_HELD_65 = "default+shell_held_65"
-SKINS = {MEMBRANE: SKIN_PHYSICS["membrane"], SHELL: SKIN_PHYSICS["shell"],
-         SHELL_HELD_65: SKIN_PHYSICS["shell_held_65"]}
+SKINS = {MEMBRANE: SKIN_PHYSICS["membrane"], SHELL: SKIN_PHYSICS["shell"], SHELL_HELD_65: SKIN_PHYSICS["shell_held_65"]}
 
 
-def _env(level: str, obj: dict | None = None, material: dict | None = None, start: Pose = Pose(60, 0, -2, 0, 0, 0),
-         effects: tuple[str, ...] = ("contact", "friction"), name: str = "compliant_case") -> SimEnvironment:
-    spec = {"name": name, "object": obj or {"name": "rectangle"}, "dome": "compliant",
-            "fidelity": "default" if level in SKINS else level, "effects": list(effects),
-            "physics": SKINS.get(level, {})}
+def _env(
+    level: str,
+    obj: dict | None = None,
+    material: dict | None = None,
+    start: Pose = Pose(60, 0, -2, 0, 0, 0),
+    effects: tuple[str, ...] = ("contact", "friction"),
+    name: str = "compliant_case",
+) -> SimEnvironment:
+    spec = {
+        "name": name,
+        "object": obj or {"name": "rectangle"},
+        "dome": "compliant",
+        "fidelity": "default" if level in SKINS else level,
+        "effects": list(effects),
+        "physics": SKINS.get(level, {}),
+    }
     if material is not None:
         spec["sensor"] = {"calibration": {"dome_material": material}}
     env = SimEnvironment(scenario_from_dict(spec), start_pose=start)
@@ -52,8 +63,10 @@ def _slide_and_back(env: SimEnvironment, depth: float = 3.0, speed: float = 20.0
     return np.array(forces)
 
 
-@pytest.mark.parametrize("level,friction", [(level, mu) for level in LEVELS for mu in (0.0, 3.0)]
-                         + [(MEMBRANE, 0.0), (MEMBRANE, 3.0), (SHELL, 3.0)])
+@pytest.mark.parametrize(
+    "level,friction",
+    [(level, mu) for level in LEVELS for mu in (0.0, 3.0)] + [(MEMBRANE, 0.0), (MEMBRANE, 3.0), (SHELL, 3.0)],
+)
 def test_frictionless_and_very_high_friction(level, friction):
     """μ = 0: no tangential force at all; μ = 3 (rubber on a sticky surface): the skin
     sticks, the tangential force stays below μ·P and changes sign with the direction.
@@ -126,7 +139,9 @@ def test_a_solve_that_does_not_converge_raises_naming_the_case(monkeypatch):
     with pytest.raises(PhysicsError) as info:
         env.move_to(Pose(60, 0, 3, 0, 0, 0))
     message = str(info.value)
-    assert re.search(r"\[starved_solver\] increment \d+ \(t = [\d.]+ s\) at pose x=60\.000 y=0\.000 z=[-\d.]+ mm", message)
+    assert re.search(
+        r"\[starved_solver\] increment \d+ \(t = [\d.]+ s\) at pose x=60\.000 y=0\.000 z=[-\d.]+ mm", message
+    )
     assert "did not converge" in message
 
 
@@ -148,8 +163,12 @@ def test_a_calibrated_material_maps_only_onto_parameters_the_model_has():
     from twin.world.dome.material import apply_dome_material, dome_material_of
 
     compliant = COMPLIANT_LEVELS["default"]
-    assert dome_material_of(compliant) == {"young_kpa": 67.0, "poisson": 0.5, "membrane_young_mpa": 0.0,
-                                           "skin_held_deg": 90.0}
+    assert dome_material_of(compliant) == {
+        "young_kpa": 67.0,
+        "poisson": 0.5,
+        "membrane_young_mpa": 0.0,
+        "skin_held_deg": 90.0,
+    }
     assert apply_dome_material(compliant, {"young_kpa": 50.0, "poisson": 0.5}).young == pytest.approx(5e4)
     assert apply_dome_material(compliant, {"membrane_young_mpa": 0.3}).membrane_young == pytest.approx(3e5)
     assert apply_dome_material(compliant, {"skin_held_deg": 70.0}).skin_held_deg == 70.0
@@ -167,9 +186,15 @@ def test_the_increment_length_is_a_scenario_knob():
     from twin.core.errors import UserError
     from twin.runs.spec import dome_params
 
-    spec = {"name": "increments", "object": {"name": "rectangle"}, "dome": "compliant",
-            "effects": ["contact", "friction"]}
-    assert dome_params(scenario_from_dict({**spec, "physics": {"increment_mm": 1.0}})).step_length == pytest.approx(1e-3)
+    spec = {
+        "name": "increments",
+        "object": {"name": "rectangle"},
+        "dome": "compliant",
+        "effects": ["contact", "friction"],
+    }
+    assert dome_params(scenario_from_dict({**spec, "physics": {"increment_mm": 1.0}})).step_length == pytest.approx(
+        1e-3
+    )
     for physics, increments in (({"increment_mm": 1.0}, 3), ({}, 6)):
         env = SimEnvironment(scenario_from_dict({**spec, "physics": physics}), start_pose=Pose(60, 0, -2, 0, 0, 0))
         env.reset()
@@ -188,10 +213,15 @@ def test_skin_bending_takes_the_membrane_from_the_calibration():
     from twin.core.errors import UserError
     from twin.runs.spec import dome_params
 
-    shell = {"name": "shell_calibrated", "object": {"name": "rectangle"}, "dome": "compliant",
-             "physics": {"skin_bending": True}}
-    params = dome_params(scenario_from_dict({**shell, "sensor": {"calibration": {
-        "dome_material": {"membrane_young_mpa": 0.6}}}}))
+    shell = {
+        "name": "shell_calibrated",
+        "object": {"name": "rectangle"},
+        "dome": "compliant",
+        "physics": {"skin_bending": True},
+    }
+    params = dome_params(
+        scenario_from_dict({**shell, "sensor": {"calibration": {"dome_material": {"membrane_young_mpa": 0.6}}}})
+    )
     assert params.skin_bending and params.membrane_young == pytest.approx(6e5)
     without = scenario_from_dict({**shell, "sensor": {"calibration": {"dome_material": {"young_kpa": 20.0}}}})
     with pytest.raises(UserError, match=r"physics\.skin_bending.*membrane_young_mpa"):
@@ -235,6 +265,7 @@ def test_the_clearance_bound_is_never_longer_than_a_ray(obj):
 def test_increments_out_of_reach_cast_no_rays_and_change_nothing():
     """Taps with lifts and traverses between them: the increments the clearance bound
     skips leave every frame's pins and forces bit for bit as solving them does."""
+
     def taps(skip: bool) -> tuple[np.ndarray, CompliantPhysics]:
         env = _env("default")
         if not skip:
@@ -242,8 +273,11 @@ def test_increments_out_of_reach_cast_no_rays_and_change_nothing():
         frames = []
         for theta, lateral in ((0, 6), (40, 0), (100, -6)):
             env.move_to(Pose(60 + lateral, 0, -2, 0, 0, theta), 50.0)
-            for pose in (Pose(60 + lateral, 0, 3, 0, 0, theta), Pose(60 + lateral, 6, 3, 0, 0, theta),
-                         Pose(60 + lateral, 6, -2, 0, 0, theta)):
+            for pose in (
+                Pose(60 + lateral, 0, 3, 0, 0, theta),
+                Pose(60 + lateral, 6, 3, 0, 0, theta),
+                Pose(60 + lateral, 6, -2, 0, 0, theta),
+            ):
                 env.move_to(pose, 20.0)
                 frame = env.observe_frame()
                 frames.append(np.concatenate([frame.pins_tool.ravel(), frame.contact_force_tool]))

@@ -1,6 +1,7 @@
 """The seam between the scene and its dome models (twin.world.dome.base): nothing outside
 twin.world.dome imports a model's subpackage or compares a name with a model's, the
 models do not import one another, and every model subpackage has its registry line."""
+
 from __future__ import annotations
 
 import ast
@@ -73,7 +74,9 @@ def test_no_code_outside_the_dome_package_knows_which_model_runs() -> None:
 @pytest.mark.parametrize("model", _model_packages())
 def test_a_model_imports_no_other_model(model: str) -> None:
     others = tuple(f"twin.world.dome.{m}" for m in _model_packages() if m != model)
-    found = [f"{path.name}: {n}" for path, tree in _modules(DOME / model) for n in _imported(tree) if n.startswith(others)]
+    found = [
+        f"{path.name}: {n}" for path, tree in _modules(DOME / model) for n in _imported(tree) if n.startswith(others)
+    ]
     assert not found, found
 
 
@@ -86,7 +89,9 @@ def test_the_scenario_schema_lists_no_model_s_settings() -> None:
 
 def test_the_check_finds_a_branch_and_an_import() -> None:
     """The scan is not blind: it sees the comparisons and imports the seam forbids."""
-    tree = ast.parse("from twin.world.dome.flex import DomeParams\nif s.dome == 'compliant':\n    pass\n"
-                     "ok = kind in ('flex', 'other')\n")
+    tree = ast.parse(
+        "from twin.world.dome.flex import DomeParams\nif s.dome == 'compliant':\n    pass\n"
+        "ok = kind in ('flex', 'other')\n"
+    )
     assert _branches_on_a_model(tree) == [2, 4]
     assert "twin.world.dome.flex" in _imported(tree)

@@ -4,6 +4,7 @@ actually creates (mjData.ncon / nefc), never with timing asserts.
 
 Scenes through twin.runs.sim_env.SimEnvironment on the rectangle's +x edge (work x = 60).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -16,8 +17,14 @@ from twin.sensing.tracker import PinTracker
 
 
 def _env(effects: list[str], fidelity: str = "default", start: Pose = Pose(54, 0, -5, 0, 0, 0)) -> SimEnvironment:
-    scenario = scenario_from_dict({"name": f"effects_{'_'.join(effects) or 'none'}", "object": {"name": "rectangle"},
-                                   "fidelity": fidelity, "effects": effects})
+    scenario = scenario_from_dict(
+        {
+            "name": f"effects_{'_'.join(effects) or 'none'}",
+            "object": {"name": "rectangle"},
+            "fidelity": fidelity,
+            "effects": effects,
+        }
+    )
     return SimEnvironment(scenario, start_pose=start)
 
 

@@ -3,6 +3,7 @@ closed forms it is built from, written out here in the half-space's own frame: B
 for a normal point force and Cerruti for a tangential one (K. L. Johnson, *Contact
 Mechanics*, 1985, eqs. 3.20 and 3.21). Then the same for any orientation of the surface
 (rotating the problem rotates the answer), and the disc average's rule."""
+
 from __future__ import annotations
 
 import math
@@ -31,13 +32,21 @@ def _johnson(point: np.ndarray, poisson: float) -> np.ndarray:
     rho = math.sqrt(x * x + y * y + z * z)
     c = 1.0 - 2.0 * poisson
     k = 1.0 / (4.0 * math.pi * G)
-    cerruti_x = k * np.array([1 / rho + x * x / rho**3 + c * (1 / (rho + z) - x * x / (rho * (rho + z) ** 2)),
-                              x * y / rho**3 - c * x * y / (rho * (rho + z) ** 2),
-                              x * z / rho**3 + c * x / (rho * (rho + z))])
-    cerruti_y = k * np.array([x * y / rho**3 - c * x * y / (rho * (rho + z) ** 2),
-                              1 / rho + y * y / rho**3 + c * (1 / (rho + z) - y * y / (rho * (rho + z) ** 2)),
-                              y * z / rho**3 + c * y / (rho * (rho + z))])
-    radial = k * (z / rho**3 - c / (rho * (rho + z)))          # u_r / r
+    cerruti_x = k * np.array(
+        [
+            1 / rho + x * x / rho**3 + c * (1 / (rho + z) - x * x / (rho * (rho + z) ** 2)),
+            x * y / rho**3 - c * x * y / (rho * (rho + z) ** 2),
+            x * z / rho**3 + c * x / (rho * (rho + z)),
+        ]
+    )
+    cerruti_y = k * np.array(
+        [
+            x * y / rho**3 - c * x * y / (rho * (rho + z) ** 2),
+            1 / rho + y * y / rho**3 + c * (1 / (rho + z) - y * y / (rho * (rho + z) ** 2)),
+            y * z / rho**3 + c * y / (rho * (rho + z)),
+        ]
+    )
+    radial = k * (z / rho**3 - c / (rho * (rho + z)))  # u_r / r
     boussinesq = np.array([radial * x, radial * y, k * (z * z / rho**3 + 2 * (1 - poisson) / rho)])
     return np.column_stack([cerruti_x, cerruti_y, boussinesq])
 
@@ -52,7 +61,7 @@ def test_the_kernel_is_boussinesq_and_cerruti(poisson: float) -> None:
     depth = np.concatenate([np.zeros(10), rng.uniform(0.0, 0.003, 30)])
     targets = np.column_stack([lateral, -depth])
     kernel = _point_kernel(targets, np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]), poisson)[:, :, 0, :]
-    flip = np.diag([1.0, 1.0, -1.0])                             # the twin's frame ↔ the half-space's
+    flip = np.diag([1.0, 1.0, -1.0])  # the twin's frame ↔ the half-space's
     for target, got in zip(targets, kernel):
         expected = flip @ _johnson(flip @ target, poisson) @ flip
         np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12 * np.abs(expected).max())
@@ -68,8 +77,9 @@ def test_the_kernel_turns_with_the_surface() -> None:
     flat = _point_kernel(np.vstack([targets, sources]), sources, outward, 0.5)[:, :, 0, :]
     turn = Rotation.from_rotvec([0.7, -0.4, 1.1]).as_matrix()
     shift = np.array([0.003, -0.002, 0.01])
-    tilted = _point_kernel(np.vstack([targets, sources]) @ turn.T + shift, sources @ turn.T + shift,
-                           outward @ turn.T, 0.5)[:, :, 0, :]
+    tilted = _point_kernel(
+        np.vstack([targets, sources]) @ turn.T + shift, sources @ turn.T + shift, outward @ turn.T, 0.5
+    )[:, :, 0, :]
     np.testing.assert_allclose(tilted[:-1], turn @ flat[:-1] @ turn.T, rtol=1e-10, atol=1e-12 * np.abs(flat[:-1]).max())
     assert np.isnan(tilted[-1]).all() and np.isnan(flat[-1]).all()
 

@@ -1,4 +1,5 @@
 """IRB120 model and kinematics: FK against ABB's numbers, IK round trips, errors, scenes."""
+
 from __future__ import annotations
 
 import time
@@ -8,9 +9,9 @@ import numpy as np
 import pytest
 
 from twin.core.errors import UnreachablePoseError
+from twin.core.poses import Pose, angle_between_rotations_deg, make_transform
 from twin.core.resources import asset_path
 from twin.world.kinematics import FLANGE_BODY, JOINT_NAMES, Irb120Kinematics
-from twin.core.poses import Pose, angle_between_rotations_deg, make_transform
 
 TOOL2FLANGE = make_transform(np.eye(3), [0.0, 0.0, 0.1])  # a 100 mm tool along tool0 z
 POS_TOL_MM = 0.01
@@ -116,7 +117,9 @@ def test_newton_polish_converges_on_the_mujoco_model(kin: Irb120Kinematics) -> N
 
 def test_unreachable_pose_names_the_distance(kin: Irb120Kinematics) -> None:
     target = Pose(2000.0, 0.0, 300.0, 180.0, 0.0, 0.0).to_matrix()
-    with pytest.raises(UnreachablePoseError, match=r"out of reach \(wrist centre 2001\.7 mm from shoulder, max 580\.0 mm\)") as info:
+    with pytest.raises(
+        UnreachablePoseError, match=r"out of reach \(wrist centre 2001\.7 mm from shoulder, max 580\.0 mm\)"
+    ) as info:
         kin.inverse(target, np.eye(4))
     assert "x 2000.0, y 0.0, z 300.0 mm" in str(info.value)
 
@@ -153,7 +156,9 @@ def test_arm_scenes_step_one_second_without_warnings(name: str) -> None:
 
 def test_arm_attaches_into_a_bigger_scene_with_a_tool() -> None:
     arm = mujoco.MjSpec.from_file(str(asset_path("irb120", "irb120.xml")))
-    tool = arm.body(FLANGE_BODY).add_body(name="tool", pos=[0, 0, 0.05], mass=0.3, inertia=[1e-4, 1e-4, 1e-4], gravcomp=1)
+    tool = arm.body(FLANGE_BODY).add_body(
+        name="tool", pos=[0, 0, 0.05], mass=0.3, inertia=[1e-4, 1e-4, 1e-4], gravcomp=1
+    )
     tool.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.02, 0.05, 0])
     scene = mujoco.MjSpec()
     scene.worldbody.add_frame().attach_body(arm.body("base"), "arm/", "")

@@ -12,6 +12,7 @@ line x = 60 and its corners are at work (60, ±40).
 Pixel scale (twin.core.sensor.CameraModel): focal ≈ 451 px, pin tips 30–42 mm from the
 camera, so 1 px ≈ 75 µm of lateral pin motion.
 """
+
 from __future__ import annotations
 
 import re
@@ -19,32 +20,41 @@ import re
 import numpy as np
 import pytest
 
-from twin.world.dome.compliant import COMPLIANT_LEVELS, SKIN_PHYSICS
-from twin.world.dome.flex import FIDELITY_LEVELS
 from twin.core.errors import PhysicsError
 from twin.core.poses import Pose
 from twin.core.scenario import scenario_from_dict
 from twin.runs.sim_env import SimEnvironment
+from twin.world.dome.compliant import COMPLIANT_LEVELS, SKIN_PHYSICS
+from twin.world.dome.flex import FIDELITY_LEVELS
 from twin.world.stimuli import builtin_stimulus
 from twin.world.stimuli.outlines import SpiralParams
 
 #: the compliant dome also with its optional skin membrane (docs/dome/compliant.md),
 #: whose coupling of normal and tangential motion is the contact solver's hardest input
 MEMBRANE = SKIN_PHYSICS["membrane"]
-FIDELITY = [pytest.param(dome, level, id=f"{dome}-{level}")
-            for dome in ("flex", "compliant") for level in FIDELITY_LEVELS]
+FIDELITY = [
+    pytest.param(dome, level, id=f"{dome}-{level}") for dome in ("flex", "compliant") for level in FIDELITY_LEVELS
+]
 LEVELS = FIDELITY + [pytest.param("compliant-membrane", "default", id="compliant-membrane-default")]
 NOMINAL_SPEED = 20.0  # mm/s, the protocols' default
 REST_PX = 0.05  # no-contact pins must come back within this (px)
 
 
-def _env(obj: str, dome: str, level: str, start: Pose, name: str | None = None, seed: int = 0,
-         friction: float | None = None) -> SimEnvironment:
+def _env(
+    obj: str, dome: str, level: str, start: Pose, name: str | None = None, seed: int = 0, friction: float | None = None
+) -> SimEnvironment:
     spec = {"name": obj} if friction is None else {"name": obj, "friction": friction}
     model, physics = ("compliant", MEMBRANE) if dome == "compliant-membrane" else (dome, {})
     scenario = scenario_from_dict(
-        {"name": name or f"hard_{obj}_{dome}_{level}", "object": spec, "fidelity": level, "seed": seed,
-         "dome": model, "effects": ["contact", "friction"], "physics": physics}
+        {
+            "name": name or f"hard_{obj}_{dome}_{level}",
+            "object": spec,
+            "fidelity": level,
+            "seed": seed,
+            "dome": model,
+            "effects": ["contact", "friction"],
+            "physics": physics,
+        }
     )
     return SimEnvironment(scenario, start_pose=start)
 
@@ -107,10 +117,10 @@ def _flank_cycle_run(cycle_relaxation: float) -> list[int]:
     """The sweep's grid_5x5x2 slide probe at θ = −80° (twin.analysis.sweep); settle steps per frame."""
     from dataclasses import replace
 
-    from twin.runs.protocols import protocol_moves
-    from twin.runs.runner import chunk_moves
     from twin.analysis.sweep.knobs import full_settings
     from twin.analysis.sweep.probe import FULL_PROBE
+    from twin.runs.protocols import protocol_moves
+    from twin.runs.runner import chunk_moves
 
     setting = next(s for s in full_settings() if s.name == "grid_5x5x2")
     probe = replace(FULL_PROBE, slide_orientations_deg=(-80.0,))
@@ -193,7 +203,7 @@ def _spiral_tightest_turn(arc_mm: float = 27.0, step_mm: float = 3.0) -> tuple[n
     radius = p.centre_radius(ts) + p.width / 2  # radius of the outer edge about the pole (mm)
     tightest_obj = np.array(p.edge_point(float(ts[np.argmin(radius)]), +1.0))
     trace = builtin_stimulus("spiral").trace_path(1.0)
-    tail = trace[-int(round(arc_mm)) - 1::int(step_mm)]
+    tail = trace[-int(round(arc_mm)) - 1 :: int(step_mm)]
     flip = np.array([1.0, -1.0])  # object → work frame: (x, −y)
     return tail * flip, tightest_obj * flip
 
@@ -252,8 +262,9 @@ def test_broken_setup_raises_naming_scenario_step_pose_and_failure(dome, level, 
     with pytest.raises(PhysicsError) as info:
         env.move_to(Pose(54, 0, 4, 0, 0, 0))
     message = str(info.value)
-    assert re.search(r"\[broken_dome\] (step|increment) \d+ \(t = [\d.]+ s\) at pose x=[-\d.]+ y=[-\d.]+ z=[-\d.]+ mm",
-                     message)
+    assert re.search(
+        r"\[broken_dome\] (step|increment) \d+ \(t = [\d.]+ s\) at pose x=[-\d.]+ y=[-\d.]+ z=[-\d.]+ mm", message
+    )
     assert re.search(r"(pin moved|penetration|contact force|did not settle)", message)
 
 

@@ -1,4 +1,5 @@
 """Rendering: golden no-contact frame per GL backend, pins all found, overview image."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -7,11 +8,11 @@ import cv2
 import numpy as np
 import pytest
 
-from twin.world import gl
+from tests.golden.frames import GOLDEN_FRAMES
 from twin.core.scenario import load_scenario
 from twin.runs.sim_env import SimEnvironment, first_pose, render_scenario_view
 from twin.sensing.tracker import PinTracker
-from tests.golden.frames import GOLDEN_FRAMES
+from twin.world import gl
 
 GOLDEN_DIR = Path(__file__).resolve().parents[1] / "golden"
 FAILURES = GOLDEN_DIR / "failures"
@@ -27,7 +28,9 @@ def _rms(a: np.ndarray, b: np.ndarray) -> float:
 def test_golden_frame(name: str) -> None:
     expected_path = GOLDEN_DIR / gl.GL_BACKEND / f"{name}.png"
     if not expected_path.exists():
-        pytest.fail(f"no golden image for backend {gl.GL_BACKEND}: run tests/golden/regenerate.py with MUJOCO_GL={gl.GL_BACKEND}")
+        pytest.fail(
+            f"no golden image for backend {gl.GL_BACKEND}: run tests/golden/regenerate.py with MUJOCO_GL={gl.GL_BACKEND}"
+        )
     expected = cv2.imread(str(expected_path))[..., ::-1]
     actual = GOLDEN_FRAMES[name]()
     rms = _rms(actual, expected) if actual.shape == expected.shape else float("inf")
@@ -64,9 +67,9 @@ def test_frame_looks_like_a_tactip() -> None:
     frame = GOLDEN_FRAMES["no_contact"]()
     grey = cv2.cvtColor(frame, cv2.COLOR_RGB2GRAY)
     h, w = grey.shape
-    assert grey[0, 0] == 0 and grey[h - 1, w - 1] == 0          # outside the aperture: black
-    assert 5 < np.median(grey[h // 2 - 40: h // 2 + 40, w // 2 - 40: w // 2 + 40]) < 60   # dark skin
-    assert grey.max() > 200                                     # white pins
+    assert grey[0, 0] == 0 and grey[h - 1, w - 1] == 0  # outside the aperture: black
+    assert 5 < np.median(grey[h // 2 - 40 : h // 2 + 40, w // 2 - 40 : w // 2 + 40]) < 60  # dark skin
+    assert grey.max() > 200  # white pins
 
 
 def test_overview_image(tmp_path: Path) -> None:

@@ -5,6 +5,7 @@ distances in the 8 directions (twin.runs.protocols geometry; 0° = onto the obje
 along the edge). "Shift" = slide frame minus the tap at the same lateral position (px),
 averaged over pins and samples (twin.analysis.shear.shear_numbers).
 """
+
 from __future__ import annotations
 
 import itertools

@@ -1,15 +1,16 @@
 """The sub-grid skin layer (twin.world.dome.flex.skin) on the edge scene (twin.world.dome.testbed.edge_scene: box top
 face z = 0, straight edge along y at x = 0, box at x < 0; TacTip pointing down). No mocks."""
+
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from twin.world.dome.flex import FIDELITY_LEVELS
 from twin.core.errors import PhysicsError
-from twin.world.dome.testbed import edge_scene, sensor_down
-from twin.world.dome.flex.skin import SkinLayer
 from twin.core.sensor import TacTipGeometry
+from twin.world.dome.flex import FIDELITY_LEVELS
+from twin.world.dome.flex.skin import SkinLayer
+from twin.world.dome.testbed import edge_scene, sensor_down
 
 DEFAULT = FIDELITY_LEVELS["default"]
 

@@ -1,6 +1,6 @@
 """Stimulus geometry: built-in meshes, convex collision pieces, contour helpers, user files."""
-from __future__ import annotations
 
+from __future__ import annotations
 
 import mujoco
 import numpy as np
@@ -88,7 +88,8 @@ def test_stored_assets_equal_fresh_generation(tmp_path):
     assert fresh <= stored, "assets missing: run `python -m twin.tools.assets`"
     for rel in sorted(fresh):
         assert (tmp_path / rel).read_bytes() == (DEFAULT_ASSET_DIR / rel).read_bytes(), (
-            f"{rel} is stale: run `python -m twin.tools.assets`")
+            f"{rel} is stale: run `python -m twin.tools.assets`"
+        )
     stl = (DEFAULT_ASSET_DIR / "flower" / "flower.stl").read_bytes()
     assert b"MIT" in stl[:80] and not stl.startswith(b"solid")
     assert "Copyright (c) 2026 tactip-twin contributors" in (DEFAULT_ASSET_DIR / "LICENSE").read_text()
@@ -149,7 +150,7 @@ def test_spiral_is_open_from_outer_to_inner_end(stims):
     radius = np.hypot(*path.T)
     assert radius[0] > 75 and radius[-1] < 30  # winds inwards
     # counter-clockwise: polar angle increases by about two turns
-    turned = np.sum((np.diff(np.unwrap(np.arctan2(path[:, 1], path[:, 0])))))
+    turned = np.sum(np.diff(np.unwrap(np.arctan2(path[:, 1], path[:, 0]))))
     assert turned == pytest.approx(4 * np.pi, abs=0.5)
     assert s.distance_to_contour(path).max() < 1e-9
     for name in set(NAMES) - {"spiral"}:

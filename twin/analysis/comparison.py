@@ -2,6 +2,7 @@
 scenario — sim vs sim (two fidelity levels) or sim vs real (sim-to-real): which samples
 pair up, pin differences and correlation, image SSIM, path distance, perception error, and
 each run's orientation signal or along-edge drag, and two tap runs' edge figures. Text and plots: twin.tools.comparison_report."""
+
 from __future__ import annotations
 
 import json
@@ -38,7 +39,10 @@ def paired_runs(a: Run, b: Run) -> tuple[list[tuple[int, int]], str]:
     paired: closed-loop (contour) runs by step, since their targets differ; the others by
     target pose (pair_samples). Raises UserError when they share none."""
     if a.meta["scenario"]["protocol"]["kind"] == "contour":
-        pairs, pairing = [(i, i) for i in range(min(len(a.samples), len(b.samples)))], "by step (closed loop: targets differ)"
+        pairs, pairing = (
+            [(i, i) for i in range(min(len(a.samples), len(b.samples)))],
+            "by step (closed loop: targets differ)",
+        )
     else:
         pairs, pairing = pair_samples(a, b), "by target pose"
     if not pairs:
@@ -82,17 +86,26 @@ def perception_error(run: Run, model) -> dict | None:
     if not (np.all(np.isfinite(theta)) and np.all(np.isfinite(lateral))) or not len(theta):
         return None
     pred = model.predict(run.pins_px, resolution=run.resolution)
-    return {"orientation_rms_deg": float(np.sqrt(np.mean(angle_error_deg(pred.theta_deg, theta) ** 2))),
-            "lateral_rms_mm": float(np.sqrt(np.mean((pred.lateral_mm - lateral) ** 2))),
-            "ok_fraction": float(np.mean(pred.ok))}
+    return {
+        "orientation_rms_deg": float(np.sqrt(np.mean(angle_error_deg(pred.theta_deg, theta) ** 2))),
+        "lateral_rms_mm": float(np.sqrt(np.mean((pred.lateral_mm - lateral) ** 2))),
+        "ok_fraction": float(np.mean(pred.ok)),
+    }
 
 
 #: tap protocols on the straight edge whose runs compare by the edge figures even unpaired
 EDGE_TAP_KINDS = ("taps", "sheared_taps")
 
 
-def compare_runs(dir_a: Path, dir_b: Path, out: Path, max_ssim_frames: int = 200, model_path: Path | None = None,
-                 slides_a: Path | None = None, slides_b: Path | None = None) -> dict:
+def compare_runs(
+    dir_a: Path,
+    dir_b: Path,
+    out: Path,
+    max_ssim_frames: int = 200,
+    model_path: Path | None = None,
+    slides_a: Path | None = None,
+    slides_b: Path | None = None,
+) -> dict:
     """Pair the runs' samples by target pose and write comparison.json to `out` (the plots:
     twin.tools.comparison_report).
 
@@ -111,12 +124,23 @@ def compare_runs(dir_a: Path, dir_b: Path, out: Path, max_ssim_frames: int = 200
     kind, kind_b = a.meta["scenario"]["protocol"]["kind"], b.meta["scenario"]["protocol"]["kind"]
     edge_taps = kind in EDGE_TAP_KINDS and kind_b in EDGE_TAP_KINDS
     if kind != kind_b and not edge_taps:
-        raise UserError(f"{dir_a} ({kind}) and {dir_b} ({b.meta['scenario']['protocol']['kind']}) are different protocols")
-    result: dict = {"run_a": str(dir_a), "run_b": str(dir_b), "backend_a": a.meta["backend"], "backend_b": b.meta["backend"],
-                    "fidelity_a": a.meta["scenario"]["fidelity"], "fidelity_b": b.meta["scenario"]["fidelity"],
-                    "scenario_a": name_a, "scenario_b": name_b, "protocol": kind,
-                    "state_a": a.state, "state_b": b.state,
-                    "unfinished": [n for n in (a.unfinished_note(), b.unfinished_note()) if n]}
+        raise UserError(
+            f"{dir_a} ({kind}) and {dir_b} ({b.meta['scenario']['protocol']['kind']}) are different protocols"
+        )
+    result: dict = {
+        "run_a": str(dir_a),
+        "run_b": str(dir_b),
+        "backend_a": a.meta["backend"],
+        "backend_b": b.meta["backend"],
+        "fidelity_a": a.meta["scenario"]["fidelity"],
+        "fidelity_b": b.meta["scenario"]["fidelity"],
+        "scenario_a": name_a,
+        "scenario_b": name_b,
+        "protocol": kind,
+        "state_a": a.state,
+        "state_b": b.state,
+        "unfinished": [n for n in (a.unfinished_note(), b.unfinished_note()) if n],
+    }
     if kind == "contour":
         result["path_distance"] = _path_distance(a, b)
         for tag, run in (("a", a), ("b", b)):
@@ -131,8 +155,10 @@ def compare_runs(dir_a: Path, dir_b: Path, out: Path, max_ssim_frames: int = 200
     elif kind == "slides":  # how far each sensor's skin is dragged along the edge
         result["along_edge_drag_px"] = {"a": along_edge_drag_px(a), "b": along_edge_drag_px(b)}
     if edge_taps:  # what each sensor's taps carry of the edge, and how a slide drags its pins
-        result["edge_figures"] = {tag: edge_figures(run, None if slides is None else load_run(slides))
-                                  for tag, run, slides in (("a", a, slides_a), ("b", b, slides_b))}
+        result["edge_figures"] = {
+            tag: edge_figures(run, None if slides is None else load_run(slides))
+            for tag, run, slides in (("a", a, slides_a), ("b", b, slides_b))
+        }
         in_contact = [(i, j) for i, j in pair_samples(a, b) if not a.samples[i]["labels"].get("no_contact")]
         if kind != kind_b or not in_contact or a.resolution != b.resolution:
             result.update(pairing=None, n_pairs=0, n_a=len(a.samples), n_b=len(b.samples))
@@ -147,17 +173,26 @@ def compare_runs(dir_a: Path, dir_b: Path, out: Path, max_ssim_frames: int = 200
         va, vb = disp_a[:, k].ravel(), disp_b[:, k].ravel()
         if np.std(va) > 1e-9 and np.std(vb) > 1e-9:
             corr.append(float(np.corrcoef(va, vb)[0, 1]))
-    result.update(n_pairs=len(pairs), n_a=len(a.samples), n_b=len(b.samples),
-                  pin_rms_difference_px=float(np.sqrt(np.nanmean(diff**2))),
-                  pin_displacement_correlation={"mean": float(np.mean(corr)) if corr else None,
-                                                "min": float(np.min(corr)) if corr else None, "pins": len(corr)})
+    result.update(
+        n_pairs=len(pairs),
+        n_a=len(a.samples),
+        n_b=len(b.samples),
+        pin_rms_difference_px=float(np.sqrt(np.nanmean(diff**2))),
+        pin_displacement_correlation={
+            "mean": float(np.mean(corr)) if corr else None,
+            "min": float(np.min(corr)) if corr else None,
+            "pins": len(corr),
+        },
+    )
     ssims = []
     step = max(1, len(pairs) // max_ssim_frames)
     for i, j in pairs[::step]:
         fa, fb = a.frame(i), b.frame(j)
         if fa is not None and fb is not None:
             ssims.append(_ssim(fa, fb))
-    result["ssim"] = {"mean": float(np.mean(ssims)), "min": float(np.min(ssims)), "frames": len(ssims)} if ssims else None
+    result["ssim"] = (
+        {"mean": float(np.mean(ssims)), "min": float(np.min(ssims)), "frames": len(ssims)} if ssims else None
+    )
     out.mkdir(parents=True, exist_ok=True)
     (out / "comparison.json").write_text(json.dumps(jsonable(result), indent=1, default=float))
     return result

@@ -24,6 +24,7 @@ its PCs taken over its frames turned by the pin grid's six-fold symmetry (a 60°
 the rest pins about their centre maps the grid onto itself), so PC2–PC3 can turn with θ.
 Only samples with every pin found and in contact count.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -63,10 +64,10 @@ class BinFit:
     lateral_mm: float
     n: int
     gradients: dict[str, np.ndarray]  # term -> (254,) px per unit of the term
-    spread_px: dict[str, float]       # term -> RMS over samples and pins of the term's deviation (px)
-    mean_z: np.ndarray                # (254,) px: the bin's mean frame
-    residual_px: float                # RMS pin distance left unexplained
-    tap_z: np.ndarray                 # (n, 254) px: the bin's frames with the fitted slide and twist taken out
+    spread_px: dict[str, float]  # term -> RMS over samples and pins of the term's deviation (px)
+    mean_z: np.ndarray  # (254,) px: the bin's mean frame
+    residual_px: float  # RMS pin distance left unexplained
+    tap_z: np.ndarray  # (n, 254) px: the bin's frames with the fitted slide and twist taken out
 
 
 def _pin_rms(vectors: np.ndarray) -> float:
@@ -96,8 +97,17 @@ def sheared_fits(run: Run, width_mm: float = 1.0, min_samples: int = 20) -> list
         spread = {t: _pin_rms(np.outer(x[:, k], coef[1 + k])) for k, t in enumerate(SHEARED_TERMS)}
         spread["slides"] = _pin_rms(x[:, 1:4] @ coef[2:5])
         residual = _pin_rms(z[m] - coef[0] - x @ coef[1:])
-        fits.append(BinFit(float(c) + 0.0, int(m.sum()), gradients, spread, z[m].mean(axis=0), residual,
-                           z[m] - x[:, 1:4] @ coef[2:5]))
+        fits.append(
+            BinFit(
+                float(c) + 0.0,
+                int(m.sum()),
+                gradients,
+                spread,
+                z[m].mean(axis=0),
+                residual,
+                z[m] - x[:, 1:4] @ coef[2:5],
+            )
+        )
     return fits
 
 
@@ -117,8 +127,14 @@ def signal_profile(run: Run) -> dict[float, dict[float, float]]:
 def drag_over_signal(run: Run) -> dict[float, dict[str, float]]:
     """Sheared taps, per lateral bin: {"drag_px": the fitted slide and twist terms' spread,
     "signal_px": the θ term's, "ratio": drag / signal}."""
-    return {f.lateral_mm: {"drag_px": f.spread_px["slides"], "signal_px": f.spread_px["theta_deg"],
-                           "ratio": f.spread_px["slides"] / f.spread_px["theta_deg"]} for f in sheared_fits(run)}
+    return {
+        f.lateral_mm: {
+            "drag_px": f.spread_px["slides"],
+            "signal_px": f.spread_px["theta_deg"],
+            "ratio": f.spread_px["slides"] / f.spread_px["theta_deg"],
+        }
+        for f in sheared_fits(run)
+    }
 
 
 def _subset(run: Run, mask: np.ndarray) -> Run:
@@ -139,8 +155,10 @@ def grid_turn(rest_px: np.ndarray, turns: int = 1) -> tuple[np.ndarray, np.ndarr
     spacing = float(np.median(np.sort(np.linalg.norm(rest_px[:, None] - rest_px[None], axis=-1), axis=1)[:, 1]))
     off = distance[np.arange(len(perm)), perm].max()
     if len(set(perm.tolist())) != len(perm) or off > SYMMETRY_TOLERANCE * spacing:
-        raise UserError(f"a {60 * turns}° turn does not map the rest pins onto themselves "
-                        f"({off:.1f} px off, pin spacing {spacing:.1f} px)")
+        raise UserError(
+            f"a {60 * turns}° turn does not map the rest pins onto themselves "
+            f"({off:.1f} px off, pin spacing {spacing:.1f} px)"
+        )
     return perm, rot, centre
 
 
@@ -159,10 +177,10 @@ def turned_frames(pins_px: np.ndarray, rest_px: np.ndarray) -> np.ndarray:
 class TapPCs:
     """A tap set's first three PCs; PC2–PC3 is the plane the paper reads the orientation in."""
 
-    mean: np.ndarray          # (254,) px
-    components: np.ndarray    # (3, 254)
-    explained: np.ndarray     # (3,) fractions
-    turned: bool              # over the frames turned by the grid's symmetry
+    mean: np.ndarray  # (254,) px
+    components: np.ndarray  # (3, 254)
+    explained: np.ndarray  # (3,) fractions
+    turned: bool  # over the frames turned by the grid's symmetry
     pair: tuple[int, int] = (1, 2)  # PC2, PC3 (0-based)
 
     def project(self, z: np.ndarray) -> np.ndarray:
@@ -212,15 +230,19 @@ def along_edge_turn_sheared(run: Run, pcs: TapPCs | None = None) -> dict[float, 
         g_a, g_t = f.gradients["slide_along_mm"], f.gradients["theta_deg"]
         turn = _wrap(pcs.theta_pc23_deg(f.mean_z + g_a) - pcs.theta_pc23_deg(f.mean_z))[0]
         p = pcs.in_plane(f.tap_z)
-        out[f.lateral_mm] = {"raw_deg_per_mm": abs(float(g_a @ g_t / (g_t @ g_t))),
-                             "pc23_deg_per_mm": abs(float(turn)), "plane_share": pcs.plane_share(g_a),
-                             "radius_px": float(np.sqrt(np.mean(np.sum(p**2, axis=1)))),
-                             "translation_share": translation_share(g_a)}
+        out[f.lateral_mm] = {
+            "raw_deg_per_mm": abs(float(g_a @ g_t / (g_t @ g_t))),
+            "pc23_deg_per_mm": abs(float(turn)),
+            "plane_share": pcs.plane_share(g_a),
+            "radius_px": float(np.sqrt(np.mean(np.sum(p**2, axis=1)))),
+            "translation_share": translation_share(g_a),
+        }
     return out
 
 
-def along_edge_turn_slides(taps: Run, slides: Run, lateral_mm: float | None = None,
-                           pcs: TapPCs | None = None) -> dict[str, float] | None:
+def along_edge_turn_slides(
+    taps: Run, slides: Run, lateral_mm: float | None = None, pcs: TapPCs | None = None
+) -> dict[str, float] | None:
     """The same figures from a slides run's along-edge slides (90°, 270°), their first step
     (sample 0 → 1), with the PCs and orientation direction of a plain tap run: the taps at
     the slides' lateral position, θ ± one orientation step, averaged over depths.
@@ -244,7 +266,9 @@ def along_edge_turn_slides(taps: Run, slides: Run, lateral_mm: float | None = No
             l0 = lateral[i] if lateral_mm is None else lateral_mm
             if abs(lateral[i] - l0) > 1e-6:
                 continue
-            length = float(np.linalg.norm(np.subtract(slides.samples[j]["target"][:2], slides.samples[i]["target"][:2])))
+            length = float(
+                np.linalg.norm(np.subtract(slides.samples[j]["target"][:2], slides.samples[i]["target"][:2]))
+            )
             g_a = (z[j] - z[i]) / length
             turns.append(abs(_wrap(pcs.theta_pc23_deg(z[j]) - pcs.theta_pc23_deg(z[i]))[0]) / length)
             energy_in += pcs.plane_share(g_a) * float(g_a @ g_a)
@@ -260,9 +284,13 @@ def along_edge_turn_slides(taps: Run, slides: Run, lateral_mm: float | None = No
                     raw.append(abs(float(g_a @ g_t / (g_t @ g_t))))
     if not turns:
         return None
-    return {"raw_deg_per_mm": float(np.mean(raw)) if raw else None, "pc23_deg_per_mm": float(np.mean(turns)),
-            "plane_share": energy_in / energy, "radius_px": float(np.sqrt(np.mean(np.square(radius)))),
-            "translation_share": shift / energy}
+    return {
+        "raw_deg_per_mm": float(np.mean(raw)) if raw else None,
+        "pc23_deg_per_mm": float(np.mean(turns)),
+        "plane_share": energy_in / energy,
+        "radius_px": float(np.sqrt(np.mean(np.square(radius)))),
+        "translation_share": shift / energy,
+    }
 
 
 def translation_share(field: np.ndarray) -> float:
@@ -320,12 +348,16 @@ def edge_figures(taps: Run, slides: Run | None = None, reach_at: tuple[float, ..
     drag_over_signal and along_edge (l → figures; sheared taps, or plain taps with slides)."""
     pcs = tap_pcs(taps)
     lateral = taps.label("lateral_mm")[usable(taps)]
-    figures = {"name": taps.meta["scenario"]["name"], "kind": taps.meta["scenario"]["protocol"]["kind"],
-               "signal_profile": signal_profile(taps),
-               "reach": {l: reach_profile(taps, l) for l in reach_at
-                         if np.any(np.abs(lateral - l) <= 0.5 + 1e-9)},
-               "pcs_explained": pcs.explained.tolist(), "pcs_turned": pcs.turned,
-               "drag_over_signal": {}, "along_edge": {}}
+    figures = {
+        "name": taps.meta["scenario"]["name"],
+        "kind": taps.meta["scenario"]["protocol"]["kind"],
+        "signal_profile": signal_profile(taps),
+        "reach": {l: reach_profile(taps, l) for l in reach_at if np.any(np.abs(lateral - l) <= 0.5 + 1e-9)},
+        "pcs_explained": pcs.explained.tolist(),
+        "pcs_turned": pcs.turned,
+        "drag_over_signal": {},
+        "along_edge": {},
+    }
     if is_sheared(taps):
         figures["drag_over_signal"] = drag_over_signal(taps)
         figures["along_edge"] = along_edge_turn_sheared(taps, pcs)

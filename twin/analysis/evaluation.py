@@ -5,6 +5,7 @@ along-edge cells weigh against each other: the taps' orientation signal per late
 position and the slides' drag (both in px, for a twin's runs and a rig's alike). Tested on
 a tap run instead (held-out taps, scenarios/taps_heldout.yaml), the orientation and
 lateral errors per lateral position. Text and figures: twin.tools.evaluation_report."""
+
 from __future__ import annotations
 
 import csv
@@ -21,10 +22,26 @@ from twin.sensing.perception import angle_error_deg, pca_fit, pins_to_vectors
 DIRECTIONS = (0, 45, 90, 135, 180, 225, 270, 315)
 #: Table I of the paper (RMS orientation error, deg): direction → (On, Off); 90°/270° On only.
 PAPER_TABLE_I = {
-    "GP baseline": {0: (26.01, 16.59), 45: (2.94, 8.02), 90: (50.68, None), 135: (92.37, 99.59),
-                    180: (127.18, 145.27), 225: (141.56, 153.39), 270: (90.32, None), 315: (50.10, 31.97)},
-    "PCA + GP": {0: (49.41, 10.17), 45: (24.17, 8.24), 90: (3.27, None), 135: (22.74, 10.82),
-                 180: (46.74, 14.61), 225: (52.67, 11.98), 270: (12.66, None), 315: (51.87, 12.77)},
+    "GP baseline": {
+        0: (26.01, 16.59),
+        45: (2.94, 8.02),
+        90: (50.68, None),
+        135: (92.37, 99.59),
+        180: (127.18, 145.27),
+        225: (141.56, 153.39),
+        270: (90.32, None),
+        315: (50.10, 31.97),
+    },
+    "PCA + GP": {
+        0: (49.41, 10.17),
+        45: (24.17, 8.24),
+        90: (3.27, None),
+        135: (22.74, 10.82),
+        180: (46.74, 14.61),
+        225: (52.67, 11.98),
+        270: (12.66, None),
+        315: (51.87, 12.77),
+    },
 }
 PAPER_VARIANCE_3PC = 0.883
 PAPER_LATERAL_RMS_MM = 2.15
@@ -42,8 +59,10 @@ def table_i(test: Run, predictions: dict[str, np.ndarray]) -> dict:
     table = {}
     for name, theta_hat in predictions.items():
         err = angle_error_deg(theta_hat, theta)
-        table[name] = {int(d): {"on": _rms(err[(direction == d) & on]), "off": _rms(err[(direction == d) & ~on])}
-                       for d in DIRECTIONS}
+        table[name] = {
+            int(d): {"on": _rms(err[(direction == d) & on]), "off": _rms(err[(direction == d) & ~on])}
+            for d in DIRECTIONS
+        }
     return table
 
 
@@ -58,9 +77,14 @@ def heldout_table(test: Run, predictions: dict) -> dict:
     for name, pred in predictions.items():
         theta_err = angle_error_deg(pred.theta_deg, theta)
         lateral_err = pred.lateral_mm - lateral
-        table[name] = {float(l): {"theta_rms_deg": _rms(theta_err[group == l]),
-                                  "lateral_rms_mm": _rms(lateral_err[group == l]), "n": int(np.sum(group == l))}
-                       for l in sorted(set(group.tolist()), reverse=True)}
+        table[name] = {
+            float(l): {
+                "theta_rms_deg": _rms(theta_err[group == l]),
+                "lateral_rms_mm": _rms(lateral_err[group == l]),
+                "n": int(np.sum(group == l)),
+            }
+            for l in sorted(set(group.tolist()), reverse=True)
+        }
     return table
 
 
@@ -114,10 +138,15 @@ def evaluate(train_dir: Path, test_dir: Path, out: Path, seed: int = 0) -> dict:
     models = {"PCA + GP": train_from_run(train, "pca", seed), "GP baseline": train_from_run(train, "baseline", seed)}
     preds = {name: m.predict(test.pins_px, resolution=test.resolution) for name, m in models.items()}
     summary = {
-        "train_run": str(train_dir), "test_run": str(test_dir), "n_train": len(train.samples), "n_test": len(test.samples),
+        "train_run": str(train_dir),
+        "test_run": str(test_dir),
+        "n_train": len(train.samples),
+        "n_test": len(test.samples),
         "run_states": {"train": train.state, "test": test.state},
         "unfinished": [n for n in (train.unfinished_note(), test.unfinished_note()) if n],
-        "orientation_rms_deg": {n: _rms(angle_error_deg(p.theta_deg, test.label("theta_deg"))) for n, p in preds.items()},
+        "orientation_rms_deg": {
+            n: _rms(angle_error_deg(p.theta_deg, test.label("theta_deg"))) for n, p in preds.items()
+        },
         "lateral_rms_mm": {n: _rms(p.lateral_mm - test.label("lateral_mm")) for n, p in preds.items()},
     }
     if taps:
@@ -130,13 +159,25 @@ def evaluate(train_dir: Path, test_dir: Path, out: Path, seed: int = 0) -> dict:
         "variance_explained_3pc": float(np.sum(pca.variance_explained[:3])),
         "orientation_signal_px": orientation_signal_px(train),
         "along_edge_drag_px": along_edge_drag_px(test),
-        "paper": {"table_i": PAPER_TABLE_I, "variance_explained_3pc": PAPER_VARIANCE_3PC,
-                  "lateral_rms_mm": PAPER_LATERAL_RMS_MM},
+        "paper": {
+            "table_i": PAPER_TABLE_I,
+            "variance_explained_3pc": PAPER_VARIANCE_3PC,
+            "lateral_rms_mm": PAPER_LATERAL_RMS_MM,
+        },
         "training": {n: m.training_summary for n, m in models.items()},
     }
-    _write_results(out, "table_i", result, ["model", "direction_deg", "group", "rms_orientation_error_deg", "paper_deg"],
-                   [[name, d, group, rows[d][group], PAPER_TABLE_I[name][d][i]]
-                    for name, rows in table.items() for d in DIRECTIONS for i, group in enumerate(("on", "off"))])
+    _write_results(
+        out,
+        "table_i",
+        result,
+        ["model", "direction_deg", "group", "rms_orientation_error_deg", "paper_deg"],
+        [
+            [name, d, group, rows[d][group], PAPER_TABLE_I[name][d][i]]
+            for name, rows in table.items()
+            for d in DIRECTIONS
+            for i, group in enumerate(("on", "off"))
+        ],
+    )
     for name, m in models.items():
         m.save(out / f"model_{'pca' if name == 'PCA + GP' else 'baseline'}.npz")
     return result
@@ -146,9 +187,17 @@ def _write_heldout(summary: dict, table: dict, out: Path) -> dict:
     """The held-out taps' results (`summary` with the per-lateral `table`): heldout.json and
     heldout.csv in `out`."""
     result = {**summary, "heldout_by_lateral_mm": table}
-    _write_results(out, "heldout", result, ["model", "lateral_mm", "theta_rms_deg", "lateral_rms_mm", "n"],
-                   [[name, l, row["theta_rms_deg"], row["lateral_rms_mm"], row["n"]]
-                    for name, rows in table.items() for l, row in rows.items()])
+    _write_results(
+        out,
+        "heldout",
+        result,
+        ["model", "lateral_mm", "theta_rms_deg", "lateral_rms_mm", "n"],
+        [
+            [name, l, row["theta_rms_deg"], row["lateral_rms_mm"], row["n"]]
+            for name, rows in table.items()
+            for l, row in rows.items()
+        ],
+    )
     return result
 
 
@@ -169,5 +218,9 @@ def pca_projections(train: Run, test: Run) -> dict[str, np.ndarray]:
     z_test = pins_to_vectors(test.pins_px)
     mean_t, comps_t, _ = pca_fit(z_test, 5)
     mean_tap, comps_tap, _ = pca_fit(pins_to_vectors(train.pins_px), 3)
-    return {"own": (z_test - mean_t) @ comps_t.T, "tap": (z_test - mean_tap) @ comps_tap.T,
-            "theta_deg": test.label("theta_deg"), "direction_deg": test.label("direction_deg")}
+    return {
+        "own": (z_test - mean_t) @ comps_t.T,
+        "tap": (z_test - mean_tap) @ comps_tap.T,
+        "theta_deg": test.label("theta_deg"),
+        "direction_deg": test.label("direction_deg"),
+    }

@@ -21,6 +21,7 @@ pin displacement (px) from the static tap at the same lateral position (tap trac
 interpolated linearly in l); per direction we report its mean over pins and samples
 (u, v components and the mean magnitude).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -37,10 +38,15 @@ CENTRAL_PIN = 0  # pin order of twin.core.sensor: the central pin first
 def _environment(fidelity: str, friction: bool, dome: str = "flex"):
 
     effects = ["contact", "friction"] if friction else ["contact"]
-    scenario = scenario_from_dict({
-        "name": f"shear_figure_{dome}_{fidelity}_{'friction' if friction else 'frictionless'}",
-        "object": {"name": "rectangle"}, "fidelity": fidelity, "effects": effects, "dome": dome,
-    })
+    scenario = scenario_from_dict(
+        {
+            "name": f"shear_figure_{dome}_{fidelity}_{'friction' if friction else 'frictionless'}",
+            "object": {"name": "rectangle"},
+            "fidelity": fidelity,
+            "effects": effects,
+            "dome": dome,
+        }
+    )
     return SimEnvironment(scenario, start_pose=hover_over(60.0, 0.0, 0.0))
 
 
@@ -66,8 +72,9 @@ def collect_shear_data(fidelity: str = "default", friction: bool = True, dome: s
         for direction in DIRECTIONS_DEG:
             env.reset()
             lateral, pins = [], []
-            for move in slide_moves(SlideProtocol(orientations_deg=[0.0], directions_deg=[direction],
-                                                  depth_mm=DEPTH_MM)):
+            for move in slide_moves(
+                SlideProtocol(orientations_deg=[0.0], directions_deg=[direction], depth_mm=DEPTH_MM)
+            ):
                 env.move_to(move.pose, move.speed_mm_s)
                 if move.record:
                     lateral.append(move.labels["lateral_mm"])
@@ -75,8 +82,12 @@ def collect_shear_data(fidelity: str = "default", friction: bool = True, dome: s
             slides[direction] = {"lateral_mm": np.array(lateral), "pins_px": np.array(pins)}
     finally:
         env.close()
-    return {"tap_lateral_mm": np.array(tap_lateral), "tap_pins_px": np.array(tap_pins), "slides": slides,
-            "rest_pins_px": np.asarray(rest)}
+    return {
+        "tap_lateral_mm": np.array(tap_lateral),
+        "tap_pins_px": np.array(tap_pins),
+        "slides": slides,
+        "rest_pins_px": np.asarray(rest),
+    }
 
 
 def tap_pins_at(data: dict, lateral_mm: np.ndarray) -> np.ndarray:

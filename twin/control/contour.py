@@ -3,6 +3,7 @@ perceive θ̂ and l̂ → step with the controller; it stops when the loop close
 spiral's end, when the contour is lost or at the step limit. Recording, scoring and
 plotting a run, and building the loop from a scenario: twin.runs.contour_run.
 """
+
 from __future__ import annotations
 
 from collections.abc import Iterator
@@ -68,8 +69,16 @@ class ContourFollower:
     PerceptionModel. controller: twin.control.controllers.load_controller's.
     """
 
-    def __init__(self, env: Environment, protocol: ContourProtocol, model, stimulus: Stimulus, controller: Controller,
-                 clock=no_clock, controller_name: str | None = None) -> None:
+    def __init__(
+        self,
+        env: Environment,
+        protocol: ContourProtocol,
+        model,
+        stimulus: Stimulus,
+        controller: Controller,
+        clock=no_clock,
+        controller_name: str | None = None,
+    ) -> None:
         self.env, self.protocol, self.model, self.stimulus, self.clock = env, protocol, model, stimulus, clock
         self.controller = controller
         #: how errors name the controller: its name in the scenario, else its class
@@ -86,8 +95,10 @@ class ContourFollower:
             answer = getattr(self.controller, method)(argument)
         except (Exception, SystemExit) as err:  # noqa: BLE001  (a plug-in is the user's code: its faults are named)
             text = str(err).splitlines()[0][:120] if str(err).strip() else ""
-            raise UserError(f"controller {self._controller_name!r}: {method}() raised {type(err).__name__}"
-                            f"{': ' + text if text else ''}") from None
+            raise UserError(
+                f"controller {self._controller_name!r}: {method}() raised {type(err).__name__}"
+                f"{': ' + text if text else ''}"
+            ) from None
         if method == "next_pose" and not (isinstance(answer, Pose) and _finite(answer)):
             got = type(answer).__name__ if not isinstance(answer, Pose) else "a Pose with NaN or ±inf"
             raise UserError(f"controller {self._controller_name!r}: next_pose() must return a finite Pose, got {got}")
@@ -149,5 +160,3 @@ class ContourFollower:
                 break
             travelled += float(np.hypot(target.x - obs.pose.x, target.y - obs.pose.y))
         env.move_to(hover_over(obs.pose.x, obs.pose.y, p.orientation_deg), p.speed_mm_s)
-
-

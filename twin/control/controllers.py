@@ -5,6 +5,7 @@ Angles in the work frame (deg, atan2 of work x, y); positions in mm. The edge's
 outward normal as perceived: ψ̂ = γ − θ̂, because the tap set labels θ as the sensor's
 orientation γ over an edge whose outward normal is at 0° in the work frame.
 """
+
 from __future__ import annotations
 
 import importlib.util
@@ -28,10 +29,10 @@ TRAVEL_TURN_DEG = -90.0
 class Percept:
     """What the controller sees at one step."""
 
-    theta_deg: float        # θ̂, perceived sensor orientation relative to the edge (deg)
-    lateral_mm: float       # l̂, perceived lateral position (mm, + off the object)
-    ok: bool                # False: no contact or too many pins missing
-    pose: Pose              # measured sensor pose (work frame)
+    theta_deg: float  # θ̂, perceived sensor orientation relative to the edge (deg)
+    lateral_mm: float  # l̂, perceived lateral position (mm, + off the object)
+    ok: bool  # False: no contact or too many pins missing
+    pose: Pose  # measured sensor pose (work frame)
 
 
 class Controller(Protocol):
@@ -87,7 +88,7 @@ class PaperController:
         return self._normal_deg
 
 
-def load_controller(spec: "str | Controller", protocol, base_dir: Path | None = None) -> Controller:
+def load_controller(spec: str | Controller, protocol, base_dir: Path | None = None) -> Controller:
     """A controller object (anything with `reset` and `next_pose`) as it is, or one named
     by `paper` or `path/to/file.py:ClassName` (constructed with the contour protocol's
     step_mm, gain and lateral_target_mm as keyword arguments if it accepts them)."""

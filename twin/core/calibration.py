@@ -18,6 +18,7 @@ Pixels refer to the camera resolution `camera.width × camera.height`; a scenari
 another resolution of the same camera gets them rescaled (CameraModel.rescale_px).
 Every numeric field has bounds; errors name the file, the field and the value (exit 2).
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -38,9 +39,15 @@ DOME_MATERIAL: dict[str, tuple[str, float, float, str]] = {
     "young_kpa": ("kPa", 1.0, 2000.0, "effective Young's modulus of the skin + gel solid"),
     "poisson": ("–", 0.0, 0.5, "Poisson's ratio of the skin + gel solid (the flex dome needs ≤ 0.49)"),
     "membrane_young_mpa": ("MPa", 0.0, 10.0, "Young's modulus of the skin membrane (0 = off)"),
-    "skin_held_deg": ("deg", 65.0, 90.0, "compliant dome: where the base holds the skin, from the apex (90 = the "
-                      "equator; at least the contact cap's 65)"),
+    "skin_held_deg": (
+        "deg",
+        65.0,
+        90.0,
+        "compliant dome: where the base holds the skin, from the apex (90 = the "
+        "equator; at least the contact cap's 65)",
+    ),
 }
+
 
 class Distortion(StrictModel):
     """OpenCV radial (k1, k2) and tangential (p1, p2) distortion coefficients (–)."""
@@ -57,8 +64,9 @@ class CameraCalibration(StrictModel):
 
     width: int = bounded(64, 4096, "px", "the resolution the pixel values refer to", 640)
     height: int = bounded(48, 4096, "px", "image height", 480)
-    focal_px: float | None = Field(default=None, gt=50.0, le=20000.0,
-                                   description="focal length (px; (50, 20000]); None = from the field of view")
+    focal_px: float | None = Field(
+        default=None, gt=50.0, le=20000.0, description="focal length (px; (50, 20000]); None = from the field of view"
+    )
     principal_point_px: bounded_list(0.0, 4096.0, "px", length=2) | None = None
     distortion: Distortion = Distortion()
     offset_mm: bounded_list(-5.0, 5.0, "mm", length=3) = [0.0, 0.0, 0.0]
@@ -74,8 +82,13 @@ class Calibration(StrictModel):
     not given keeps the twin's nominal value."""
 
     camera: CameraCalibration = CameraCalibration()
-    rest_pin_offsets_px: Annotated[list[bounded_list(-REST_OFFSET_LIMIT_PX, REST_OFFSET_LIMIT_PX, "px", length=2)],
-                                   Field(min_length=N_PINS, max_length=N_PINS)] | None = None
+    rest_pin_offsets_px: (
+        Annotated[
+            list[bounded_list(-REST_OFFSET_LIMIT_PX, REST_OFFSET_LIMIT_PX, "px", length=2)],
+            Field(min_length=N_PINS, max_length=N_PINS),
+        ]
+        | None
+    ) = None
     dome_material: dict[str, float] = {}
     friction: float | None = bounded(0.0, 3.0, "dimensionless", "skin–stimulus Coulomb coefficient", None)
     tcp_offset_mm: bounded_list(-20.0, 20.0, "mm", length=3) = [0.0, 0.0, 0.0]
@@ -98,16 +111,27 @@ class Calibration(StrictModel):
         c = self.camera
         scale = nominal.width / c.width
         if abs(nominal.height / c.height - scale) > 1e-9:
-            raise UserError(f"calibration camera {c.width}×{c.height} and scenario camera {nominal.width}×{nominal.height} "
-                            "have different aspect ratios: not the same camera")
+            raise UserError(
+                f"calibration camera {c.width}×{c.height} and scenario camera {nominal.width}×{nominal.height} "
+                "have different aspect ratios: not the same camera"
+            )
         focal = None if c.focal_px is None else c.focal_px * scale
         centre = None
         if c.principal_point_px is not None:
             centre = tuple(float(v) for v in (np.asarray(c.principal_point_px) + 0.5) * scale - 0.5)
         d = c.distortion
-        return CameraModel(nominal.width, nominal.height, nominal.fov_y_deg, nominal.aperture_fraction, nominal.geometry,
-                           focal_override_px=focal, principal_point_px=centre, distortion=(d.k1, d.k2, d.p1, d.p2),
-                           offset_mm=tuple(c.offset_mm), rotation_deg=tuple(c.rotation_deg))
+        return CameraModel(
+            nominal.width,
+            nominal.height,
+            nominal.fov_y_deg,
+            nominal.aperture_fraction,
+            nominal.geometry,
+            focal_override_px=focal,
+            principal_point_px=centre,
+            distortion=(d.k1, d.k2, d.p1, d.p2),
+            offset_mm=tuple(c.offset_mm),
+            rotation_deg=tuple(c.rotation_deg),
+        )
 
     def rest_offsets_px(self, width: int) -> np.ndarray:
         """(127, 2) px rest-layout offsets at a camera `width` px wide (zeros when none)."""

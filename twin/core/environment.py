@@ -4,6 +4,7 @@ Everything downstream of `Observation` (tracker, perception, controller, recordi
 the same code for both backends. Units follow docs/conventions.md: poses in mm/deg in
 the scenario's work frame, pins in px, time in s.
 """
+
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
@@ -76,7 +77,7 @@ class Environment(ABC):
         self.move_to(pose, speed_mm_s)
         return self.observe()
 
-    def __enter__(self) -> "Environment":
+    def __enter__(self) -> Environment:
         return self
 
     def __exit__(self, *exc) -> None:

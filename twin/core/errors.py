@@ -1,4 +1,5 @@
 """Exceptions shared by every stage. The CLI maps UserError to exit code 2."""
+
 from __future__ import annotations
 
 

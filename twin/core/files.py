@@ -1,5 +1,6 @@
 """Writing a file whole or not at all: under a temporary name in the same folder, then
 renamed over the target, so a reader, a kill or a full disk never leaves half of one."""
+
 from __future__ import annotations
 
 import contextlib

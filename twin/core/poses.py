@@ -4,6 +4,7 @@ A pose is (x, y, z, α, β, γ): position in mm and extrinsic XYZ Euler angles i
 (R = Rz(γ)·Ry(β)·Rx(α)), of the tool frame (TCP at the dome apex) in a named work
 frame. See docs/conventions.md.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -26,7 +27,7 @@ class Pose:
     gamma: float = 0.0
 
     @classmethod
-    def from_array(cls, values) -> "Pose":
+    def from_array(cls, values) -> Pose:
         v = [float(a) for a in np.asarray(values, dtype=float).ravel()]
         if len(v) != 6:
             raise ValueError(f"a pose has 6 values (x, y, z mm; α, β, γ deg), got {len(v)}")
@@ -50,7 +51,7 @@ class Pose:
         return make_transform(self.rotation, self.position_m)
 
     @classmethod
-    def from_matrix(cls, tool2work: np.ndarray) -> "Pose":
+    def from_matrix(cls, tool2work: np.ndarray) -> Pose:
         """Inverse of `to_matrix` (metres in, mm/deg out)."""
         xyz = tool2work[:3, 3] * 1e3
         abg = Rotation.from_matrix(tool2work[:3, :3]).as_euler(EULER_AXES, degrees=True)
@@ -60,7 +61,7 @@ class Pose:
         """Orientation as a w-first unit quaternion (MuJoCo and ABB RAPID order)."""
         return matrix_to_quat_wxyz(self.rotation)
 
-    def __add__(self, other: "Pose") -> "Pose":
+    def __add__(self, other: Pose) -> Pose:
         return Pose.from_array(self.as_array() + other.as_array())
 
 

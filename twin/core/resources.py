@@ -13,6 +13,7 @@ comment or docstring does not); a kind of cached arrays keeps at most KIND_LIMIT
 least recently used going first, and a search's candidates (`searching`: a calibration's
 materials) are kept apart, so that they never push out what users run.
 """
+
 from __future__ import annotations
 
 import ast
@@ -76,7 +77,7 @@ def package_version() -> str:
         return "0+unknown"
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def code_digest(*paths: Path) -> str:
     """16 hex digits that change with the code in `paths` (Python files, or folders read
     recursively in name order) and not with its comments, docstrings or layout: the hash
@@ -90,9 +91,13 @@ def code_digest(*paths: Path) -> str:
             tree = ast.parse(file.read_text(encoding="utf-8"), filename=str(file))
             for node in ast.walk(tree):
                 body = getattr(node, "body", None)
-                if (isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)) and body
-                        and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant)
-                        and isinstance(body[0].value.value, str)):
+                if (
+                    isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef))
+                    and body
+                    and isinstance(body[0], ast.Expr)
+                    and isinstance(body[0].value, ast.Constant)
+                    and isinstance(body[0].value.value, str)
+                ):
                     node.body = body[1:] or [ast.Pass()]
             digest.update(str(file.relative_to(root) if root.is_dir() else file.name).encode())
             digest.update(ast.dump(tree).encode())
@@ -125,9 +130,15 @@ def searching(limit_bytes: int = SEARCH_LIMIT_BYTES) -> Iterator[None]:
         _search_limit.reset(token)
 
 
-def cached_arrays(kind: str, key: dict, compute: Callable[[], dict[str, np.ndarray]],
-                  shapes: dict[str, tuple[int, ...]], max_bytes: int = 256 * 2**20,
-                  refresh: bool = False, kind_limit_bytes: int = KIND_LIMIT_BYTES) -> dict[str, np.ndarray]:
+def cached_arrays(
+    kind: str,
+    key: dict,
+    compute: Callable[[], dict[str, np.ndarray]],
+    shapes: dict[str, tuple[int, ...]],
+    max_bytes: int = 256 * 2**20,
+    refresh: bool = False,
+    kind_limit_bytes: int = KIND_LIMIT_BYTES,
+) -> dict[str, np.ndarray]:
     """Arrays computed once and kept in ``cache_dir()/kind``, keyed on `key` (JSON: what
     they depend on) and the package version. An entry that is missing, unreadable or not
     of the expected `shapes` is computed again and rewritten, and so is every entry when
@@ -160,7 +171,7 @@ def cached_arrays(kind: str, key: dict, compute: Callable[[], dict[str, np.ndarr
         except OSError as err:
             with contextlib.suppress(OSError):
                 partial.unlink(missing_ok=True)
-            warnings.warn(f"{path}: could not store the cache entry ({err})")
+            warnings.warn(f"{path}: could not store the cache entry ({err})", stacklevel=2)
         else:
             _evict_least_recently_used(path.parent, path, limit)
     return arrays
@@ -173,10 +184,10 @@ def _load(path: Path, shapes: dict[str, tuple[int, ...]]) -> dict[str, np.ndarra
         with np.load(path, allow_pickle=False) as stored:
             arrays = {name: stored[name] for name in shapes}
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
-        warnings.warn(f"{path}: unreadable cache entry ({err}); computing it again")
+        warnings.warn(f"{path}: unreadable cache entry ({err}); computing it again", stacklevel=2)
         return None
     if not all(arrays[name].shape == tuple(shape) for name, shape in shapes.items()):
-        warnings.warn(f"{path}: cache entry of the wrong shape; computing it again")
+        warnings.warn(f"{path}: cache entry of the wrong shape; computing it again", stacklevel=2)
         return None
     with contextlib.suppress(OSError):
         os.utime(path)  # used now: the last to go

@@ -1,18 +1,28 @@
 """Scenario files: everything about one run (object, placement, sensor, protocol,
 fidelity, effects), validated with pydantic. Errors name the file, field and value."""
+
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any, Literal, Union
+from typing import Annotated, Any, Literal
 
 from pydantic import Field, field_validator, model_validator
 
+from twin.core.calibration import Calibration, load_calibration
 from twin.core.errors import UserError
 from twin.core.poses import Pose
 from twin.core.resources import scenario_path
-from twin.core.calibration import Calibration, load_calibration
 from twin.core.sensor import CameraModel
-from twin.core.validation import PoseList, RunName, no_link_out, StrictModel, bounded, bounded_list, read_yaml, validate_mapping
+from twin.core.validation import (
+    PoseList,
+    RunName,
+    StrictModel,
+    bounded,
+    bounded_list,
+    no_link_out,
+    read_yaml,
+    validate_mapping,
+)
 
 EFFECTS = ("contact", "friction", "arm_dynamics", "render", "camera_noise", "lighting")
 #: Approach choreography shared by every protocol (work frame, docs/conventions.md):
@@ -26,7 +36,10 @@ DEFAULT_SPEED_MM_S = 20.0
 def hover_over(x_mm: float, y_mm: float, gamma_deg: float) -> Pose:
     """The no-contact pose above (x, y) with the sensor pointing down at orientation γ."""
     return Pose(x_mm, y_mm, HOVER_Z_MM, 0.0, 0.0, gamma_deg)
+
+
 BUILTIN_OBJECTS = ("rectangle", "large_circle", "small_circle", "flower", "spiral", "tape_measure")
+
 
 class ObjectSpec(StrictModel):
     """The stimulus: a built-in name, a user STL, or a user outline CSV extruded."""
@@ -39,7 +52,7 @@ class ObjectSpec(StrictModel):
     friction: float | None = bounded(0, 3, "dimensionless", "sliding friction coefficient", None)
 
     @model_validator(mode="after")
-    def _one_source(self) -> "ObjectSpec":
+    def _one_source(self) -> ObjectSpec:
         given = [k for k in ("name", "stl", "outline") if getattr(self, k) is not None]
         if len(given) != 1:
             raise ValueError(f"give exactly one of name, stl, outline (got {given or 'none'})")
@@ -60,7 +73,12 @@ class Placement(StrictModel):
 class CameraSpec(StrictModel):
     width: int = bounded(64, 4096, "px", "image width", 640)
     height: int = bounded(48, 4096, "px", "image height", 480)
-    fov_y_deg: float = Field(default=56.0, gt=10, lt=150, description="field of view across the frame's short side, the vertical one of a landscape frame (deg; (10, 150))")
+    fov_y_deg: float = Field(
+        default=56.0,
+        gt=10,
+        lt=150,
+        description="field of view across the frame's short side, the vertical one of a landscape frame (deg; (10, 150))",
+    )
     msaa: int = bounded(0, 16, "samples per px", "anti-aliasing", 0)
     noise_std: float = bounded(0, 50, "grey levels", "pixel noise sigma, with camera_noise", 2.0)
 
@@ -75,7 +93,8 @@ def calibrated_camera(camera: CameraSpec, calibration: Calibration | None) -> Ca
 class SensorSpec(StrictModel):
     camera: CameraSpec = CameraSpec()
     calibration: str | Calibration | None = Field(
-        default=None, description="calibration file (twin.core.calibration; relative to the scenario) or inline mapping")
+        default=None, description="calibration file (twin.core.calibration; relative to the scenario) or inline mapping"
+    )
 
 
 class RenderProtocol(StrictModel):
@@ -150,14 +169,18 @@ class ShearedTapProtocol(_EdgeProtocol):
     depth_offset_mm: float = bounded(0, 5, "mm", "drawn depth offsets lie in ±this", 1.0)
     slide_mm: float = bounded(0, 20, "mm", "drawn slides lie in ±this along the edge and along the normal", 5.0)
     twist_deg: float = bounded(0, 45, "deg", "drawn twists lie in ±this", 5.0)
-    rest_frame: bool = Field(default=True, description="record a no-contact frame first, hovering off the object "
-                                                        "at l = NO_CONTACT_LATERAL_MM (the perception model's reference)")
+    rest_frame: bool = Field(
+        default=True,
+        description="record a no-contact frame first, hovering off the object "
+        "at l = NO_CONTACT_LATERAL_MM (the perception model's reference)",
+    )
     given: Annotated[list[ShearedTap], Field(max_length=10_000)] | None = Field(
-        default=None, description="the taps in order (an imported lab recording's: twin run --taps-from RUN); "
-                                  "none = draw `taps`")
+        default=None,
+        description="the taps in order (an imported lab recording's: twin run --taps-from RUN); none = draw `taps`",
+    )
 
     @model_validator(mode="after")
-    def _ranges_in_order(self) -> "ShearedTapProtocol":
+    def _ranges_in_order(self) -> ShearedTapProtocol:
         for name in ("lateral_range_mm", "angle_range_deg"):
             lo, hi = getattr(self, name)
             if lo > hi:
@@ -180,8 +203,9 @@ class ContourProtocol(StrictModel):
     speed_mm_s: float = bounded(0, 250, "mm/s", "TCP speed", DEFAULT_SPEED_MM_S, open_lo=True)
 
 
-Protocol = Annotated[Union[RenderProtocol, TapProtocol, SlideProtocol, ShearedTapProtocol, ContourProtocol],
-                     Field(discriminator="kind")]
+Protocol = Annotated[
+    RenderProtocol | TapProtocol | SlideProtocol | ShearedTapProtocol | ContourProtocol, Field(discriminator="kind")
+]
 
 
 class Scenario(StrictModel):
@@ -254,7 +278,7 @@ class Scenario(StrictModel):
             raise UserError(f"{self.source}: field 'sensor.calibration': no calibration file {str(path)!r}")
         return load_calibration(path)
 
-    def with_changes(self, **changes) -> "Scenario":
+    def with_changes(self, **changes) -> Scenario:
         """A copy with top-level fields replaced and re-validated (keeps the source path)."""
         data = self.model_dump()
         data.update(changes)

@@ -4,6 +4,7 @@ Everything is in the tool frame (m): origin at the undeformed dome apex (the TCP
 +z along the sensor axis pointing out of the tip, +x and +y matching the camera's
 image u (right) and v (down). Sources for each number: assets/tactip/README.md.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -19,13 +20,13 @@ PIN_RINGS = 6  # rings 1+6+12+18+24+30+36 = 127 on a hexagonal grid
 class TacTipGeometry:
     """Dimensions of the TacTip dome (all in m)."""
 
-    dome_outer_radius: float = 0.020      # 40 mm dome (paper §III-A)
-    skin_thickness: float = 0.0015        # rubber-like skin over the gel
-    pin_length: float = 0.002             # pins protrude inwards from the skin
-    pin_radius: float = 0.0006            # 1.2 mm pin tips
-    pin_spacing: float = 0.0033           # arc length between neighbouring pins on the inner skin
-    base_length: float = 0.018            # cylindrical part between the dome's equator and the camera mount
-    camera_to_apex: float = 0.045         # camera optical centre to apex, along the axis
+    dome_outer_radius: float = 0.020  # 40 mm dome (paper §III-A)
+    skin_thickness: float = 0.0015  # rubber-like skin over the gel
+    pin_length: float = 0.002  # pins protrude inwards from the skin
+    pin_radius: float = 0.0006  # 1.2 mm pin tips
+    pin_spacing: float = 0.0033  # arc length between neighbouring pins on the inner skin
+    base_length: float = 0.018  # cylindrical part between the dome's equator and the camera mount
+    camera_to_apex: float = 0.045  # camera optical centre to apex, along the axis
 
     @property
     def sphere_centre_z(self) -> float:
@@ -73,6 +74,7 @@ class TacTipGeometry:
             ]
         )
 
+
 def hexagonal_lattice(rings: int) -> np.ndarray:
     """Points of a hexagonal lattice (unit spacing) within `rings` hex rings, 1+6+…+6·rings.
 
@@ -106,13 +108,13 @@ class CameraModel:
 
     width: int = 640
     height: int = 480
-    fov_y_deg: float = 56.0       # field of view across the short side (deg): the vertical one of a landscape frame
+    fov_y_deg: float = 56.0  # field of view across the short side (deg): the vertical one of a landscape frame
     aperture_fraction: float = 0.94  # circular aperture radius / half the frame's short side
     geometry: TacTipGeometry = field(default_factory=TacTipGeometry)
-    focal_override_px: float | None = None            # px; None = from fov_y_deg
-    principal_point_px: tuple[float, float] | None = None   # px; None = frame centre
+    focal_override_px: float | None = None  # px; None = from fov_y_deg
+    principal_point_px: tuple[float, float] | None = None  # px; None = frame centre
     distortion: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)  # OpenCV k1, k2, p1, p2
-    offset_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)    # optical centre moved in the tool frame (mm)
+    offset_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)  # optical centre moved in the tool frame (mm)
     rotation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)  # camera axes turned (extrinsic XYZ, deg)
 
     @property
@@ -153,8 +155,11 @@ class CameraModel:
         """(R, t): camera-frame point = R · tool point + t (m)."""
         rx, ry, rz = np.radians(self.rotation_deg)
         cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
-        camera2tool = (np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]]) @ np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
-                       @ np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]]))
+        camera2tool = (
+            np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+            @ np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+            @ np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+        )
         centre = np.array([0.0, 0.0, -self.geometry.camera_to_apex]) + np.asarray(self.offset_mm) * 1e-3
         return camera2tool.T, -camera2tool.T @ centre
 
@@ -166,7 +171,9 @@ class CameraModel:
         k = self.intrinsics
         if self.is_pinhole:
             z = points_tool[:, 2] + self.geometry.camera_to_apex
-            return np.column_stack([k[0, 0] * points_tool[:, 0] / z + k[0, 2], k[1, 1] * points_tool[:, 1] / z + k[1, 2]])
+            return np.column_stack(
+                [k[0, 0] * points_tool[:, 0] / z + k[0, 2], k[1, 1] * points_tool[:, 1] / z + k[1, 2]]
+            )
         rot, t = self._tool2camera
         p = points_tool @ rot.T + t
         x, y = p[:, 0] / p[:, 2], p[:, 1] / p[:, 2]
@@ -177,7 +184,7 @@ class CameraModel:
         yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
         return np.column_stack([k[0, 0] * xd + k[0, 2], k[1, 1] * yd + k[1, 2]])
 
-    def nominal(self) -> "CameraModel":
+    def nominal(self) -> CameraModel:
         """This camera's resolution and field of view without calibration (the GL camera
         the renderer draws with)."""
         return CameraModel(self.width, self.height, self.fov_y_deg, self.aperture_fraction, self.geometry)

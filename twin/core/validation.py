@@ -7,6 +7,7 @@ refused in every float field (nested lists included), and every numeric field ca
 physical bounds with its unit in its description (`bounded`, `bounded_list`, `PoseList`;
 tests/core/test_validation.py walks every schema and holds this).
 """
+
 from __future__ import annotations
 
 import re
@@ -38,8 +39,9 @@ def bounded_list(lo: float, hi: float, unit: str, length: int | None = None, max
     given, else 1 to `max_length`."""
     item = Annotated[float, Field(ge=lo, le=hi, description=f"{unit}; [{lo:g}, {hi:g}]")]
     n_min, n_max = (length, length) if length is not None else (1, max_length)
-    return Annotated[list[item], Field(min_length=n_min, max_length=n_max,
-                                       description=f"{unit}; items in [{lo:g}, {hi:g}]")]
+    return Annotated[
+        list[item], Field(min_length=n_min, max_length=n_max, description=f"{unit}; items in [{lo:g}, {hi:g}]")
+    ]
 
 
 def _angles_within_a_turn(values: list[float]) -> list[float]:
@@ -53,8 +55,11 @@ def _angles_within_a_turn(values: list[float]) -> list[float]:
 #: (the IRB120 reaches 580 mm), angles within one turn either way.
 PoseList = Annotated[
     list[Annotated[float, Field(ge=-1000, le=1000)]],
-    Field(min_length=6, max_length=6, description="pose [x, y, z mm, α, β, γ deg]: x, y, z in [-1000, 1000] mm, "
-                                                  "angles in [-360, 360] deg"),
+    Field(
+        min_length=6,
+        max_length=6,
+        description="pose [x, y, z mm, α, β, γ deg]: x, y, z in [-1000, 1000] mm, angles in [-360, 360] deg",
+    ),
     AfterValidator(_angles_within_a_turn),
 ]
 
@@ -121,8 +126,10 @@ def _one_folder_name(name: str) -> str:
     if not 1 <= len(name) <= RUN_NAME_MAX:
         raise ValueError(f"a run name has 1 to {RUN_NAME_MAX} characters, this one {len(name)}")
     if not RUN_NAME_CHARACTERS.fullmatch(name):
-        raise ValueError("a run name is one folder name: ASCII letters, digits and _ . + - "
-                         "(not first: . + -); no /, spaces, NUL or newlines")
+        raise ValueError(
+            "a run name is one folder name: ASCII letters, digits and _ . + - "
+            "(not first: . + -); no /, spaces, NUL or newlines"
+        )
     return name
 
 

@@ -6,6 +6,7 @@ the `twin.backends` entry-point group (pyproject.toml): the real rig registers
 package and a lab can add its own rig the same way. A backend class provides
 `from_scenario(scenario, config_path)`.
 """
+
 from __future__ import annotations
 
 from importlib.metadata import entry_points
@@ -30,6 +31,8 @@ def make_environment(scenario: Scenario, seed: int | None = None, hardware_confi
         return SimEnvironment(scenario, seed=seed)
     found = [ep for ep in entry_points(group=ENTRY_POINT_GROUP) if ep.name == scenario.backend]
     if not found:
-        raise UserError(f"{scenario.source}: field 'backend': no backend {scenario.backend!r} is installed "
-                        f"(known: {', '.join(backend_names())})")
+        raise UserError(
+            f"{scenario.source}: field 'backend': no backend {scenario.backend!r} is installed "
+            f"(known: {', '.join(backend_names())})"
+        )
     return found[0].load().from_scenario(scenario, hardware_config)

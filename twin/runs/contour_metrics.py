@@ -1,5 +1,6 @@
 """How well a contour-following run traced its object: path distance from the true contour
 (mm), perceived orientation and lateral errors (deg, mm), coverage, and how it ended."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -16,8 +17,10 @@ def contour_metrics(run, stimulus) -> dict:
     samples = run.samples
     xy_work = np.array([[s["pose"][0], s["pose"][1]] for s in samples])
     xy_obj = work_to_object_xy(xy_work)
-    lab = {k: np.array([s["labels"][k] for s in samples]) for k in
-           ("perceived_normal_deg", "true_normal_deg", "lateral_hat_mm", "true_lateral_mm", "ok")}
+    lab = {
+        k: np.array([s["labels"][k] for s in samples])
+        for k in ("perceived_normal_deg", "true_normal_deg", "lateral_hat_mm", "true_lateral_mm", "ok")
+    }
     ok = lab["ok"].astype(bool)
     d_angle = wrap_deg(lab["perceived_normal_deg"] - lab["true_normal_deg"])
     path_dist = stimulus.distance_to_contour(xy_obj)
@@ -32,7 +35,9 @@ def contour_metrics(run, stimulus) -> dict:
         "stop_reason": stop,
         "steps": len(samples),
         "orientation_rms_deg": float(np.sqrt(np.mean(d_angle[ok] ** 2))) if ok.any() else float("nan"),
-        "lateral_rms_mm": float(np.sqrt(np.mean((lab["lateral_hat_mm"] - lab["true_lateral_mm"])[ok] ** 2))) if ok.any() else float("nan"),
+        "lateral_rms_mm": float(np.sqrt(np.mean((lab["lateral_hat_mm"] - lab["true_lateral_mm"])[ok] ** 2)))
+        if ok.any()
+        else float("nan"),
         "path_distance_mean_mm": float(np.mean(path_dist)),
         "path_distance_max_mm": float(np.max(path_dist)),
         "coverage": float(np.mean(gaps <= COVERAGE_RADIUS_MM)),

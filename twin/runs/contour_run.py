@@ -2,6 +2,7 @@
 record every step (twin.runs.record), then score the run against the true contour
 (twin.runs.contour_metrics) and plot it (the paper's Figs. 7–8).
 """
+
 from __future__ import annotations
 
 import json
@@ -34,19 +35,40 @@ class ScenarioFollower(ContourFollower):
     (`controller`, an object or a name, replaces the scenario's `protocol.controller`).
     UserError when the scenario's work frame is not the object's."""
 
-    def __init__(self, env: Environment, scenario: Scenario, model, stimulus: Stimulus | None = None, clock=no_clock,
-                 controller=None) -> None:
+    def __init__(
+        self,
+        env: Environment,
+        scenario: Scenario,
+        model,
+        stimulus: Stimulus | None = None,
+        clock=no_clock,
+        controller=None,
+    ) -> None:
         if scenario.work_frame != "object":
             raise UserError(f"{scenario.source}: contour following needs work_frame: object")
         stimulus = load_scenario_stimulus(scenario) if stimulus is None else stimulus
         protocol = scenario.protocol
         spec = protocol.controller if controller is None else controller
-        super().__init__(env, protocol, model, stimulus, load_controller(spec, protocol, scenario.source_dir), clock,
-                         controller_name=spec if isinstance(spec, str) else None)
+        super().__init__(
+            env,
+            protocol,
+            model,
+            stimulus,
+            load_controller(spec, protocol, scenario.source_dir),
+            clock,
+            controller_name=spec if isinstance(spec, str) else None,
+        )
 
 
-def run_contour(scenario: Scenario, out: Path, seed: int | None = None, progress: bool = True, model=None,
-                controller=None, resume: bool = False) -> Path:
+def run_contour(
+    scenario: Scenario,
+    out: Path,
+    seed: int | None = None,
+    progress: bool = True,
+    model=None,
+    controller=None,
+    resume: bool = False,
+) -> Path:
     """Trace the scenario's object and record the run in `out` (with metrics.json and
     contour.png). `model` is a fitted PerceptionModel; default: scenario's `model` file,
     else the cached model trained on the tap set (twin.runs.training). `controller`: an
@@ -60,13 +82,24 @@ def run_contour(scenario: Scenario, out: Path, seed: int | None = None, progress
     wall0 = time.perf_counter()
     env = make_environment(scenario, seed)
     follower = ScenarioFollower(env, scenario, model, stimulus, controller=controller)
-    recorder = RunRecorder.resume(out) if resume else RunRecorder(
-        out, scenario, seed, scenario.backend, scenario.camera_model(), extra={"model": model.info.get("path", "in memory")})
+    recorder = (
+        RunRecorder.resume(out)
+        if resume
+        else RunRecorder(
+            out,
+            scenario,
+            seed,
+            scenario.backend,
+            scenario.camera_model(),
+            extra={"model": model.info.get("path", "in memory")},
+        )
+    )
     try:
         with recorder:
             done = recorder.count
-            for i, step in enumerate(tqdm(follower, desc=scenario.name, unit="step", total=scenario.protocol.max_steps,
-                                          disable=not progress)):
+            for i, step in enumerate(
+                tqdm(follower, desc=scenario.name, unit="step", total=scenario.protocol.max_steps, disable=not progress)
+            ):
                 recorder.set_rest_pins(follower.rest_pins_px)
                 if i < done:
                     continue

@@ -18,19 +18,20 @@ path, or a Scenario).
 `reset(seed=…)` seeds the wrapper's `np_random`, which seeds the backend (the simulator's
 camera noise): one seed, one run.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+import shapely
 
 from twin.core.poses import Pose, object_to_work_xy, work_to_object_xy
 from twin.core.scenario import Scenario, hover_over, load_scenario
 from twin.runs.backends import make_environment
-from twin.sensing.pins import PinReader
 from twin.runs.spec import load_scenario_stimulus
-import shapely
+from twin.sensing.pins import PinReader
 
 
 class ContourFollowingEnv(gym.Env):
@@ -38,8 +39,14 @@ class ContourFollowingEnv(gym.Env):
 
     metadata = {"render_modes": ["rgb_array"]}
 
-    def __init__(self, scenario: Scenario | str | Path = "contour_rectangle", max_step_mm: float = 5.0,
-                 lateral_weight: float = 0.5, max_distance_mm: float = 15.0, render_mode: str | None = None) -> None:
+    def __init__(
+        self,
+        scenario: Scenario | str | Path = "contour_rectangle",
+        max_step_mm: float = 5.0,
+        lateral_weight: float = 0.5,
+        max_distance_mm: float = 15.0,
+        render_mode: str | None = None,
+    ) -> None:
         if not isinstance(scenario, Scenario):
             scenario = load_scenario(scenario)
         if scenario.protocol.kind != "contour":
@@ -107,4 +114,3 @@ class ContourFollowingEnv(gym.Env):
 
     def close(self) -> None:
         self.env.close()
-

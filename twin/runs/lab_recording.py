@@ -37,6 +37,7 @@ hovering off the object); each frame is tracked on its own from it by the twin's
 them flagged (`found`), one missing or unreadable is recorded without pins; both are
 counted in run.json ("import") and by `twin import-lab`.
 """
+
 from __future__ import annotations
 
 import csv
@@ -51,7 +52,7 @@ from tqdm import tqdm
 from twin.core.environment import Observation
 from twin.core.errors import UserError
 from twin.core.poses import Pose
-from twin.core.scenario import Scenario, ShearedTap, ShearedTapProtocol, scenario_from_dict
+from twin.core.scenario import Scenario, ShearedTapProtocol, scenario_from_dict
 from twin.runs.protocols import sheared_tap_moves
 from twin.runs.record import RunRecorder, load_run
 from twin.sensing.tracker import PinTracker, camera_for_frame
@@ -82,8 +83,9 @@ def read_lab_targets(path: Path) -> LabTargets:
     needed = ("image_name", *POSE_COLUMNS, *MOVE_COLUMNS)
     missing = [c for c in needed if not rows or c not in rows[0]]
     if missing:
-        raise UserError(f"{path}: no rows or no column(s) {', '.join(missing)} (the lab's targets have "
-                        f"{', '.join(needed)})")
+        raise UserError(
+            f"{path}: no rows or no column(s) {', '.join(missing)} (the lab's targets have {', '.join(needed)})"
+        )
     values = np.empty((len(rows), 12))
     for i, row in enumerate(rows):
         for j, column in enumerate((*POSE_COLUMNS, *MOVE_COLUMNS)):
@@ -101,9 +103,15 @@ def lab_to_twin_tap(pose: np.ndarray, move: np.ndarray, object_side: int = 1) ->
     """One lab target (pose, move: [x, y, z mm, α, β, γ deg]) as a twin sheared tap's fields
     (module docstring); `object_side` +1: the object lies on the lab's +y side, −1: on −y."""
     s = -float(object_side)
-    return {"lateral_mm": s * pose[1], "along_mm": s * pose[0], "theta_deg": -pose[5],
-            "depth_offset_mm": -pose[2], "slide_along_mm": s * move[0], "slide_lateral_mm": s * move[1],
-            "twist_deg": -move[5]}
+    return {
+        "lateral_mm": s * pose[1],
+        "along_mm": s * pose[0],
+        "theta_deg": -pose[5],
+        "depth_offset_mm": -pose[2],
+        "slide_along_mm": s * move[0],
+        "slide_lateral_mm": s * move[1],
+        "twist_deg": -move[5],
+    }
 
 
 def lab_pose_to_twin(lab_pose: np.ndarray, protocol: ShearedTapProtocol, object_side: int = 1) -> Pose:
@@ -117,17 +125,23 @@ def lab_pose_to_twin(lab_pose: np.ndarray, protocol: ShearedTapProtocol, object_
     return Pose(x, y, protocol.depth_mm + LAB_TAP_MOVE_Z_MM - lab_pose[2], 0.0, 0.0, -lab_pose[5])
 
 
-def lab_scenario(targets: LabTargets, frame_shape: tuple[int, int], depth_mm: float, object_side: int,
-                 name: str, source: str) -> Scenario:
+def lab_scenario(
+    targets: LabTargets, frame_shape: tuple[int, int], depth_mm: float, object_side: int, name: str, source: str
+) -> Scenario:
     """The scenario an imported recording is a run of: its taps given in order on the
     rectangle's edge (the twin's stand-in for the lab's straight edge), its camera's size."""
     given = [lab_to_twin_tap(p, m, object_side) for p, m in zip(targets.poses, targets.moves)]
-    return scenario_from_dict({
-        "name": name, "description": f"imported from the lab recording {source}", "backend": "hardware",
-        "object": {"name": "rectangle"},
-        "sensor": {"camera": {"width": frame_shape[1], "height": frame_shape[0]}},
-        "protocol": {"kind": "sheared_taps", "depth_mm": depth_mm, "taps": max(len(given), 1), "given": given},
-    }, source)
+    return scenario_from_dict(
+        {
+            "name": name,
+            "description": f"imported from the lab recording {source}",
+            "backend": "hardware",
+            "object": {"name": "rectangle"},
+            "sensor": {"camera": {"width": frame_shape[1], "height": frame_shape[0]}},
+            "protocol": {"kind": "sheared_taps", "depth_mm": depth_mm, "taps": max(len(given), 1), "given": given},
+        },
+        source,
+    )
 
 
 def _init_frame(folder: Path, init: Path | None) -> Path:
@@ -142,9 +156,17 @@ def _gray(path: Path) -> np.ndarray | None:
     return cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
 
 
-def import_lab_recording(folder: Path, targets_csv: Path, out: Path, *, init: Path | None = None,
-                         depth_mm: float = 3.0, object_side: int = 1, limit: int | None = None,
-                         progress: bool = True) -> dict:
+def import_lab_recording(
+    folder: Path,
+    targets_csv: Path,
+    out: Path,
+    *,
+    init: Path | None = None,
+    depth_mm: float = 3.0,
+    object_side: int = 1,
+    limit: int | None = None,
+    progress: bool = True,
+) -> dict:
     """Write the recording in `folder` (frames named by `targets_csv`) as a run in `out`:
     each frame's pins tracked from the no-contact frame, labels and targets mapped to the
     twin's convention (module docstring). Returns run.json's "import" summary."""
@@ -162,14 +184,21 @@ def import_lab_recording(folder: Path, targets_csv: Path, out: Path, *, init: Pa
     frames = [m for m in sheared_tap_moves(scenario.protocol) if m.record]  # the no-contact frame, then the taps
     files = [init_path, *(folder / name for name in targets.image_names)]
     camera = camera_for_frame(reference.shape[1], reference.shape[0])
-    summary = {"folder": str(folder), "targets": str(targets_csv), "init": str(init_path), "depth_mm": depth_mm,
-               "object_side": object_side, "frames": len(frames)}
+    summary = {
+        "folder": str(folder),
+        "targets": str(targets_csv),
+        "init": str(init_path),
+        "depth_mm": depth_mm,
+        "object_side": object_side,
+        "frames": len(frames),
+    }
     incomplete, unreadable = [], []
     wall = time.perf_counter()
     with RunRecorder(out, scenario, 0, "hardware", camera, extra={"import": summary}) as recorder:
         recorder.set_rest_pins(tracker.reference_pins_px)
-        for k, (move, path) in enumerate(tqdm(list(zip(frames, files)), desc=folder.name, unit="frame",
-                                              disable=not progress)):
+        for k, (move, path) in enumerate(
+            tqdm(list(zip(frames, files)), desc=folder.name, unit="frame", disable=not progress)
+        ):
             labels = {**move.labels, "lab_frame": path.name}
             gray = _gray(path)
             if gray is None or gray.shape != reference.shape:
@@ -180,10 +209,19 @@ def import_lab_recording(folder: Path, targets_csv: Path, out: Path, *, init: Pa
             result = tracker.track(gray)
             if not result.found.all():
                 incomplete.append(k)
-            recorder.add(Observation(float(k), move.pose, cv2.cvtColor(gray, cv2.COLOR_GRAY2RGB)), move.pose, labels,
-                         result.pins_px, result.found)
-        summary.update(complete=len(frames) - len(incomplete) - len(unreadable), incomplete=incomplete,
-                       unreadable=unreadable, wall_time_s=time.perf_counter() - wall)
+            recorder.add(
+                Observation(float(k), move.pose, cv2.cvtColor(gray, cv2.COLOR_GRAY2RGB)),
+                move.pose,
+                labels,
+                result.pins_px,
+                result.found,
+            )
+        summary.update(
+            complete=len(frames) - len(incomplete) - len(unreadable),
+            incomplete=incomplete,
+            unreadable=unreadable,
+            wall_time_s=time.perf_counter() - wall,
+        )
         recorder.meta["import"] = summary
     return summary
 
@@ -193,8 +231,9 @@ def with_taps_from(scenario: Scenario, run_dir: Path, first: int | None = None) 
     imported lab recording), in order, the first `first` of them when given: the twin
     replays the recording sample by sample."""
     if scenario.protocol.kind != "sheared_taps":
-        raise UserError(f"{scenario.source}: --taps-from needs a sheared_taps protocol, this one is "
-                        f"{scenario.protocol.kind!r}")
+        raise UserError(
+            f"{scenario.source}: --taps-from needs a sheared_taps protocol, this one is {scenario.protocol.kind!r}"
+        )
     recorded = load_run(run_dir).meta["scenario"]["protocol"]
     if recorded.get("kind") != "sheared_taps" or not recorded.get("given"):
         raise UserError(f"{run_dir}: not a run of given sheared taps (an imported lab recording)")

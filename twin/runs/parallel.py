@@ -1,5 +1,6 @@
 """Scale-out: map a function over independent jobs on the local cores or a Ray cluster,
 yielding results in job order. Same jobs and seeds → same results either way."""
+
 from __future__ import annotations
 
 import contextlib
@@ -68,7 +69,7 @@ class WorkerPool:
         self._ray_remote = None
         self._ray_started = False
 
-    def __enter__(self) -> "WorkerPool":
+    def __enter__(self) -> WorkerPool:
         return self
 
     def __exit__(self, *exc) -> None:
@@ -115,7 +116,7 @@ class WorkerPool:
                     try:
                         item = pending.pop(0) if pending else self._next_item(index, future, waiting, caller_mask)
                     except KeyboardInterrupt:  # Ctrl-C, SIGTERM: the jobs the workers were on are kept whole
-                        for later in futures[index + 1:]:
+                        for later in futures[index + 1 :]:
                             later.cancel()
                         yield from self._sent_in_order(futures, index, waiting)
                         raise
@@ -190,8 +191,12 @@ class WorkerPool:
             context = get_context("forkserver")
             context.set_forkserver_preload(["twin.runs.sim_env", "twin.runs.runner", "twin.control.contour"])
             self._outbox = context.Queue()
-            self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=context, initializer=_start_worker,
-                                             initargs=(os.getpid(), self._outbox))
+            self._pool = ProcessPoolExecutor(
+                max_workers=self.workers,
+                mp_context=context,
+                initializer=_start_worker,
+                initargs=(os.getpid(), self._outbox),
+            )
         return self._pool
 
     def _stop_local(self) -> None:
@@ -257,6 +262,8 @@ PARENT_CHECK_S = 0.5
 
 #: A local worker's queue to its parent (map_streamed)
 _outbox = None
+
+
 class _JobEnd:
     """What a streamed job sends after its last item."""
 

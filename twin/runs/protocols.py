@@ -10,6 +10,7 @@ Fig. 4), 180° = off the object (+n), 270° = −t. A sheared tap (`sheared_tap_
 presses at its pose slid back by its slide and twist, then slides and twists in contact
 to its pose and records there, as the lab's edge sets do (twin.runs.lab_recording).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -17,8 +18,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from twin.core.poses import Pose
-from twin.core.scenario import (NO_CONTACT_LATERAL_MM, RenderProtocol, ShearedTap, ShearedTapProtocol, SlideProtocol,
-                                TapProtocol)
+from twin.core.scenario import (
+    NO_CONTACT_LATERAL_MM,
+    RenderProtocol,
+    ShearedTap,
+    ShearedTapProtocol,
+    SlideProtocol,
+    TapProtocol,
+)
 
 
 @dataclass(frozen=True)
@@ -91,8 +98,14 @@ def slide_moves(p: SlideProtocol) -> list[Move]:
             for i, s in enumerate(offsets):
                 x, y = start + s * unit
                 lateral = float(np.dot(np.array([x, y]) - origin, n))
-                labels = {"theta_deg": theta, "direction_deg": direction, "lateral_mm": round(lateral, 6),
-                          "depth_mm": p.depth_mm, "on_object": bool(lateral <= 1e-9), "sample_in_slide": i}
+                labels = {
+                    "theta_deg": theta,
+                    "direction_deg": direction,
+                    "lateral_mm": round(lateral, 6),
+                    "depth_mm": p.depth_mm,
+                    "on_object": bool(lateral <= 1e-9),
+                    "sample_in_slide": i,
+                }
                 moves.append(Move(Pose(x, y, p.depth_mm, 0.0, 0.0, theta), p.speed_mm_s, True, labels))
             moves.append(Move(Pose(x, y, -p.approach_mm, 0.0, 0.0, theta), p.speed_mm_s))
     return moves
@@ -108,8 +121,17 @@ def drawn_sheared_taps(p: ShearedTapProtocol) -> list[ShearedTap]:
     depth = rng.uniform(-p.depth_offset_mm, p.depth_offset_mm, n)
     along, across = rng.uniform(-p.slide_mm, p.slide_mm, (2, n))
     twist = rng.uniform(-p.twist_deg, p.twist_deg, n)
-    return [ShearedTap(lateral_mm=lateral[k], theta_deg=theta[k], depth_offset_mm=depth[k], slide_along_mm=along[k],
-                       slide_lateral_mm=across[k], twist_deg=twist[k]) for k in np.lexsort((lateral, theta))]
+    return [
+        ShearedTap(
+            lateral_mm=lateral[k],
+            theta_deg=theta[k],
+            depth_offset_mm=depth[k],
+            slide_along_mm=along[k],
+            slide_lateral_mm=across[k],
+            twist_deg=twist[k],
+        )
+        for k in np.lexsort((lateral, theta))
+    ]
 
 
 def sheared_tap_moves(p: ShearedTapProtocol) -> list[Move]:
@@ -121,8 +143,13 @@ def sheared_tap_moves(p: ShearedTapProtocol) -> list[Move]:
     moves: list[Move] = []
     if p.rest_frame:
         x, y = origin + NO_CONTACT_LATERAL_MM * n
-        labels = {"lateral_mm": NO_CONTACT_LATERAL_MM, "theta_deg": 0.0, "depth_mm": -p.approach_mm, "tap": -1,
-                  "no_contact": True}
+        labels = {
+            "lateral_mm": NO_CONTACT_LATERAL_MM,
+            "theta_deg": 0.0,
+            "depth_mm": -p.approach_mm,
+            "tap": -1,
+            "no_contact": True,
+        }
         moves.append(Move(Pose(x, y, -p.approach_mm, 0.0, 0.0, 0.0), p.free_speed_mm_s, True, labels))
     for k, tap in enumerate(p.given if p.given is not None else drawn_sheared_taps(p)):
         depth = p.depth_mm + tap.depth_offset_mm

@@ -22,6 +22,7 @@ temporary name and renamed, so a frame file that exists is complete; a sample li
 complete when it ends in a newline. `RunRecorder.resume` reopens a run after its last
 complete sample (twin.runs.run.resume_run).
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -87,8 +88,16 @@ class RunRecorder:
     lock file also holds RESERVE_BYTES that are given back when a write fails, so that a
     full disk still gets its final run.json ("failed", the error named)."""
 
-    def __init__(self, out_dir: Path, scenario, seed: int, backend: str, camera=None, extra: dict | None = None,
-                 resume: bool = False) -> None:
+    def __init__(
+        self,
+        out_dir: Path,
+        scenario,
+        seed: int,
+        backend: str,
+        camera=None,
+        extra: dict | None = None,
+        resume: bool = False,
+    ) -> None:
         self.out_dir = Path(out_dir)
         self.frames_dir = self.out_dir / "frames"
         self._images = ThreadPoolExecutor(max_workers=1)  # PNG encoding overlaps the simulation
@@ -116,8 +125,9 @@ class RunRecorder:
                 "seed": seed,
                 "backend": backend,
                 "versions": package_versions(),
-                "camera": None if camera is None else {"width": camera.width, "height": camera.height,
-                                                       "intrinsics": camera.intrinsics.tolist()},
+                "camera": None
+                if camera is None
+                else {"width": camera.width, "height": camera.height, "intrinsics": camera.intrinsics.tolist()},
                 "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
                 "status": "running",
                 "process": _this_process(),
@@ -131,7 +141,7 @@ class RunRecorder:
             raise
 
     @classmethod
-    def resume(cls, out_dir: Path) -> "RunRecorder":
+    def resume(cls, out_dir: Path) -> RunRecorder:
         """Reopen an unfinished run for appending after its last complete sample (a torn
         last line, and samples whose frame file is missing, are dropped)."""
         return cls(out_dir, None, 0, "", resume=True)
@@ -148,8 +158,9 @@ class RunRecorder:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
             os.close(fd)
-            raise UserError(f"{self.out_dir}: another twin process is recording into this folder; "
-                            "choose another --out") from None
+            raise UserError(
+                f"{self.out_dir}: another twin process is recording into this folder; choose another --out"
+            ) from None
         self._lock = fd
         try:
             os.ftruncate(fd, 0)
@@ -176,7 +187,11 @@ class RunRecorder:
         if run.state == "completed":
             raise UserError(f"{self.out_dir}: this run is complete; nothing to resume")
         keep = len(run.samples)
-        while keep and run.samples[keep - 1]["frame"] is not None and not (self.out_dir / run.samples[keep - 1]["frame"]).is_file():
+        while (
+            keep
+            and run.samples[keep - 1]["frame"] is not None
+            and not (self.out_dir / run.samples[keep - 1]["frame"]).is_file()
+        ):
             keep -= 1
         for folder in (self.out_dir, self.frames_dir):
             remove_leftovers(folder)  # what a killed writer left half-written
@@ -184,8 +199,9 @@ class RunRecorder:
         lines = path.read_bytes().split(b"\n") if path.exists() else []
         replace_file(path, b"".join(line + b"\n" for line in lines[:keep]))
         self.meta = run.meta
-        self.meta.setdefault("resumes", []).append({"at_sample": keep, "previous_status": run.state,
-                                                    "time": time.strftime("%Y-%m-%dT%H:%M:%S%z")})
+        self.meta.setdefault("resumes", []).append(
+            {"at_sample": keep, "previous_status": run.state, "time": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+        )
         self.meta.update(status="running", process=_this_process())
         for key in ("error", "finished", "samples"):
             self.meta.pop(key, None)
@@ -204,8 +220,14 @@ class RunRecorder:
         self.meta["rest_pins_px"] = np.asarray(pins_px, float)
         self._write_meta()
 
-    def add(self, observation: Observation, target: Pose, labels: dict, pins_px: np.ndarray | None = None,
-            found: np.ndarray | None = None) -> int:
+    def add(
+        self,
+        observation: Observation,
+        target: Pose,
+        labels: dict,
+        pins_px: np.ndarray | None = None,
+        found: np.ndarray | None = None,
+    ) -> int:
         """Record one sample; returns its index. Its line is written once its frame file
         is (the line of the sample before it at the latest when the next one is added)."""
         index = self.count
@@ -283,7 +305,7 @@ class RunRecorder:
         if failure is not None:
             raise failure
 
-    def __enter__(self) -> "RunRecorder":
+    def __enter__(self) -> RunRecorder:
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
@@ -301,7 +323,7 @@ def _append(fd: int, data: bytes) -> None:
     try:
         view = memoryview(data)
         while view:
-            view = view[os.write(fd, view):]
+            view = view[os.write(fd, view) :]
     except BaseException:
         with contextlib.suppress(OSError):
             os.ftruncate(fd, start)
@@ -389,7 +411,7 @@ class Run:
 
     @property
     def state(self) -> str:
-        """"completed", "interrupted", "failed", "running" (its process is alive) or
+        """ "completed", "interrupted", "failed", "running" (its process is alive) or
         "killed" (status still "running" but the recording process is gone: no end marker)."""
         status = self.meta.get("status", "running")
         if status != "running":
@@ -406,8 +428,10 @@ class Run:
         if self.finished:
             return None
         why = {"killed": "killed before it finished (no end marker)", "running": "still being recorded"}
-        return (f"{self.path}: run did not finish ({why.get(self.state, self.state)}; {len(self.samples)} samples); "
-                f"continue it with: twin run --resume {self.path}")
+        return (
+            f"{self.path}: run did not finish ({why.get(self.state, self.state)}; {len(self.samples)} samples); "
+            f"continue it with: twin run --resume {self.path}"
+        )
 
     def label(self, key: str) -> np.ndarray:
         return np.array([s["labels"].get(key, np.nan) for s in self.samples])
@@ -487,8 +511,11 @@ def _check_numbers(value, shape: tuple[int, ...], where: str, field: str, finite
         array = np.asarray(value, dtype=float)
     except (TypeError, ValueError, OverflowError):
         raise UserError(f"{where}: field {field!r} must be numbers of shape {shape}") from None
-    if array.ndim != len(shape) or any(n not in (-1, m) for n, m in zip(shape, array.shape)) or (
-            array.size and not _all_numbers(value)):
+    if (
+        array.ndim != len(shape)
+        or any(n not in (-1, m) for n, m in zip(shape, array.shape))
+        or (array.size and not _all_numbers(value))
+    ):
         raise UserError(f"{where}: field {field!r} must be numbers of shape {shape}, got shape {array.shape}")
     if finite and not np.all(np.isfinite(array)):
         raise UserError(f"{where}: field {field!r} holds NaN or ±inf")
@@ -505,11 +532,17 @@ def _check_meta(meta, where: Path) -> dict:
     if not isinstance(meta, dict):
         raise UserError(f"{where}: not a run's metadata (a JSON object), got {type(meta).__name__}")
     if meta.get("format_version") != FORMAT_VERSION:
-        raise UserError(f"{where}: format_version {str(meta.get('format_version'))[:20]}, this twin reads {FORMAT_VERSION}")
+        raise UserError(
+            f"{where}: format_version {str(meta.get('format_version'))[:20]}, this twin reads {FORMAT_VERSION}"
+        )
     scenario = meta.get("scenario")
-    if not (isinstance(scenario, dict) and isinstance(scenario.get("name"), str)
-            and isinstance(scenario.get("protocol"), dict) and isinstance(scenario["protocol"].get("kind"), str)
-            and isinstance(scenario.get("fidelity"), str)):
+    if not (
+        isinstance(scenario, dict)
+        and isinstance(scenario.get("name"), str)
+        and isinstance(scenario.get("protocol"), dict)
+        and isinstance(scenario["protocol"].get("kind"), str)
+        and isinstance(scenario.get("fidelity"), str)
+    ):
         raise UserError(f"{where}: field 'scenario' must be the run's scenario (name, fidelity, protocol.kind)")
     seed = meta.get("seed")
     if not (isinstance(seed, int) and not isinstance(seed, bool) and 0 <= seed <= 2**32 - 1):
@@ -523,7 +556,8 @@ def _check_meta(meta, where: Path) -> dict:
     camera = meta.get("camera")
     if camera is not None:
         if not isinstance(camera, dict) or not all(
-                isinstance(camera.get(k, 640), int) and 1 <= camera.get(k, 640) <= 10_000 for k in ("width", "height")):
+            isinstance(camera.get(k, 640), int) and 1 <= camera.get(k, 640) <= 10_000 for k in ("width", "height")
+        ):
             raise UserError(f"{where}: field 'camera' must hold width and height in [1, 10000] px")
     if meta.get("rest_pins_px") is not None:
         _check_numbers(meta["rest_pins_px"], (127, 2), str(where), "rest_pins_px", finite=False)
@@ -546,15 +580,20 @@ def _check_sample(row, where: str, root: Path) -> dict:
     if row["pins_px"] is not None:
         _check_numbers(row["pins_px"], (127, 2), where, "pins_px", finite=False)
     found = row.get("found")
-    if found is not None and not (isinstance(found, list) and len(found) == 127 and all(isinstance(f, bool) for f in found)):
+    if found is not None and not (
+        isinstance(found, list) and len(found) == 127 and all(isinstance(f, bool) for f in found)
+    ):
         raise UserError(f"{where}: field 'found' must be 127 true/false values or null")
     labels = row["labels"]
     if not isinstance(labels, dict):
         raise UserError(f"{where}: field 'labels' must be an object")
     for key, value in labels.items():
         if isinstance(value, (dict, list)) or (key.endswith(_NUMERIC_LABEL_SUFFIXES) and not _is_number(value)):
-            raise UserError(f"{where}: label {key[:40]!r} must be a number" if key.endswith(_NUMERIC_LABEL_SUFFIXES)
-                            else f"{where}: label {key[:40]!r} must be a number, true/false or text")
+            raise UserError(
+                f"{where}: label {key[:40]!r} must be a number"
+                if key.endswith(_NUMERIC_LABEL_SUFFIXES)
+                else f"{where}: label {key[:40]!r} must be a number, true/false or text"
+            )
     truth = row.get("truth")
     if truth is not None and not isinstance(truth, dict):
         raise UserError(f"{where}: field 'truth' must be an object or null")

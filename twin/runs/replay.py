@@ -6,6 +6,7 @@ runner's chunks (each from a reset, so chunks run in parallel and in any order);
 contour run replays its recorded targets in order from a hover over the first (the
 closed loop chose them; replaying them is what the robot did). Used by `twin calibrate`.
 """
+
 from __future__ import annotations
 
 import numpy as np

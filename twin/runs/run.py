@@ -1,5 +1,6 @@
 """`twin run`: execute any scenario on its backend and record it — open-loop protocols
 (twin.runs.runner) and closed-loop contour following (twin.runs.contour_run)."""
+
 from __future__ import annotations
 
 import json
@@ -12,8 +13,15 @@ from twin.runs.record import jsonable, load_run
 from twin.runs.runner import record_protocol
 
 
-def run_scenario(scenario: Scenario, out: Path, seed: int | None = None, workers: int | None = None,
-                 cluster: str | None = None, progress: bool = True, controller=None) -> Path:
+def run_scenario(
+    scenario: Scenario,
+    out: Path,
+    seed: int | None = None,
+    workers: int | None = None,
+    cluster: str | None = None,
+    progress: bool = True,
+    controller=None,
+) -> Path:
     """Run and record a scenario into `out`; returns the run directory.
 
     seed: overrides the scenario's seed; workers / cluster: parallel chunks of open-loop
@@ -24,8 +32,14 @@ def run_scenario(scenario: Scenario, out: Path, seed: int | None = None, workers
     return record_protocol(scenario, out, seed=seed, workers=workers, cluster=cluster, progress=progress)
 
 
-def resume_run(out: Path, scenario: Scenario | None = None, seed: int | None = None, workers: int | None = None,
-               cluster: str | None = None, progress: bool = True) -> Path:
+def resume_run(
+    out: Path,
+    scenario: Scenario | None = None,
+    seed: int | None = None,
+    workers: int | None = None,
+    cluster: str | None = None,
+    progress: bool = True,
+) -> Path:
     """Continue an interrupted or killed run in `out` after its last complete sample.
 
     The protocol is replayed from the start of the unfinished chunk (contour following:
@@ -39,8 +53,10 @@ def resume_run(out: Path, scenario: Scenario | None = None, seed: int | None = N
         given = json.loads(json.dumps(jsonable(scenario.model_dump())))
         changed = sorted(k for k in set(given) | set(recorded) if given.get(k) != recorded.get(k))
         if changed:
-            raise UserError(f"{out}: recorded with a different scenario ({run.meta.get('scenario_file')}); "
-                            f"fields that differ: {', '.join(changed)}; resume it without a scenario or with that one")
+            raise UserError(
+                f"{out}: recorded with a different scenario ({run.meta.get('scenario_file')}); "
+                f"fields that differ: {', '.join(changed)}; resume it without a scenario or with that one"
+            )
     if seed is not None and seed != run.meta["seed"]:
         raise UserError(f"{out}: recorded with seed {run.meta['seed']}, not {seed}; resume it with the same seed")
     scenario = scenario_from_dict(recorded, run.meta.get("scenario_file", str(out / "run.json")))

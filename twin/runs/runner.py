@@ -7,6 +7,7 @@ the same reset state, so the samples do not depend on how chunks were distribute
 Samples are recorded in protocol order as soon as they are observed (a worker sends each
 one to the parent while it runs the rest of its chunk).
 """
+
 from __future__ import annotations
 
 import time
@@ -19,12 +20,12 @@ from tqdm import tqdm
 
 from twin.control.contour import no_clock
 from twin.core.environment import Environment, Observation
+from twin.core.scenario import Scenario
 from twin.runs.backends import make_environment
-from twin.sensing.pins import PinReader
+from twin.runs.parallel import default_workers, map_streamed
 from twin.runs.protocols import Move, protocol_moves
 from twin.runs.record import RunRecorder
-from twin.core.scenario import Scenario
-from twin.runs.parallel import default_workers, map_streamed
+from twin.sensing.pins import PinReader
 
 
 @dataclass
@@ -124,8 +125,15 @@ def remaining_chunks(chunks: list[list[Move]], done: int) -> list[tuple[list[Mov
     return left
 
 
-def record_protocol(scenario: Scenario, out: Path, seed: int | None = None, workers: int | None = None,
-                    cluster: str | None = None, progress: bool = True, resume: bool = False) -> Path:
+def record_protocol(
+    scenario: Scenario,
+    out: Path,
+    seed: int | None = None,
+    workers: int | None = None,
+    cluster: str | None = None,
+    progress: bool = True,
+    resume: bool = False,
+) -> Path:
     """Run and record an open-loop scenario (render, taps, slides); returns the run
     directory. `resume`: continue the unfinished run in `out` (twin.runs.run.resume_run)."""
 
@@ -136,8 +144,11 @@ def record_protocol(scenario: Scenario, out: Path, seed: int | None = None, work
     chunks = chunk_moves(moves)
     n_samples = sum(m.record for m in moves)
     wall = time.perf_counter()
-    recorder = RunRecorder.resume(out) if resume else RunRecorder(out, scenario, seed, scenario.backend,
-                                                                  scenario.camera_model())
+    recorder = (
+        RunRecorder.resume(out)
+        if resume
+        else RunRecorder(out, scenario, seed, scenario.backend, scenario.camera_model())
+    )
     with recorder:
         jobs = remaining_chunks(chunks, recorder.count)
         bar = tqdm(total=n_samples, initial=recorder.count, desc=scenario.name, unit="frame", disable=not progress)
@@ -153,8 +164,9 @@ def record_protocol(scenario: Scenario, out: Path, seed: int | None = None, work
                 for chunk, skip in jobs:
                     run_chunk(scenario, seed, chunk, sink=record, skip=skip)
             else:  # record each sample as soon as its worker observes it, in protocol order
-                for s in map_streamed(send_chunk, [(scenario, seed, c, skip) for c, skip in jobs],
-                                      workers=workers, cluster=cluster):
+                for s in map_streamed(
+                    send_chunk, [(scenario, seed, c, skip) for c, skip in jobs], workers=workers, cluster=cluster
+                ):
                     record(s)
         finally:
             bar.close()

@@ -1,4 +1,5 @@
 """The simulated rig behind the `Environment` interface (twin.core.environment)."""
+
 from __future__ import annotations
 
 import time
@@ -117,7 +118,9 @@ class SimEnvironment(Environment):
         if self._renderer is None:
             return Observation(time=frame.time, pose=pose, pins_px=pins_px, truth=truth)
         t0 = time.perf_counter()
-        shown = frame.pins_tool  # a calibrated camera: the nominal GL camera sees each pin where the calibrated one does
+        shown = (
+            frame.pins_tool
+        )  # a calibrated camera: the nominal GL camera sees each pin where the calibrated one does
         if self.rest_offsets_px is not None or self.camera != self.camera.nominal():
             shown = self.camera.place_at_pixels(frame.pins_tool, pins_px)
         image = self._renderer.render(shown, self._noise, self.rng)
@@ -149,10 +152,16 @@ def check_reachable(scenario: Scenario, scene: Scene) -> int:
         try:
             q = kinematics().inverse(scene.work2world @ pose.to_matrix(), TOOL2FLANGE, q_seed=q)
         except UnreachablePoseError as err:
-            where = ("the start pose" if i == 0 else f"field protocol.poses.{i - 1}" if scenario.protocol.kind == "render"
-                     else f"move {i} of the protocol ({scenario.protocol.kind}, from its fields)")
-            raise UnreachablePoseError(f"{scenario.source}: {where}, pose {pose.as_array().round(3).tolist()} "
-                                       f"(mm, deg, work frame): {err}") from None
+            where = (
+                "the start pose"
+                if i == 0
+                else f"field protocol.poses.{i - 1}"
+                if scenario.protocol.kind == "render"
+                else f"move {i} of the protocol ({scenario.protocol.kind}, from its fields)"
+            )
+            raise UnreachablePoseError(
+                f"{scenario.source}: {where}, pose {pose.as_array().round(3).tolist()} (mm, deg, work frame): {err}"
+            ) from None
     return len(poses)
 
 

@@ -7,6 +7,7 @@ The scenario's `physics` block is checked here against its dome model's own sche
 (twin.world.dome.registry: the model named by `dome:` owns its settings, units and
 bounds); errors name the file and `physics.<field>` (UserError, exit 2).
 """
+
 from __future__ import annotations
 
 from collections.abc import Mapping
@@ -87,8 +88,9 @@ def _settings(builder: DomeBuilder, physics: Mapping[str, Any], source: str) -> 
         raise UserError(f"{source}: " + "; ".join(lines)) from None
 
 
-def _params(builder: DomeBuilder, fidelity: str, physics: Mapping[str, Any], calibration: Calibration | None,
-            source: str) -> DomeParameters:
+def _params(
+    builder: DomeBuilder, fidelity: str, physics: Mapping[str, Any], calibration: Calibration | None, source: str
+) -> DomeParameters:
     material = {} if calibration is None else calibration.dome_material
     return builder.params(fidelity, _settings(builder, physics, source), material, source)
 
@@ -153,14 +155,22 @@ def scene_spec(scenario: Scenario, calibration: Calibration | None = None) -> Sc
     calibration = scenario.calibration() if calibration is None else calibration
     stimulus = _stimulus(scenario.object, _object_file(scenario), calibration)
     work_pose = None if scenario.work_frame == "object" else Pose.from_array(scenario.work_frame)
-    object2world, work2world = object_and_work_frames(scenario.placement.position_mm, scenario.placement.yaw_deg,
-                                                      stimulus.thickness_mm, work_pose)
+    object2world, work2world = object_and_work_frames(
+        scenario.placement.position_mm, scenario.placement.yaw_deg, stimulus.thickness_mm, work_pose
+    )
     builder = _builder(scenario.dome, scenario.source)
-    return SceneSpec(name=scenario.name, source=scenario.source, stimulus=stimulus,
-                     object2world=_read_only(object2world), work2world=_read_only(work2world), dome=builder,
-                     dome_params=_params(builder, scenario.fidelity, scenario.physics, calibration, scenario.source),
-                     camera=calibrated_camera(scenario.sensor.camera, calibration),
-                     contact=scenario.has("contact"), friction=scenario.has("friction"))
+    return SceneSpec(
+        name=scenario.name,
+        source=scenario.source,
+        stimulus=stimulus,
+        object2world=_read_only(object2world),
+        work2world=_read_only(work2world),
+        dome=builder,
+        dome_params=_params(builder, scenario.fidelity, scenario.physics, calibration, scenario.source),
+        camera=calibrated_camera(scenario.sensor.camera, calibration),
+        contact=scenario.has("contact"),
+        friction=scenario.has("friction"),
+    )
 
 
 def sim_spec(scenario: Scenario) -> SimSpec:
@@ -169,7 +179,13 @@ def sim_spec(scenario: Scenario) -> SimSpec:
     scene = scene_spec(scenario, calibration)
     camera = scenario.sensor.camera
     return SimSpec(
-        scene=scene, effects=tuple(scenario.effects), seed=scenario.seed, msaa=camera.msaa,
+        scene=scene,
+        effects=tuple(scenario.effects),
+        seed=scenario.seed,
+        msaa=camera.msaa,
         noise_std=camera.noise_std if scenario.has("camera_noise") else 0.0,
         rest_offsets_px=_read_only(None if calibration is None else calibration.rest_offsets_px(scene.camera.width)),
-        tcp2apex=_read_only(make_transform(np.eye(3), np.zeros(3) if calibration is None else calibration.tcp_offset_m)))
+        tcp2apex=_read_only(
+            make_transform(np.eye(3), np.zeros(3) if calibration is None else calibration.tcp_offset_m)
+        ),
+    )

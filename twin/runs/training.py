@@ -8,6 +8,7 @@ parameters it was simulated with, the package version and the code of the layers
 simulate, track and train (`model_code_digest`), so that a changed dome or tracker in a
 source checkout trains again instead of loading a model of the old one.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -35,8 +36,15 @@ def train_from_run(run: Run, method: str = "pca", seed: int = 0) -> PerceptionMo
     if not np.all(np.isfinite(theta)) or not np.all(np.isfinite(lateral)):
         raise UserError(f"{run.path}: not a tap run (samples need theta_deg and lateral_mm labels)")
     model = PerceptionModel(method=method)
-    model.fit(pins, theta, lateral, depth, np.random.default_rng(seed), resolution=run.resolution,
-              source="real" if run.meta.get("backend") == "hardware" else "sim")
+    model.fit(
+        pins,
+        theta,
+        lateral,
+        depth,
+        np.random.default_rng(seed),
+        resolution=run.resolution,
+        source="real" if run.meta.get("backend") == "hardware" else "sim",
+    )
     model.info["trained_on"] = str(run.path)
     return model
 
@@ -48,8 +56,14 @@ def tap_scenario_like(scenario: Scenario) -> Scenario:
     taps = load_scenario(scenario_path("taps_rectangle"))
     sensor = scenario.sensor.model_dump()
     sensor["calibration"] = scenario.calibration()
-    return taps.with_changes(dome=scenario.dome, fidelity=scenario.fidelity, physics=dict(scenario.physics),
-                             effects=list(scenario.effects), sensor=sensor, seed=scenario.seed)
+    return taps.with_changes(
+        dome=scenario.dome,
+        fidelity=scenario.fidelity,
+        physics=dict(scenario.physics),
+        effects=list(scenario.effects),
+        sensor=sensor,
+        seed=scenario.seed,
+    )
 
 
 #: the layers whose code a tap model depends on (the controller and the tools above them do not count)
@@ -71,9 +85,16 @@ def cache_key(taps: Scenario) -> str:
     scenario = taps.model_dump(mode="json")
     calibration = taps.calibration()
     scenario["sensor"]["calibration"] = None if calibration is None else calibration.model_dump(mode="json")
-    payload = json.dumps({"scenario": scenario, "dome": dataclasses.asdict(dome_params(taps)),
-                          "version": package_version(), "code": model_code_digest()},
-                         sort_keys=True, default=str)
+    payload = json.dumps(
+        {
+            "scenario": scenario,
+            "dome": dataclasses.asdict(dome_params(taps)),
+            "version": package_version(),
+            "code": model_code_digest(),
+        },
+        sort_keys=True,
+        default=str,
+    )
     return hashlib.sha256(payload.encode()).hexdigest()[:16]
 
 
@@ -98,7 +119,9 @@ def cached_tap_model(scenario: Scenario, progress: bool = True) -> PerceptionMod
             model_path.parent.mkdir(parents=True, exist_ok=True)
             model.save(model_path)
         except OSError as err:
-            warnings.warn(f"{model_path}: could not store the trained model in the cache ({err.strerror})", stacklevel=2)
+            warnings.warn(
+                f"{model_path}: could not store the trained model in the cache ({err.strerror})", stacklevel=2
+            )
     model.info["path"] = str(model_path)
     return model
 

@@ -76,21 +76,25 @@ apply to real frames and back because both use the same pin order and pixel unit
 `synthetic_tap_pins` is a smooth analytic stand-in for the dome (tests and benchmarks), not
 the simulation's physics.
 """
-from __future__ import annotations
 
-import warnings
+from __future__ import annotations
 
 import io
 import json
 import math
+import platform
 import time
+import warnings
 import zipfile
 from dataclasses import asdict, dataclass, field
-from datetime import datetime, timezone
+from datetime import UTC, datetime
+from importlib.metadata import version
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import numpy as np
+import sklearn
+from pydantic import Field
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.gaussian_process import GaussianProcessRegressor
 from sklearn.gaussian_process.kernels import ConstantKernel, Kernel, Matern, WhiteKernel
@@ -100,10 +104,6 @@ from twin.core.files import replace_file
 from twin.core.poses import wrap_deg
 from twin.core.sensor import N_PINS, CameraModel
 from twin.core.validation import StrictModel, bounded, bounded_list, validate_mapping
-import platform
-import sklearn
-from importlib.metadata import version
-from pydantic import Field
 from twin.sensing.tracker import PinTracker, detect_pins, reference_pins_from_frame, render_pins_frame
 
 FORMAT = "tactip-twin/perception-model"
@@ -140,13 +140,17 @@ class ModelHeader(StrictModel):
     software: dict[str, str]
     method: Literal["pca", "baseline"]
     source: str
-    camera_resolution: Annotated[list[Annotated[int, Field(ge=16, le=8192)]], Field(
-        min_length=2, max_length=2, description="training camera width, height (px; each in [16, 8192])")]
+    camera_resolution: Annotated[
+        list[Annotated[int, Field(ge=16, le=8192)]],
+        Field(min_length=2, max_length=2, description="training camera width, height (px; each in [16, 8192])"),
+    ]
     n_pins: Literal[127]
     data_layout: str
     n_components: int = bounded(1, 2 * N_PINS, "components", "PCA components")
     gp_config: GPConfigHeader
-    gp_alpha: dict[Literal["cos", "sin", "lat"], Annotated[float, Field(ge=0, le=1, description="dimensionless; [0, 1]")]]
+    gp_alpha: dict[
+        Literal["cos", "sin", "lat"], Annotated[float, Field(ge=0, le=1, description="dimensionless; [0, 1]")]
+    ]
     max_missing_fraction: float = bounded(0, 1, "dimensionless", "largest fraction of missing pins")
     lateral_keep_fraction: float = bounded(0, 1, "dimensionless", "pruning keeps at least this fraction")
     no_contact_lateral_mm: float = bounded(-50, 50, "mm", "no-contact label threshold")
@@ -198,9 +202,7 @@ def pca_fit(data: np.ndarray, n_components: int = 3) -> tuple[np.ndarray, np.nda
     return mean, comps, explained
 
 
-def sensitivity(
-    p: np.ndarray, labels: np.ndarray, groups: np.ndarray, *, circular_deg: bool = False
-) -> np.ndarray:
+def sensitivity(p: np.ndarray, labels: np.ndarray, groups: np.ndarray, *, circular_deg: bool = False) -> np.ndarray:
     """Per-point sensitivity S = ‖Δp‖ / |Δw| to its neighbouring labels within each group.
 
     p: (N, k) projections; labels: (N,) w (deg or mm); groups: (N,) group id (points are
@@ -280,8 +282,12 @@ class DepthShift:
 
     @classmethod
     def fit(
-        cls, q: np.ndarray, theta_deg: np.ndarray, lateral_mm: np.ndarray, depth_mm: np.ndarray,
-        mode: str = "per_orientation"
+        cls,
+        q: np.ndarray,
+        theta_deg: np.ndarray,
+        lateral_mm: np.ndarray,
+        depth_mm: np.ndarray,
+        mode: str = "per_orientation",
     ) -> DepthShift:
         """Fit from training projections q = p − p0 (N, 3) and their labels (see module doc).
 
@@ -361,8 +367,8 @@ class GPConfig:
     length_scale_init: float = 1.0
     noise_init: float = 1e-2
     n_restarts: int = 2
-    alpha: float = 1e-10            # jitter added to the kernel diagonal
-    max_alpha: float = 1e-2         # jitter is raised ×100 up to this if Cholesky fails
+    alpha: float = 1e-10  # jitter added to the kernel diagonal
+    max_alpha: float = 1e-2  # jitter is raised ×100 up to this if Cholesky fails
 
 
 def make_kernel(n_features: int, ard: bool, cfg: GPConfig) -> Kernel:
@@ -373,7 +379,9 @@ def make_kernel(n_features: int, ard: bool, cfg: GPConfig) -> Kernel:
     ) + WhiteKernel(min(max(cfg.noise_init, cfg.noise_bounds[0]), cfg.noise_bounds[1]), cfg.noise_bounds)
 
 
-def fit_gp(x: np.ndarray, y: np.ndarray, kernel: Kernel, cfg: GPConfig, rng: np.random.Generator) -> GaussianProcessRegressor:
+def fit_gp(
+    x: np.ndarray, y: np.ndarray, kernel: Kernel, cfg: GPConfig, rng: np.random.Generator
+) -> GaussianProcessRegressor:
     """Fit one GP by maximising the log marginal likelihood (bounded L-BFGS-B, restarts)."""
     seed = int(rng.integers(0, 2**31 - 1))
     alpha = cfg.alpha
@@ -393,10 +401,13 @@ def fit_gp(x: np.ndarray, y: np.ndarray, kernel: Kernel, cfg: GPConfig, rng: np.
             alpha *= 100
 
 
-def rebuild_gp(x: np.ndarray, y: np.ndarray, kernel: Kernel, theta: np.ndarray, alpha: float) -> GaussianProcessRegressor:
+def rebuild_gp(
+    x: np.ndarray, y: np.ndarray, kernel: Kernel, theta: np.ndarray, alpha: float
+) -> GaussianProcessRegressor:
     """A GP with fixed hyperparameters `theta` (log space), refitted on (x, y) without optimising."""
-    gp = GaussianProcessRegressor(kernel=kernel.clone_with_theta(np.asarray(theta, float)), alpha=alpha,
-                                  normalize_y=True, optimizer=None)
+    gp = GaussianProcessRegressor(
+        kernel=kernel.clone_with_theta(np.asarray(theta, float)), alpha=alpha, normalize_y=True, optimizer=None
+    )
     return gp.fit(x, y)
 
 
@@ -478,8 +489,9 @@ class PerceptionModel:
         if self.method not in ("pca", "baseline"):
             raise UserError(f"perception: method must be 'pca' or 'baseline', got {self.method!r}")
         if self.depth_shift_mode not in SHIFT_MODES:
-            raise UserError(f"perception: depth_shift_mode must be one of {', '.join(SHIFT_MODES)}, "
-                            f"got {self.depth_shift_mode!r}")
+            raise UserError(
+                f"perception: depth_shift_mode must be one of {', '.join(SHIFT_MODES)}, got {self.depth_shift_mode!r}"
+            )
 
     # ------------------------------------------------------------------ features
 
@@ -592,8 +604,13 @@ class PerceptionModel:
         p = (z - self.pca_mean) @ self.pca_components.T
         self.origin_p = p[first_nc].copy()
         q = p - self.origin_p
-        self.depth_shift = DepthShift.fit(q[~no_contact], theta_deg[~no_contact], lateral_mm[~no_contact],
-                                          depth_mm[~no_contact], self.depth_shift_mode)
+        self.depth_shift = DepthShift.fit(
+            q[~no_contact],
+            theta_deg[~no_contact],
+            lateral_mm[~no_contact],
+            depth_mm[~no_contact],
+            self.depth_shift_mode,
+        )
 
         # Pruning (paper): orientation set per (l, depth), lateral set per (θ, depth).
         s_orient = sensitivity(p, theta_deg, _group_ids(lateral_mm, depth_mm), circular_deg=True)
@@ -623,12 +640,23 @@ class PerceptionModel:
 
         x, _ = self._features(pins)
         theta_rad = np.radians(theta_deg)
-        targets = {"cos": (np.cos(theta_rad), keep_orient), "sin": (np.sin(theta_rad), keep_orient), "lat": (lateral_mm, keep_lat)}
+        targets = {
+            "cos": (np.cos(theta_rad), keep_orient),
+            "sin": (np.sin(theta_rad), keep_orient),
+            "lat": (lateral_mm, keep_lat),
+        }
         ard = self.method == "pca"
         self.gp_inputs = dict(PCA_GP_INPUTS) if ard else {}
         self._gps = {}
-        self._train = {"p": p, "theta_deg": theta_deg, "lateral_mm": lateral_mm, "depth_mm": depth_mm,
-                       "keep_orientation": keep_orient, "keep_lateral": keep_lat, "no_contact": no_contact}
+        self._train = {
+            "p": p,
+            "theta_deg": theta_deg,
+            "lateral_mm": lateral_mm,
+            "depth_mm": depth_mm,
+            "keep_orientation": keep_orient,
+            "keep_lateral": keep_lat,
+            "no_contact": no_contact,
+        }
         for name in GP_NAMES:
             y, keep = targets[name]
             x_gp = self._gp_x(name, x)
@@ -725,7 +753,7 @@ class PerceptionModel:
         header = {
             "format": FORMAT,
             "format_version": FORMAT_VERSION,
-            "created_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
             "software": _versions(),
             "method": self.method,
             "source": self.source,
@@ -781,8 +809,10 @@ class PerceptionModel:
         if header.get("format") != FORMAT:
             raise UserError(f"{path}: format {header.get('format')!r}, expected {FORMAT!r}")
         if header.get("format_version") != FORMAT_VERSION:
-            raise UserError(f"{path}: format_version {header.get('format_version')}, this twin reads {FORMAT_VERSION} "
-                            "(fit a new model from the tap run it came from)")
+            raise UserError(
+                f"{path}: format_version {header.get('format_version')}, this twin reads {FORMAT_VERSION} "
+                "(fit a new model from the tap run it came from)"
+            )
         if header.get("n_pins") != N_PINS:
             raise UserError(f"{path}: model has {header.get('n_pins')} pins, expected {N_PINS}")
         h: ModelHeader = validate_mapping(ModelHeader, header, str(path), "perception model header")
@@ -791,10 +821,14 @@ class PerceptionModel:
                 raise UserError(f"{path}: array {name!r} holds NaN or ±inf")
         gp_cfg = GPConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in h.gp_config.model_dump().items()})
         model = cls(
-            method=h.method, gp=gp_cfg, max_missing_fraction=h.max_missing_fraction,
+            method=h.method,
+            gp=gp_cfg,
+            max_missing_fraction=h.max_missing_fraction,
             lateral_keep_fraction=h.lateral_keep_fraction,
-            no_contact_lateral_mm=h.no_contact_lateral_mm, n_components=h.n_components,
-            no_contact_px=h.no_contact_px, depth_shift_mode=h.depth_shift_mode,
+            no_contact_lateral_mm=h.no_contact_lateral_mm,
+            n_components=h.n_components,
+            no_contact_px=h.no_contact_px,
+            depth_shift_mode=h.depth_shift_mode,
         )
         model.resolution = tuple(h.camera_resolution)
         model.source = h.source
@@ -812,12 +846,13 @@ class PerceptionModel:
         for k in GP_NAMES:
             x = data[f"gp_{k}_x"]
             if k in model.gp_inputs and x.shape[1] != len(model.gp_inputs[k]):
-                raise UserError(f"{path}: GP {k!r} was trained on {x.shape[1]} inputs, its header names "
-                                f"{len(model.gp_inputs[k])}")
+                raise UserError(
+                    f"{path}: GP {k!r} was trained on {x.shape[1]} inputs, its header names {len(model.gp_inputs[k])}"
+                )
             kernel = make_kernel(x.shape[1], ard, gp_cfg)
             model._gp_y[k] = data[f"gp_{k}_y"]
             model._gps[k] = rebuild_gp(x, model._gp_y[k], kernel, data[f"gp_{k}_theta"], h.gp_alpha[k])
-        model._train = {k[len("train_"):]: data[k] for k in data.files if k.startswith("train_")}
+        model._train = {k[len("train_") :]: data[k] for k in data.files if k.startswith("train_")}
         return model
 
     @property
@@ -839,14 +874,16 @@ def _group_ids(*labels: np.ndarray) -> np.ndarray:
 
 def _versions() -> dict:
 
-
     try:
-
         twin_version = version("tactip-twin")
     except Exception:  # not installed as a distribution (source checkout)
         twin_version = "unknown"
-    return {"tactip-twin": twin_version, "python": platform.python_version(), "numpy": np.__version__,
-            "scikit-learn": sklearn.__version__}
+    return {
+        "tactip-twin": twin_version,
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "scikit-learn": sklearn.__version__,
+    }
 
 
 # ----------------------------------------------------------------------------- synthetic data

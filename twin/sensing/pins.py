@@ -5,6 +5,7 @@ finds the pins in it against the no-contact reference frame; an observation of a
 without rendering carries the pins projected through the camera model. `PinReader` takes
 both, so everything downstream (perception, control, recording) is the same code.
 """
+
 from __future__ import annotations
 
 from typing import NamedTuple
@@ -50,6 +51,8 @@ class PinReader:
         lost = int((~result.found).sum())
         if lost > self.max_lost_fraction * len(result.found):
             reasons = sorted({r for r in result.reasons if r})
-            raise LostPinsError(f"lost {lost}/{len(result.found)} pins at pose {obs.pose} ({', '.join(reasons)}); "
-                                "check the camera and the skin")
+            raise LostPinsError(
+                f"lost {lost}/{len(result.found)} pins at pose {obs.pose} ({', '.join(reasons)}); "
+                "check the camera and the skin"
+            )
         return PinReading(result.pins_px, result.found, result.ms)

@@ -22,6 +22,7 @@ The same code runs on rendered (sim) and filmed (real) frames: it only sees pixe
 * `render_pins_frame` draws a synthetic TacTip frame from known pin positions (tests and
   benchmarks; it is not the renderer of the simulation).
 """
+
 from __future__ import annotations
 
 import time
@@ -38,8 +39,8 @@ from twin.core.sensor import N_PINS, CameraModel
 
 # Per-pin reasons in TrackResult.reasons ("" = tracked normally).
 OK = ""
-MISSING = "missing"      # no detection within the jump gate: last known position kept
-MERGED = "merged"        # shares one blob with another pin: position estimated from the blob's motion
+MISSING = "missing"  # no detection within the jump gate: last known position kept
+MERGED = "merged"  # shares one blob with another pin: position estimated from the blob's motion
 AMBIGUOUS = "ambiguous"  # the assigned blob is almost as close to another pin: position is a best guess
 
 _BIG_COST = 1e9
@@ -292,8 +293,10 @@ def _radial_icp(points_px: np.ndarray, template_px: np.ndarray, iterations: int)
     outer ones more than the model camera does. Starts from matching the sorted radii;
     returns (the fitted template, the order of the points) as the similarity fit does."""
     mu_p, mu_t = points_px.mean(0), template_px.mean(0)
-    coefficients = _radial_coefficients(template_px[np.argsort(np.linalg.norm(template_px - mu_t, axis=1))],
-                                        np.sort(np.linalg.norm(points_px - mu_p, axis=1)))
+    coefficients = _radial_coefficients(
+        template_px[np.argsort(np.linalg.norm(template_px - mu_t, axis=1))],
+        np.sort(np.linalg.norm(points_px - mu_p, axis=1)),
+    )
     warped = _radial_warp(template_px, coefficients)
     tree = cKDTree(points_px)
     best = (np.inf, None)
@@ -515,8 +518,8 @@ class PinTracker:
         of the pins in `use` (see the class doc, step 4). exclude_self: leave each pin out
         of its own fit (the consistency check)."""
         u = use.astype(float)
-        rhs = np.column_stack([u, u[:, None] * disp])               # (127, 3): u, u·du, u·dv
-        g = self._moments @ rhs                                     # (6, 127, 3)
+        rhs = np.column_stack([u, u[:, None] * disp])  # (127, 3): u, u·du, u·dv
+        g = self._moments @ rhs  # (6, 127, 3)
         if exclude_self:  # the pin's own term: weight 1, offset 0 → only in the Σw rows
             g[0] -= rhs
         # Per pin, the weighted affine fit's normal equations A·x = b, divided by Σw:
@@ -566,8 +569,9 @@ class PinTracker:
             conf = new
         return pred, conf, j, loo_rms
 
-    def _grow(self, cents: np.ndarray, single: np.ndarray, pred: np.ndarray, resolved: np.ndarray,
-              blob: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _grow(
+        self, cents: np.ndarray, single: np.ndarray, pred: np.ndarray, resolved: np.ndarray, blob: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Step 5 of the class doc: assign the unresolved pins to the blobs no resolved pin
         holds, keep the unambiguous pairs, refit the field, repeat.
 
@@ -639,8 +643,7 @@ class PinTracker:
             # Every pin holds a blob of its own, matched unambiguously (ratio tests, or the
             # assignment's margin in step 5): that is the assignment.
             self._previous = pred
-            return TrackResult(pred.copy(), np.ones(N_PINS, bool), (OK,) * N_PINS, k,
-                               (time.perf_counter() - t0) * 1e3)
+            return TrackResult(pred.copy(), np.ones(N_PINS, bool), (OK,) * N_PINS, k, (time.perf_counter() - t0) * 1e3)
 
         # Step 6: one-to-one assignment to the predictions, gated; large blobs may take several pins.
         dist = np.linalg.norm(pred[:, None, :] - cents[None, :, :], axis=2)  # (127, K)
@@ -719,7 +722,15 @@ def render_pins_frame(
     camera = camera_for_frame(width, height)
     frame = np.zeros((height, width), np.uint8)
     shift = 4
-    cv2.circle(frame, ((width - 1) * 8, (height - 1) * 8), int(camera.aperture_radius_px * 16), int(background), -1, cv2.LINE_AA, shift)
+    cv2.circle(
+        frame,
+        ((width - 1) * 8, (height - 1) * 8),
+        int(camera.aperture_radius_px * 16),
+        int(background),
+        -1,
+        cv2.LINE_AA,
+        shift,
+    )
     pins_px = np.asarray(pins_px, float)
     if radii_px is None:
         radii = template_pin_radii_px(camera) if len(pins_px) == N_PINS else np.full(len(pins_px), 7.0)
@@ -728,9 +739,10 @@ def render_pins_frame(
     for (u, v), r in zip(pins_px, radii):
         if not (np.isfinite(u) and np.isfinite(v)):
             continue
-        cv2.circle(frame, (int(round(u * 16)), int(round(v * 16))), int(round(r * 16)), int(foreground), -1, cv2.LINE_AA, shift)
+        cv2.circle(
+            frame, (int(round(u * 16)), int(round(v * 16))), int(round(r * 16)), int(foreground), -1, cv2.LINE_AA, shift
+        )
     if noise_std > 0:
         rng = rng if rng is not None else np.random.default_rng(0)
         frame = np.clip(frame + rng.normal(0.0, noise_std, frame.shape), 0, 255).astype(np.uint8)
     return frame
-

@@ -3,38 +3,37 @@
 Speed targets are checked here by printing measured figures, never by timed asserts
 in tests. Each section returns rows (dicts) so the sweep can write CSV/markdown.
 """
+
 from __future__ import annotations
 
+import csv
 import os
 import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
-from twin.world import gl
-from twin.world.render import PinRenderer
-from twin.sensing.tracker import PinTracker
+from twin.core.errors import UserError
+from twin.core.resources import scenario_path
+from twin.core.scenario import ContourProtocol, load_scenario
 from twin.core.sensor import CameraModel
-from twin.core.scenario import ContourProtocol
-from twin.world.dome.registry import DOME_MODELS
-from twin.world.dome.testbed import edge_scene, sensor_down
-from twin.sensing.perception import benchmark_perception
-from twin.runs.runner import run_chunk, worker_environment
+from twin.runs.backends import make_environment
 from twin.runs.parallel import WorkerPool, default_workers
 from twin.runs.protocols import protocol_moves
-from twin.runs.backends import make_environment
+from twin.runs.runner import chunk_moves, chunk_samples, close_worker_envs, run_chunk, worker_environment
 from twin.runs.spec import sim_spec
-from twin.world.scene import build_scene
-from twin.runs.runner import chunk_moves, chunk_samples, close_worker_envs
-from twin.core.resources import scenario_path
-from twin.core.scenario import load_scenario
+from twin.sensing.perception import benchmark_perception
+from twin.sensing.tracker import PinTracker
 from twin.tools.sweep_report import sweep_and_report
-from twin.core.errors import UserError
-import csv
+from twin.world import gl
+from twin.world.dome.registry import DOME_MODELS
+from twin.world.dome.testbed import edge_scene, sensor_down
+from twin.world.render import PinRenderer
+from twin.world.scene import build_scene
 
 
 def _time_per_call(fn: Callable[[], object], min_calls: int = 20, min_seconds: float = 0.5) -> float:
@@ -60,10 +59,21 @@ def bench_render(quick: bool = False) -> list[dict]:
         for msaa in (0, 4):
             renderer = PinRenderer(camera, lighting=lighting, msaa=msaa)
             jitter = lambda: pins + rng.normal(0, 2e-4, pins.shape)  # noqa: E731  (new pins each frame)
-            seconds = _time_per_call(lambda: renderer.render(jitter()), min_calls=30 if quick else 120)
+            seconds = _time_per_call(
+                lambda renderer=renderer, jitter=jitter: renderer.render(jitter()), min_calls=30 if quick else 120
+            )
             renderer.close()
-            rows.append({"section": "render", "resolution": f"{camera.width}x{camera.height}", "lighting": lighting,
-                         "msaa": msaa, "ms_per_frame": seconds * 1e3, "fps": 1.0 / seconds, "gl": gl.GL_BACKEND})
+            rows.append(
+                {
+                    "section": "render",
+                    "resolution": f"{camera.width}x{camera.height}",
+                    "lighting": lighting,
+                    "msaa": msaa,
+                    "ms_per_frame": seconds * 1e3,
+                    "fps": 1.0 / seconds,
+                    "gl": gl.GL_BACKEND,
+                }
+            )
     base = {(r["lighting"]): r["ms_per_frame"] for r in rows if r["msaa"] == 0}
     for r in rows:
         r["aa_cost_ms"] = r["ms_per_frame"] - base[r["lighting"]]
@@ -105,11 +115,19 @@ def bench_pixels(quick: bool = False) -> list[dict]:
     for renderer in renderers:
         renderer.close()
     default = PIXEL_SHAPES.index((640, 480))
-    return [{"section": "pixels", "resolution": f"{w}x{h}", "pixels": w * h,
-             "render_ms": 1e3 * float(np.median(render_s[:, i])), "track_ms": 1e3 * float(np.median(track_s[:, i])),
-             "pixels_to_640x480": w * h / (640 * 480),
-             "render_to_640x480": float(np.median(render_s[:, i] / render_s[:, default])), "gl": gl.GL_BACKEND}
-            for i, (w, h) in enumerate(PIXEL_SHAPES)]
+    return [
+        {
+            "section": "pixels",
+            "resolution": f"{w}x{h}",
+            "pixels": w * h,
+            "render_ms": 1e3 * float(np.median(render_s[:, i])),
+            "track_ms": 1e3 * float(np.median(track_s[:, i])),
+            "pixels_to_640x480": w * h / (640 * 480),
+            "render_to_640x480": float(np.median(render_s[:, i] / render_s[:, default])),
+            "gl": gl.GL_BACKEND,
+        }
+        for i, (w, h) in enumerate(PIXEL_SHAPES)
+    ]
 
 
 def bench_physics(quick: bool = False) -> list[dict]:
@@ -170,9 +188,9 @@ def bench_throughput(quick: bool = False) -> list[dict]:
     workers = default_workers()
     outputs = (("pins only", ["contact", "friction"]), ("rendered + tracked", ["contact", "friction", "render"]))
     for label, effects in outputs:
-        scenario = base.model_copy(update={
-            "effects": effects,
-            "protocol": base.protocol.model_copy(update={"orientations_deg": orientations})})
+        scenario = base.model_copy(
+            update={"effects": effects, "protocol": base.protocol.model_copy(update={"orientations_deg": orientations})}
+        )
         jobs = [(scenario, 0, chunk) for chunk in chunk_moves(protocol_moves(scenario.protocol))]
         serial = [_timed_chunk(*job) for job in jobs]
         close_worker_envs()  # this process's environment (and GL context) is not needed any more
@@ -184,18 +202,30 @@ def bench_throughput(quick: bool = False) -> list[dict]:
             parallel = list(pool.map_ordered(_timed_chunk, jobs))
             wall = time.perf_counter() - t0
         startup = max(s for _, _, s in parallel)
-        rows.append({"section": "throughput", "output": label, "frames": frames, "workers": workers,
-                     "fps_1_process": fps_1, "ms_per_frame_1_process": 1e3 / fps_1, "pool_start_s": pool_start,
-                     "env_build_s": startup, "fps_all_cores": frames / (pool_start + wall),
-                     "fps_all_cores_steady": frames / (wall - startup), "speedup": frames / (wall - startup) / fps_1})
+        rows.append(
+            {
+                "section": "throughput",
+                "output": label,
+                "frames": frames,
+                "workers": workers,
+                "fps_1_process": fps_1,
+                "ms_per_frame_1_process": 1e3 / fps_1,
+                "pool_start_s": pool_start,
+                "env_build_s": startup,
+                "fps_all_cores": frames / (pool_start + wall),
+                "fps_all_cores_steady": frames / (wall - startup),
+                "speedup": frames / (wall - startup) / fps_1,
+            }
+        )
     return rows
 
 
 #: What `twin bench startup` runs: an open-loop scenario with rendered frames, two workers
 STARTUP_SCENARIO, STARTUP_WORKERS = "taps_rectangle", 2
 
-_IMPORT_PROBE = ("import time; t0 = time.perf_counter(); import twin.tools.cli, twin.runs.run; "
-                 "print(time.perf_counter() - t0)")
+_IMPORT_PROBE = (
+    "import time; t0 = time.perf_counter(); import twin.tools.cli, twin.runs.run; print(time.perf_counter() - t0)"
+)
 
 
 def _first_frame_of_twin_run(scenario: str, workers: int) -> float:
@@ -204,14 +234,29 @@ def _first_frame_of_twin_run(scenario: str, workers: int) -> float:
     with tempfile.TemporaryDirectory() as tmp:
         samples = Path(tmp) / "run" / "samples.jsonl"
         t0 = time.perf_counter()
-        proc = subprocess.Popen([sys.executable, "-m", "twin.tools.cli", "run", scenario, "--workers", str(workers),
-                                 "--out", str(samples.parent), "--quiet"],
-                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        proc = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "twin.tools.cli",
+                "run",
+                scenario,
+                "--workers",
+                str(workers),
+                "--out",
+                str(samples.parent),
+                "--quiet",
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+        )
         try:
             while not (samples.exists() and samples.stat().st_size > 0):
                 if proc.poll() is not None:
-                    raise RuntimeError(f"twin run {scenario} ended before its first frame: "
-                                       f"{proc.stderr.read().decode(errors='replace')[-500:]}")
+                    raise RuntimeError(
+                        f"twin run {scenario} ended before its first frame: "
+                        f"{proc.stderr.read().decode(errors='replace')[-500:]}"
+                    )
                 time.sleep(0.005)
             return time.perf_counter() - t0
         finally:
@@ -245,7 +290,7 @@ def bench_startup(quick: bool = False) -> list[dict]:
         env = timed("environment", lambda: make_environment(scenario, scenario.seed))
         reader_frames: list[float] = []
         t0 = time.perf_counter()
-        for sample in chunk_samples(env, chunk):
+        for _sample in chunk_samples(env, chunk):
             reader_frames.append(time.perf_counter() - t0)
             break
         env.close()
@@ -253,19 +298,25 @@ def bench_startup(quick: bool = False) -> list[dict]:
         with WorkerPool(STARTUP_WORKERS) as pool:
             stages.setdefault("pool start", []).append(_start_workers(pool))
         stages.setdefault(f"twin run {STARTUP_SCENARIO} --workers {STARTUP_WORKERS}: first frame", []).append(
-            _first_frame_of_twin_run(STARTUP_SCENARIO, STARTUP_WORKERS))
-    return [{"section": "startup", "stage": stage, "seconds": float(np.median(times)), "rounds": len(times)}
-            for stage, times in stages.items()]
+            _first_frame_of_twin_run(STARTUP_SCENARIO, STARTUP_WORKERS)
+        )
+    return [
+        {"section": "startup", "stage": stage, "seconds": float(np.median(times)), "rounds": len(times)}
+        for stage, times in stages.items()
+    ]
 
 
-def bench_sweep(quick: bool = False, out: Path | None = None, workers: int | None = None,
-                cluster: str | None = None) -> list[dict]:
+def bench_sweep(
+    quick: bool = False, out: Path | None = None, workers: int | None = None, cluster: str | None = None
+) -> list[dict]:
     """The fidelity sweep (twin.analysis.sweep): per setting, ms per frame split into physics,
     render, tracking and perception, against pin error (px), perception error (deg, mm)
     and contour error (mm); writes sweep.csv, sweep.md, sweep.json and pareto.png to
     `out` (default out/bench). Prints its own table."""
 
-    return sweep_and_report(out if out is not None else Path("out") / "bench", quick=quick, workers=workers, cluster=cluster)
+    return sweep_and_report(
+        out if out is not None else Path("out") / "bench", quick=quick, workers=workers, cluster=cluster
+    )
 
 
 SECTIONS: dict[str, Callable[..., list[dict]]] = {
@@ -324,12 +375,23 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
 
     contour = ContourProtocol()
     depth, step = contour.depth_mm, contour.step_mm
-    poses = ([sensor_down(0, 0, depth)] + [sensor_down(0, step * k, depth) for k in range(1, 9)]
-             + [sensor_down(0, 8 * step, -2)])
+    poses = (
+        [sensor_down(0, 0, depth)]
+        + [sensor_down(0, step * k, depth) for k in range(1, 9)]
+        + [sensor_down(0, 8 * step, -2)]
+    )
     models = [(builder, builder.levels) for builder in DOME_MODELS.values()]
-    models += [(builder, {f"default+{name}": builder.params("default", builder.settings(**physics), {}, "benchmark")
-                          for name, physics in builder.presets.items()})
-               for builder in DOME_MODELS.values() if builder.presets]
+    models += [
+        (
+            builder,
+            {
+                f"default+{name}": builder.params("default", builder.settings(**physics), {}, "benchmark")
+                for name, physics in builder.presets.items()
+            },
+        )
+        for builder in DOME_MODELS.values()
+        if builder.presets
+    ]
     rows, params_of_rows = [], []
     for builder, table in models:
         for level in [level for level in levels or list(table) if level in table]:
@@ -352,8 +414,13 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
     flex = next((seconds[:, i] for i, r in enumerate(rows) if (r["dome"], r["level"]) == BASELINE_ROW), None)
     for i, r in enumerate(rows):
         best = float(seconds[:, i].min())
-        r.update({"ms_per_frame": 1e3 * best / len(poses), "steps_per_frame": steps[i] / len(poses),
-                  "ms_per_step": 1e3 * best / steps[i]})
+        r.update(
+            {
+                "ms_per_frame": 1e3 * best / len(poses),
+                "steps_per_frame": steps[i] / len(poses),
+                "ms_per_step": 1e3 * best / steps[i],
+            }
+        )
         if flex is None:
             r["ratio_to_flex_default"] = r["ratio_min"] = r["ratio_max"] = float("nan")
         else:
@@ -361,14 +428,21 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
             r["ratio_to_flex_default"] = best / float(flex.min())
             r["ratio_min"], r["ratio_max"] = float(per_round.min()), float(per_round.max())
         if verbose:
-            print(f"{r['dome']:9s} {r['level']:10s} {r['ms_per_frame']:7.1f} ms/frame  {r['steps_per_frame']:5.1f} "
-                  f"steps/frame  {r['ms_per_step']:.3f} ms/step  ×{r['ratio_to_flex_default']:.2f} of flex default "
-                  f"({r['ratio_min']:.2f}–{r['ratio_max']:.2f} within a round)")
+            print(
+                f"{r['dome']:9s} {r['level']:10s} {r['ms_per_frame']:7.1f} ms/frame  {r['steps_per_frame']:5.1f} "
+                f"steps/frame  {r['ms_per_step']:.3f} ms/step  ×{r['ratio_to_flex_default']:.2f} of flex default "
+                f"({r['ratio_min']:.2f}–{r['ratio_max']:.2f} within a round)"
+            )
     return rows
 
 
-def run_bench(what: str = "all", quick: bool = False, out: Path | None = None, workers: int | None = None,
-              cluster: str | None = None) -> int:
+def run_bench(
+    what: str = "all",
+    quick: bool = False,
+    out: Path | None = None,
+    workers: int | None = None,
+    cluster: str | None = None,
+) -> int:
     """Run one section or all of them, print tables, optionally write CSVs to `out`.
 
     The sweep section always writes its files (to `out`, default out/bench) and runs its
@@ -379,7 +453,6 @@ def run_bench(what: str = "all", quick: bool = False, out: Path | None = None, w
     status = 0
     for name in names:
         if name not in SECTIONS:
-
             raise UserError(f"unknown bench section {name!r}; choose from {', '.join(SECTIONS)}")
         if name in _SELF_REPORTING:
             rows = SECTIONS[name](quick, out=out, workers=workers, cluster=cluster)
@@ -391,7 +464,6 @@ def run_bench(what: str = "all", quick: bool = False, out: Path | None = None, w
         rows = SECTIONS[name](quick)
         _print_rows(name, rows)
         if out is not None:
-
             out.mkdir(parents=True, exist_ok=True)
             with open(out / f"bench_{name}.csv", "w", newline="") as fh:
                 writer = csv.DictWriter(fh, fieldnames=list(rows[0].keys()))

@@ -11,6 +11,7 @@ code and one line on stderr, never a traceback.
 |                                             |      | that holds its traceback (LOG_ENV or the cache) |
 | Ctrl-C / SIGTERM                            | 130 / 143 | what was kept                              |
 """
+
 from __future__ import annotations
 
 import argparse
@@ -33,9 +34,23 @@ EXIT_OK, EXIT_FAILED, EXIT_USER_ERROR, EXIT_SIGINT, EXIT_SIGTERM = 0, 1, 2, 130,
 LOG_ENV = "TWIN_LOG_DIR"
 #: OSErrors that say the path (or address) the user gave is wrong (exit 2); the others (a full disk, an
 #: I/O error) are the machine's (exit 1)
-_USER_PATH_ERRORS = {errno.ENOENT, errno.ENOTDIR, errno.EISDIR, errno.EACCES, errno.EPERM, errno.EROFS, errno.EEXIST,
-                     errno.ENAMETOOLONG, errno.ELOOP, errno.EINVAL, errno.ENXIO, errno.ENODEV, errno.ETXTBSY,
-                     errno.EADDRINUSE, errno.EADDRNOTAVAIL}
+_USER_PATH_ERRORS = {
+    errno.ENOENT,
+    errno.ENOTDIR,
+    errno.EISDIR,
+    errno.EACCES,
+    errno.EPERM,
+    errno.EROFS,
+    errno.EEXIST,
+    errno.ENAMETOOLONG,
+    errno.ELOOP,
+    errno.EINVAL,
+    errno.ENXIO,
+    errno.ENODEV,
+    errno.ETXTBSY,
+    errno.EADDRINUSE,
+    errno.EADDRNOTAVAIL,
+}
 #: the longest value quoted back in a message (characters)
 _QUOTE_MAX = 60
 
@@ -50,11 +65,12 @@ class OneLineParser(argparse.ArgumentParser):
 def quoted(value: object) -> str:
     """`value` as a message quotes it: repr, cut to _QUOTE_MAX characters."""
     text = repr(value)
-    return text if len(text) <= _QUOTE_MAX else text[:_QUOTE_MAX - 1] + "…"
+    return text if len(text) <= _QUOTE_MAX else text[: _QUOTE_MAX - 1] + "…"
 
 
 def bounded_int(lo: int, hi: int, unit: str) -> Callable[[str], int]:
     """An argparse type: an integer in [lo, hi] `unit`."""
+
     def parse(text: str) -> int:
         try:
             value = int(text)
@@ -63,12 +79,14 @@ def bounded_int(lo: int, hi: int, unit: str) -> Callable[[str], int]:
         if not lo <= value <= hi:
             raise argparse.ArgumentTypeError(f"{value} is outside [{lo}, {hi}] {unit}".rstrip())
         return value
+
     parse.__name__ = f"integer in [{lo}, {hi}]"
     return parse
 
 
 def bounded_float(lo: float, hi: float, unit: str, open_lo: bool = False) -> Callable[[str], float]:
     """An argparse type: a finite number in [lo, hi] (or (lo, hi]) `unit`."""
+
     def parse(text: str) -> float:
         try:
             value = float(text)
@@ -77,6 +95,7 @@ def bounded_float(lo: float, hi: float, unit: str, open_lo: bool = False) -> Cal
         if not math.isfinite(value) or value > hi or value < lo or (open_lo and value == lo):
             raise argparse.ArgumentTypeError(f"{value} is outside {'(' if open_lo else '['}{lo:g}, {hi:g}] {unit}")
         return value
+
     parse.__name__ = f"number in [{lo:g}, {hi:g}]"
     return parse
 
@@ -118,7 +137,9 @@ def output_folder(path: Path, what: str) -> Path:
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as err:
-        raise UserError(f"{what} {path}: cannot be created as a folder ({err.strerror or type(err).__name__})") from None
+        raise UserError(
+            f"{what} {path}: cannot be created as a folder ({err.strerror or type(err).__name__})"
+        ) from None
     if not path.is_dir() or not os.access(path, os.W_OK | os.X_OK):
         raise UserError(f"{what} {path}: not a folder that can be written")
     return path
@@ -151,8 +172,11 @@ def guarded(call: Callable[[], int | None]) -> int:
         print("error: a path or name given holds a NUL character", file=sys.stderr)
         return EXIT_USER_ERROR
     except SystemExit as stop:  # sys.exit() called by code the command ran (a plug-in controller)
-        print(f"error: the command was ended from inside by sys.exit({quoted(stop.code)}) (a plug-in?); "
-              "nothing after it ran", file=sys.stderr)
+        print(
+            f"error: the command was ended from inside by sys.exit({quoted(stop.code)}) (a plug-in?); "
+            "nothing after it ran",
+            file=sys.stderr,
+        )
         return EXIT_USER_ERROR
     except Exception as err:  # noqa: BLE001  (the boundary: an internal fault, its traceback to the log)
         return _internal(err)

@@ -1,6 +1,7 @@
 """`twin calibrate`'s report: the fit (twin.analysis.calibration_fit), then report.md and the
 residual-field plot residuals.png (mean pin residual per pin, before and after) beside its
 report.json; a fit that did not converge exits 1."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -26,36 +27,64 @@ def _fmt(v: float | None, digits: int = 3) -> str:
 
 def report_markdown(r: dict) -> str:
     """The report as markdown: status, pin RMS before/after, fitted values ± std, speed."""
-    lines = [f"# Calibration: {r['status']}", "", f"Stop rule: {r['stop_reason']}.", "",
-             f"Runs: {', '.join(r['runs'])} ({r['samples']} samples: "
-             + ", ".join(f"{n} {g}" for g, n in r["samples_per_group"].items() if n) + f"); scenario {r['scenario']}.",
-             f"Rest pin layout: {r['rest_pins']}.", "",
-             "| pin RMS (px) | before | after |", "|---|---|---|",
-             f"| overall | {_fmt(r['before']['overall'])} | {_fmt(r['after']['overall'])} |"]
+    lines = [
+        f"# Calibration: {r['status']}",
+        "",
+        f"Stop rule: {r['stop_reason']}.",
+        "",
+        f"Runs: {', '.join(r['runs'])} ({r['samples']} samples: "
+        + ", ".join(f"{n} {g}" for g, n in r["samples_per_group"].items() if n)
+        + f"); scenario {r['scenario']}.",
+        f"Rest pin layout: {r['rest_pins']}.",
+        "",
+        "| pin RMS (px) | before | after |",
+        "|---|---|---|",
+        f"| overall | {_fmt(r['before']['overall'])} | {_fmt(r['after']['overall'])} |",
+    ]
     for g, v in r["after"]["groups"].items():
         lines.append(f"| {g} frames | {_fmt(r['before']['groups'].get(g))} | {_fmt(v)} |")
     for run, v in r["after"]["runs"].items():
         lines.append(f"| run {run} | {_fmt(r['before']['runs'].get(run))} | {_fmt(v)} |")
-    lines += ["", "| parameter | default | fitted | ± std | resolution | VIF | bounds | identifiable |",
-              "|---|---|---|---|---|---|---|---|"]
+    lines += [
+        "",
+        "| parameter | default | fitted | ± std | resolution | VIF | bounds | identifiable |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for name, u in r["uncertainty"]["parameters"].items():
-        lines.append(f"| {name} | {u['default']:.4g} | {u['value']:.4g} | {u['std']:.2g} | {u['resolution']:.2g} | "
-                     f"{u['variance_inflation']:.3g} | [{u['bounds'][0]:g}, {u['bounds'][1]:g}] | "
-                     + ("yes" if u["identifiable"] else
-                        f"**no** ({'; '.join(u['not_identifiable_because'])}): left at the default")
-                     + (" (**at a bound**: widen it, or a parameter not fitted is off)" if u.get("at_bound") else "") + " |")
-    lines += ["", "± std: the larger of the Gauss–Newton and the cluster-robust (samples as clusters: a frame's pins "
-              "share their errors) standard error. Resolution: the change of the parameter that moves the pins by the "
-              "fit's pin RMS, what one frame's pins resolve. VIF: variance inflation, 1/(1 − R²) of the parameter's "
-              "Jacobian column on the others'. Identifiable: std below the identifiable fraction of the range, "
-              "resolution below the range and VIF at most the limit (twin.analysis.calibration_fit.uncertainty)."]
+        lines.append(
+            f"| {name} | {u['default']:.4g} | {u['value']:.4g} | {u['std']:.2g} | {u['resolution']:.2g} | "
+            f"{u['variance_inflation']:.3g} | [{u['bounds'][0]:g}, {u['bounds'][1]:g}] | "
+            + (
+                "yes"
+                if u["identifiable"]
+                else f"**no** ({'; '.join(u['not_identifiable_because'])}): left at the default"
+            )
+            + (" (**at a bound**: widen it, or a parameter not fitted is off)" if u.get("at_bound") else "")
+            + " |"
+        )
+    lines += [
+        "",
+        "± std: the larger of the Gauss–Newton and the cluster-robust (samples as clusters: a frame's pins "
+        "share their errors) standard error. Resolution: the change of the parameter that moves the pins by the "
+        "fit's pin RMS, what one frame's pins resolve. VIF: variance inflation, 1/(1 − R²) of the parameter's "
+        "Jacobian column on the others'. Identifiable: std below the identifiable fraction of the range, "
+        "resolution below the range and VIF at most the limit (twin.analysis.calibration_fit.uncertainty).",
+    ]
     sv = r["uncertainty"]["singular_values"]
     if sv:
-        lines += ["", "Singular values of the Jacobian (whitened residuals per unit of each parameter's range): "
-                  + ", ".join(f"{v:.3g}" for v in sv) + f"; reduced χ² {r['uncertainty']['reduced_chi2']:.3g}."]
-    lines += ["", f"{r['generations']} CMA-ES generations, {r['simulations']} simulations of the runs "
-              f"({r['evaluations_per_s']:.3g} evaluations/s, {r['simulated_frames_per_s']:.0f} simulated frames/s); "
-              f"wall time {r['wall_time_s']:.1f} s.", ""]
+        lines += [
+            "",
+            "Singular values of the Jacobian (whitened residuals per unit of each parameter's range): "
+            + ", ".join(f"{v:.3g}" for v in sv)
+            + f"; reduced χ² {r['uncertainty']['reduced_chi2']:.3g}.",
+        ]
+    lines += [
+        "",
+        f"{r['generations']} CMA-ES generations, {r['simulations']} simulations of the runs "
+        f"({r['evaluations_per_s']:.3g} evaluations/s, {r['simulated_frames_per_s']:.0f} simulated frames/s); "
+        f"wall time {r['wall_time_s']:.1f} s.",
+        "",
+    ]
     return "\n".join(lines)
 
 
@@ -69,8 +98,17 @@ def plot_residuals(r: dict, path: Path) -> None:
         mean = np.asarray(r[key]["mean_residual"], float)
         per_pin = np.asarray(r[key]["per_pin"], float)
         sc = ax.scatter(rest[:, 0], rest[:, 1], c=per_pin, cmap="viridis", s=30)
-        ax.quiver(rest[:, 0], rest[:, 1], mean[:, 0], mean[:, 1], angles="xy", scale_units="xy", scale=1 / 20,
-                  color="tab:red", width=0.004)
+        ax.quiver(
+            rest[:, 0],
+            rest[:, 1],
+            mean[:, 0],
+            mean[:, 1],
+            angles="xy",
+            scale_units="xy",
+            scale=1 / 20,
+            color="tab:red",
+            width=0.004,
+        )
         ax.set_xlim(0, cam.width)
         ax.set_ylim(cam.height, 0)
         ax.set_aspect("equal")
@@ -87,15 +125,24 @@ def write_report(r: dict, out: Path) -> None:
     plot_residuals(r, out / "residuals.png")
 
 
-def calibrate_and_report(run_dirs: list[Path], scenario: Scenario, out: Path, settings: CalibrationSettings,
-                         workers: int | None = None, cluster: str | None = None, progress: bool = True) -> dict:
+def calibrate_and_report(
+    run_dirs: list[Path],
+    scenario: Scenario,
+    out: Path,
+    settings: CalibrationSettings,
+    workers: int | None = None,
+    cluster: str | None = None,
+    progress: bool = True,
+) -> dict:
     """`twin calibrate`: the fit (twin.analysis.calibration_fit.fit.calibrate, its files in
     `out`), then its report; raises CalibrationNotConverged after writing both when the
     stop rule was not met (DIR/best_calibration.yaml holds the best point)."""
     result = calibrate(run_dirs, scenario, out, settings, workers=workers, cluster=cluster, progress=progress)
     write_report(result, out)
     if result["status"] != "converged":
-        raise CalibrationNotConverged(f"{result['stop_reason']}; the best point is in {result['calibration_file']}, "
-                                      f"the history in {out / 'history.jsonl'} (run again with the same --out to "
-                                      "continue)")
+        raise CalibrationNotConverged(
+            f"{result['stop_reason']}; the best point is in {result['calibration_file']}, "
+            f"the history in {out / 'history.jsonl'} (run again with the same --out to "
+            "continue)"
+        )
     return result

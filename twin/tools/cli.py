@@ -4,6 +4,7 @@ Exit codes: 0 success, 1 the run failed (e.g. PhysicsError, HardwareError),
 2 user error (bad scenario, file, pose or argument), 130 interrupted by SIGINT (Ctrl-C),
 143 stopped by SIGTERM; an interrupted run keeps what it recorded (`twin run --resume`).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -13,31 +14,36 @@ import threading
 import time
 from pathlib import Path
 
-from twin.core.errors import Terminated, UserError
-from twin.tools.boundary import OneLineParser, bounded_float, bounded_int, guarded, output_file, output_folder
-from twin.runs.parallel import one_blas_thread
-from twin.core.scenario import Scenario
-from twin.control.controllers import load_controller
-from twin.sensing.perception import PerceptionModel
 from hardware.config import load_hardware_config
-from twin.runs.spec import load_scenario, load_scenario_stimulus, scene_spec
-from twin.world.dome.registry import DOME_MODELS
-from twin.world.scene import build_scene
-from twin.runs.sim_env import check_reachable, render_scenario_view
-from twin.runs.run import resume_run, run_scenario
-from twin.runs.lab_recording import import_lab_recording, with_taps_from
-from twin.tools.evaluation_report import (evaluate_and_report, format_along_edge_drag, format_heldout,
-                                          format_orientation_signal, format_table)
 from hardware.virtual_controller import serve_robot
-from twin.tools.comparison_report import compare_and_report
-from twin.tools.edge_figures_report import format_edge_figures
-from twin.tools.shear_report import write_shear_figure
-from twin.tools.demo import run_demo
-from twin.tools.bench import run_bench
 from twin.analysis.calibration_fit.settings import load_settings
+from twin.control.controllers import load_controller
+from twin.core.errors import Terminated, UserError
+from twin.core.scenario import Scenario
+from twin.runs.lab_recording import import_lab_recording, with_taps_from
+from twin.runs.parallel import one_blas_thread
+from twin.runs.run import resume_run, run_scenario
+from twin.runs.sim_env import check_reachable, render_scenario_view
+from twin.runs.spec import load_scenario, load_scenario_stimulus, scene_spec
+from twin.sensing.perception import PerceptionModel
+from twin.tools.bench import run_bench
+from twin.tools.boundary import OneLineParser, bounded_float, bounded_int, guarded, output_file, output_folder
 from twin.tools.calibration_report import calibrate_and_report
+from twin.tools.comparison_report import compare_and_report
+from twin.tools.demo import run_demo
+from twin.tools.edge_figures_report import format_edge_figures
+from twin.tools.evaluation_report import (
+    evaluate_and_report,
+    format_along_edge_drag,
+    format_heldout,
+    format_orientation_signal,
+    format_table,
+)
+from twin.tools.shear_report import write_shear_figure
 from twin.tools.video import write_compare_video, write_run_video
 from twin.tools.view import view_scenario
+from twin.world.dome.registry import DOME_MODELS
+from twin.world.scene import build_scene
 
 
 def _check_named_files(scenario: Scenario) -> None:
@@ -72,8 +78,10 @@ def _cmd_check(args: argparse.Namespace) -> int:
         reach = ""
         if args.compile and scenario.backend == "sim":
             reach = f", {check_reachable(scenario, build_scene(scene_spec(scenario)))} poses in reach"
-        print(f"{path}: ok ({scenario.protocol.kind}, object {scenario.object.name or scenario.object.stl or scenario.object.outline}, "
-              f"effects {', '.join(scenario.effects) or 'none'}{reach})")
+        print(
+            f"{path}: ok ({scenario.protocol.kind}, object {scenario.object.name or scenario.object.stl or scenario.object.outline}, "
+            f"effects {', '.join(scenario.effects) or 'none'}{reach})"
+        )
     return 0
 
 
@@ -99,16 +107,27 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if args.resume is not None:
         if args.out is not None:
             raise UserError("twin run: --resume continues a run in its own directory; leave out --out")
-        run_dir = resume_run(Path(args.resume), scenario, seed=args.seed, workers=args.workers, cluster=args.cluster,
-                             progress=not args.quiet)
+        run_dir = resume_run(
+            Path(args.resume),
+            scenario,
+            seed=args.seed,
+            workers=args.workers,
+            cluster=args.cluster,
+            progress=not args.quiet,
+        )
         print(f"recorded {run_dir}")
         if args.video:
             print(f"wrote {write_run_video(run_dir)}")
         return 0
-    out = Path(args.out) if args.out else Path("runs") / f"{scenario.name}_seed{args.seed if args.seed is not None else scenario.seed}"
+    out = (
+        Path(args.out)
+        if args.out
+        else Path("runs") / f"{scenario.name}_seed{args.seed if args.seed is not None else scenario.seed}"
+    )
     t0 = time.perf_counter()
-    run_dir = run_scenario(scenario, out, seed=args.seed, workers=args.workers, cluster=args.cluster,
-                           progress=not args.quiet)
+    run_dir = run_scenario(
+        scenario, out, seed=args.seed, workers=args.workers, cluster=args.cluster, progress=not args.quiet
+    )
     run_s = time.perf_counter() - t0
     print(f"recorded {run_dir}")
     if args.video:
@@ -123,14 +142,22 @@ def _cmd_import_lab(args: argparse.Namespace) -> int:
 
     if args.object_side not in ("+y", "-y"):
         raise UserError(f"twin import-lab: --object-side is +y or -y, got {args.object_side!r}")
-    r = import_lab_recording(Path(args.folder), Path(args.targets), Path(args.out),
-                             init=Path(args.init) if args.init else None, depth_mm=args.depth_mm,
-                             object_side=1 if args.object_side == "+y" else -1, limit=args.limit,
-                             progress=not args.quiet)
-    print(f"imported {r['frames']} frames (the no-contact frame first) into {args.out}: "
-          f"{r['complete']} with every pin tracked, "
-          f"{len(r['incomplete'])} with pins not found (recorded, flagged in 'found'), "
-          f"{len(r['unreadable'])} missing or unreadable (recorded without pins)")
+    r = import_lab_recording(
+        Path(args.folder),
+        Path(args.targets),
+        Path(args.out),
+        init=Path(args.init) if args.init else None,
+        depth_mm=args.depth_mm,
+        object_side=1 if args.object_side == "+y" else -1,
+        limit=args.limit,
+        progress=not args.quiet,
+    )
+    print(
+        f"imported {r['frames']} frames (the no-contact frame first) into {args.out}: "
+        f"{r['complete']} with every pin tracked, "
+        f"{len(r['incomplete'])} with pins not found (recorded, flagged in 'found'), "
+        f"{len(r['unreadable'])} missing or unreadable (recorded without pins)"
+    )
     return 0
 
 
@@ -155,14 +182,17 @@ def _warn_unfinished(notes: list[str]) -> None:
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
 
-    result = evaluate_and_report(Path(args.train), Path(args.test), output_folder(Path(args.out), "twin evaluate --out"),
-                                 seed=args.seed)
+    result = evaluate_and_report(
+        Path(args.train), Path(args.test), output_folder(Path(args.out), "twin evaluate --out"), seed=args.seed
+    )
     _warn_unfinished(result["unfinished"])
     if "heldout_by_lateral_mm" in result:
         print(format_heldout(result["heldout_by_lateral_mm"]))
         for name in result["lateral_rms_mm"]:
-            print(f"{name}, all held-out taps: θ RMS {result['orientation_rms_deg'][name]:.2f}°, "
-                  f"lateral RMS {result['lateral_rms_mm'][name]:.2f} mm")
+            print(
+                f"{name}, all held-out taps: θ RMS {result['orientation_rms_deg'][name]:.2f}°, "
+                f"lateral RMS {result['lateral_rms_mm'][name]:.2f} mm"
+            )
         if "edge_figures" in result:
             print(format_edge_figures([result["edge_figures"]]))
         print(f"wrote {args.out}/heldout.csv and heldout.json")
@@ -179,21 +209,33 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
 
 def _cmd_serve_robot(args: argparse.Namespace) -> int:
 
-    serve_robot(args.host, args.port, realtime_factor=args.realtime, idle_timeout_s=args.idle_timeout,
-                stall_timeout_s=args.stall_timeout, log_limit=args.log_limit)
+    serve_robot(
+        args.host,
+        args.port,
+        realtime_factor=args.realtime,
+        idle_timeout_s=args.idle_timeout,
+        stall_timeout_s=args.stall_timeout,
+        log_limit=args.log_limit,
+    )
     return 0
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
 
-    r = compare_and_report(Path(args.run_a), Path(args.run_b), output_folder(Path(args.out), "twin compare --out"),
-                           model_path=Path(args.model) if args.model else None,
-                           slides_a=Path(args.slides_a) if args.slides_a else None,
-                           slides_b=Path(args.slides_b) if args.slides_b else None)
+    r = compare_and_report(
+        Path(args.run_a),
+        Path(args.run_b),
+        output_folder(Path(args.out), "twin compare --out"),
+        model_path=Path(args.model) if args.model else None,
+        slides_a=Path(args.slides_a) if args.slides_a else None,
+        slides_b=Path(args.slides_b) if args.slides_b else None,
+    )
     _warn_unfinished(r["unfinished"])
     if not r["n_pairs"]:
-        print("no paired samples (no target pose in contact shared, or another camera resolution): compared by "
-              "their edge figures")
+        print(
+            "no paired samples (no target pose in contact shared, or another camera resolution): compared by "
+            "their edge figures"
+        )
     else:
         print(f"{r['n_pairs']} paired samples ({r['pairing']})")
         print(f"pin RMS difference: {r['pin_rms_difference_px']:.3f} px")
@@ -205,17 +247,25 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     for tag in ("a", "b"):
         perc = r.get(f"perception_{tag}") or (r.get(f"metrics_{tag}") or None)
         if perc:
-            print(f"run {tag.upper()} perception: θ RMS {perc['orientation_rms_deg']:.1f}°, l RMS {perc['lateral_rms_mm']:.2f} mm")
+            print(
+                f"run {tag.upper()} perception: θ RMS {perc['orientation_rms_deg']:.1f}°, l RMS {perc['lateral_rms_mm']:.2f} mm"
+            )
     if "path_distance" in r:
-        print(f"path distance: mean {r['path_distance']['mean_mm']:.2f} mm, Hausdorff {r['path_distance']['hausdorff_mm']:.2f} mm")
+        print(
+            f"path distance: mean {r['path_distance']['mean_mm']:.2f} mm, Hausdorff {r['path_distance']['hausdorff_mm']:.2f} mm"
+        )
     for tag in ("a", "b"):
         if "orientation_signal_px" in r:
             print(format_orientation_signal(r["orientation_signal_px"][tag], f"run {tag.upper()}:"))
         if "along_edge_drag_px" in r:
             print(format_along_edge_drag(r["along_edge_drag_px"][tag], f"run {tag.upper()}: along-edge"))
     if "edge_figures" in r:
-        print(format_edge_figures([r["edge_figures"]["a"], r["edge_figures"]["b"]],
-                                  [f"A: {r['edge_figures']['a']['name']}", f"B: {r['edge_figures']['b']['name']}"]))
+        print(
+            format_edge_figures(
+                [r["edge_figures"]["a"], r["edge_figures"]["b"]],
+                [f"A: {r['edge_figures']['a']['name']}", f"B: {r['edge_figures']['b']['name']}"],
+            )
+        )
     print(f"wrote {args.out}/comparison.json and plots")
     if args.video:
         print(f"wrote {write_compare_video(Path(args.run_a), Path(args.run_b), Path(args.out) / 'comparison.mp4')}")
@@ -225,22 +275,39 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 def _cmd_calibrate(args: argparse.Namespace) -> int:
 
     settings = load_settings(Path(args.settings) if args.settings else None)
-    r = calibrate_and_report([Path(r) for r in args.runs], _checked_scenario(args.scenario),
-                             output_folder(Path(args.out), "twin calibrate --out"), settings,
-                             workers=args.workers, cluster=args.cluster, progress=not args.quiet)
+    r = calibrate_and_report(
+        [Path(r) for r in args.runs],
+        _checked_scenario(args.scenario),
+        output_folder(Path(args.out), "twin calibrate --out"),
+        settings,
+        workers=args.workers,
+        cluster=args.cluster,
+        progress=not args.quiet,
+    )
     _warn_unfinished(r["unfinished"])
     print(f"{r['status']} ({r['stop_reason']}); pin RMS {r['before']['overall']:.3f} -> {r['after']['overall']:.3f} px")
     for name, u in r["uncertainty"]["parameters"].items():
-        flag = "" if u["identifiable"] else f"  NOT IDENTIFIABLE ({'; '.join(u['not_identifiable_because'])}): left at the default"
+        flag = (
+            ""
+            if u["identifiable"]
+            else f"  NOT IDENTIFIABLE ({'; '.join(u['not_identifiable_because'])}): left at the default"
+        )
         print(f"  {name} = {u['value']:.5g} ± {u['std']:.2g} (default {u['default']:.5g}){flag}")
-    print(f"wrote {r['calibration_file']} and {args.out}/report.md ({r['wall_time_s']:.1f} s, "
-          f"{r['evaluations_per_s']:.3g} evaluations/s)")
+    print(
+        f"wrote {r['calibration_file']} and {args.out}/report.md ({r['wall_time_s']:.1f} s, "
+        f"{r['evaluations_per_s']:.3g} evaluations/s)"
+    )
     return 0
 
 
 def _cmd_figure(args: argparse.Namespace) -> int:
 
-    numbers = write_shear_figure(output_file(Path(args.out), "twin figure --out", ".png"), fidelity=args.fidelity, friction=not args.no_friction, dome=args.dome)
+    numbers = write_shear_figure(
+        output_file(Path(args.out), "twin figure --out", ".png"),
+        fidelity=args.fidelity,
+        friction=not args.no_friction,
+        dome=args.dome,
+    )
     print(f"wrote {args.out}")
     for key, value in numbers.items():
         print(f"  {key}: {value}")
@@ -254,8 +321,13 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 def _cmd_bench(args: argparse.Namespace) -> int:
 
-    return run_bench(args.what, quick=args.quick, out=output_folder(Path(args.out), "twin bench --out") if args.out else None, workers=args.workers,
-                     cluster=args.cluster)
+    return run_bench(
+        args.what,
+        quick=args.quick,
+        out=output_folder(Path(args.out), "twin bench --out") if args.out else None,
+        workers=args.workers,
+        cluster=args.cluster,
+    )
 
 
 #: argument types: a seed as the scenario schema bounds it, local processes, a count, seconds
@@ -282,8 +354,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("run", help="run a scenario and record it, or continue an unfinished run (--resume)")
     p.add_argument("scenario", nargs="?", default=None, help="scenario file or shipped name (optional with --resume)")
-    p.add_argument("--resume", default=None, metavar="DIR",
-                   help="continue an interrupted or killed run after its last complete sample (same scenario and seed)")
+    p.add_argument(
+        "--resume",
+        default=None,
+        metavar="DIR",
+        help="continue an interrupted or killed run after its last complete sample (same scenario and seed)",
+    )
     p.add_argument("--out", default=None, help="run directory (default runs/<name>_seed<N>)")
     p.add_argument("--seed", type=SEED, default=None)
     p.add_argument("--backend", choices=("sim", "hardware"), default=None)
@@ -291,22 +367,40 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=WORKERS, default=None, help="local processes (default: all cores)")
     p.add_argument("--cluster", default=None, help="Ray address ('local' starts one); needs the ray extra")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument("--video", action="store_true", help="also write RUN/video.mp4: frame, pins, rig and path per sample")
-    p.add_argument("--taps-from", default=None, metavar="RUN",
-                   help="sheared_taps scenarios: replay the taps of RUN (an imported lab recording) in order")
-    p.add_argument("--first-taps", type=COUNT, default=None, metavar="N", help="with --taps-from: only the first N taps")
+    p.add_argument(
+        "--video", action="store_true", help="also write RUN/video.mp4: frame, pins, rig and path per sample"
+    )
+    p.add_argument(
+        "--taps-from",
+        default=None,
+        metavar="RUN",
+        help="sheared_taps scenarios: replay the taps of RUN (an imported lab recording) in order",
+    )
+    p.add_argument(
+        "--first-taps", type=COUNT, default=None, metavar="N", help="with --taps-from: only the first N taps"
+    )
     p.set_defaults(func=_cmd_run)
 
-    p = sub.add_parser("import-lab", help="import a recording in the lab's format (frames, targets CSV, init_0.png) "
-                                          "as a run that evaluate, compare and calibrate read")
+    p = sub.add_parser(
+        "import-lab",
+        help="import a recording in the lab's format (frames, targets CSV, init_0.png) "
+        "as a run that evaluate, compare and calibrate read",
+    )
     p.add_argument("folder", help="the folder of frames (with init_0.png or init.png)")
     p.add_argument("--targets", required=True, help="the targets CSV (image_name, pose_1..6, move_1..6)")
     p.add_argument("--out", required=True, help="run directory to write")
     p.add_argument("--init", default=None, help="the no-contact frame (default FOLDER/init_0.png or init.png)")
-    p.add_argument("--depth-mm", type=bounded_float(-50, 50, "mm"), default=3.0,
-                   help="the taps' depth at pose_3 = 0, which the lab does not record (mm; default 3)")
-    p.add_argument("--object-side", default="+y", help="the lab's y side the object lies on: +y (default, the "
-                                                       "DigiTac edge set) or -y")
+    p.add_argument(
+        "--depth-mm",
+        type=bounded_float(-50, 50, "mm"),
+        default=3.0,
+        help="the taps' depth at pose_3 = 0, which the lab does not record (mm; default 3)",
+    )
+    p.add_argument(
+        "--object-side",
+        default="+y",
+        help="the lab's y side the object lies on: +y (default, the DigiTac edge set) or -y",
+    )
     p.add_argument("--limit", type=COUNT, default=None, metavar="N", help="only the first N targets")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_import_lab)
@@ -322,26 +416,55 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-wait", action="store_true", help="close the window when the scenario ends")
     p.set_defaults(func=_cmd_view)
 
-    p = sub.add_parser("evaluate", help="the paper's offline test: Table I from a tap run and a slides run "
-                                        "(or the errors on a held-out tap run)")
+    p = sub.add_parser(
+        "evaluate",
+        help="the paper's offline test: Table I from a tap run and a slides run (or the errors on a held-out tap run)",
+    )
     p.add_argument("--train", required=True, help="tap run directory")
-    p.add_argument("--test", required=True, help="multi-directional slides run directory, or a held-out tap run "
-                                                 "(scenarios/taps_heldout.yaml)")
+    p.add_argument(
+        "--test",
+        required=True,
+        help="multi-directional slides run directory, or a held-out tap run (scenarios/taps_heldout.yaml)",
+    )
     p.add_argument("--out", required=True)
     p.add_argument("--seed", type=SEED, default=0)
     p.set_defaults(func=_cmd_evaluate)
 
     p = sub.add_parser("serve-robot", help="answer the IRB120's RAPID socket protocol with the simulated arm")
     p.add_argument("--host", default="127.0.0.1")
-    p.add_argument("--port", type=bounded_int(0, 65535, "(TCP port)"), default=5000,
-                   help="TCP port to listen on; 0 = any free port (the one taken is printed)")
-    p.add_argument("--realtime", type=bounded_float(0, 1000, "(time scale)"), default=0.0, help="1 = moves take their real duration; 0 = instant")
-    p.add_argument("--idle-timeout", type=TIMEOUT, default=300.0, metavar="S",
-                   help="drop a client that sends nothing for S seconds (default 300)")
-    p.add_argument("--stall-timeout", type=TIMEOUT, default=5.0, metavar="S",
-                   help="drop a client that stops S seconds into a command (default 5)")
-    p.add_argument("--log-limit", type=bounded_int(1, 10_000_000, "commands"), default=10_000, metavar="N",
-                   help="keep the last N commands and moves in memory (default 10000)")
+    p.add_argument(
+        "--port",
+        type=bounded_int(0, 65535, "(TCP port)"),
+        default=5000,
+        help="TCP port to listen on; 0 = any free port (the one taken is printed)",
+    )
+    p.add_argument(
+        "--realtime",
+        type=bounded_float(0, 1000, "(time scale)"),
+        default=0.0,
+        help="1 = moves take their real duration; 0 = instant",
+    )
+    p.add_argument(
+        "--idle-timeout",
+        type=TIMEOUT,
+        default=300.0,
+        metavar="S",
+        help="drop a client that sends nothing for S seconds (default 300)",
+    )
+    p.add_argument(
+        "--stall-timeout",
+        type=TIMEOUT,
+        default=5.0,
+        metavar="S",
+        help="drop a client that stops S seconds into a command (default 5)",
+    )
+    p.add_argument(
+        "--log-limit",
+        type=bounded_int(1, 10_000_000, "commands"),
+        default=10_000,
+        metavar="N",
+        help="keep the last N commands and moves in memory (default 10000)",
+    )
     p.set_defaults(func=_cmd_serve_robot)
 
     p = sub.add_parser("compare", help="compare two runs of one scenario (sim vs sim, sim vs real)")
@@ -349,24 +472,40 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("run_b")
     p.add_argument("--out", required=True)
     p.add_argument("--model", default=None, help="perception model file to score labelled runs (taps, slides)")
-    p.add_argument("--video", action="store_true", help="also write OUT/comparison.mp4: the paired samples side by side")
-    p.add_argument("--slides-a", default=None, metavar="RUN",
-                   help="a plain tap run A's slides run: its along-edge drag in the edge figures")
+    p.add_argument(
+        "--video", action="store_true", help="also write OUT/comparison.mp4: the paired samples side by side"
+    )
+    p.add_argument(
+        "--slides-a",
+        default=None,
+        metavar="RUN",
+        help="a plain tap run A's slides run: its along-edge drag in the edge figures",
+    )
     p.add_argument("--slides-b", default=None, metavar="RUN", help="the same for run B")
     p.set_defaults(func=_cmd_compare)
 
-    p = sub.add_parser("calibrate", help="fit the twin's camera, rest pins, dome material, friction and TCP to recorded runs")
-    p.add_argument("runs", nargs="+", help="recorded run directories (sim or hardware) of the scenario's sensor and object")
+    p = sub.add_parser(
+        "calibrate", help="fit the twin's camera, rest pins, dome material, friction and TCP to recorded runs"
+    )
+    p.add_argument(
+        "runs", nargs="+", help="recorded run directories (sim or hardware) of the scenario's sensor and object"
+    )
     p.add_argument("--scenario", required=True, help="the twin to fit (its object, fidelity, effects)")
     p.add_argument("--out", required=True, help="directory for calibration.yaml, the report and the checkpoint")
-    p.add_argument("--settings", default=None, help="fitted parameters, bounds, priors, weights, optimiser "
-                   "(merged over assets/tactip/calibration_settings.yaml)")
+    p.add_argument(
+        "--settings",
+        default=None,
+        help="fitted parameters, bounds, priors, weights, optimiser "
+        "(merged over assets/tactip/calibration_settings.yaml)",
+    )
     p.add_argument("--workers", type=WORKERS, default=None, help="local processes (default: all cores)")
     p.add_argument("--cluster", default=None, help="Ray address ('local' starts one); needs the ray extra")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_calibrate)
 
-    p = sub.add_parser("figure", help="the paper's Fig. 2: pin traces tapping vs sliding across the edge in 8 directions")
+    p = sub.add_parser(
+        "figure", help="the paper's Fig. 2: pin traces tapping vs sliding across the edge in 8 directions"
+    )
     p.add_argument("which", choices=("shear",))
     p.add_argument("--out", default="out/fig2_shear.png")
     p.add_argument("--fidelity", choices=("fast", "default", "reference"), default="default")
@@ -381,10 +520,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_demo)
 
     p = sub.add_parser("bench", help="print speed figures and sweep what accuracy costs in time")
-    p.add_argument("what", nargs="?", default="all", choices=("all", "render", "pixels", "physics", "perception", "throughput", "startup", "sweep"),
-                   help="one section (default: all; 'sweep' = the fidelity sweep: CSV, Pareto plot, markdown table)")
+    p.add_argument(
+        "what",
+        nargs="?",
+        default="all",
+        choices=("all", "render", "pixels", "physics", "perception", "throughput", "startup", "sweep"),
+        help="one section (default: all; 'sweep' = the fidelity sweep: CSV, Pareto plot, markdown table)",
+    )
     p.add_argument("--quick", action="store_true", help="small sections and the quick sweep (< 2 min on 2 cores)")
-    p.add_argument("--out", default=None, help="directory for the CSVs and the sweep's files (sweep default: out/bench)")
+    p.add_argument(
+        "--out", default=None, help="directory for the CSVs and the sweep's files (sweep default: out/bench)"
+    )
     p.add_argument("--workers", type=WORKERS, default=None, help="sweep: local processes (default: all cores)")
     p.add_argument("--cluster", default=None, help="sweep: Ray address ('local' starts one); needs the ray extra")
     p.set_defaults(func=_cmd_bench)

@@ -1,6 +1,7 @@
 """`twin compare`'s plots: the comparison (twin.analysis.comparison), then comparison.png
 (the most deformed pair's pins and the per-sample pin differences) and, for contour runs,
 paths.png."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -13,13 +14,20 @@ from twin.analysis.comparison import compare_runs, displacements, paired_runs, p
 from twin.runs.record import Run, load_run
 
 
-def compare_and_report(dir_a: Path, dir_b: Path, out: Path, max_ssim_frames: int = 200,
-                       model_path: Path | None = None, slides_a: Path | None = None,
-                       slides_b: Path | None = None) -> dict:
+def compare_and_report(
+    dir_a: Path,
+    dir_b: Path,
+    out: Path,
+    max_ssim_frames: int = 200,
+    model_path: Path | None = None,
+    slides_a: Path | None = None,
+    slides_b: Path | None = None,
+) -> dict:
     """`twin compare`: comparison.json (twin.analysis.comparison.compare_runs) and its plots in
     `out` (no plots for runs compared by their edge figures alone, which share no sample)."""
-    result = compare_runs(dir_a, dir_b, out, max_ssim_frames=max_ssim_frames, model_path=model_path,
-                          slides_a=slides_a, slides_b=slides_b)
+    result = compare_runs(
+        dir_a, dir_b, out, max_ssim_frames=max_ssim_frames, model_path=model_path, slides_a=slides_a, slides_b=slides_b
+    )
     if not result["n_pairs"]:
         return result
     a, b = load_run(dir_a), load_run(dir_b)
@@ -40,10 +48,21 @@ def _plot(a: Run, b: Run, ia: np.ndarray, ib: np.ndarray, diff: np.ndarray, out:
         if frame is not None:
             ax.imshow(frame)
         ref = run.pins_px[0]
-        ax.quiver(ref[:, 0], ref[:, 1], pins[:, 0] - ref[:, 0], pins[:, 1] - ref[:, 1], color="tab:red",
-                  angles="xy", scale_units="xy", scale=0.25, width=0.003)
-        ax.set_title(f"{title}: {run.meta['scenario']['name']} ({run.meta['backend']}, {run.meta['scenario']['fidelity']})\n"
-                     f"sample {int(idx)}, pin displacement ×4")
+        ax.quiver(
+            ref[:, 0],
+            ref[:, 1],
+            pins[:, 0] - ref[:, 0],
+            pins[:, 1] - ref[:, 1],
+            color="tab:red",
+            angles="xy",
+            scale_units="xy",
+            scale=0.25,
+            width=0.003,
+        )
+        ax.set_title(
+            f"{title}: {run.meta['scenario']['name']} ({run.meta['backend']}, {run.meta['scenario']['fidelity']})\n"
+            f"sample {int(idx)}, pin displacement ×4"
+        )
         ax.set_xlim(0, 640)
         ax.set_ylim(480, 0)
     axes[2].hist(np.sqrt(np.nanmean(diff**2, axis=1)), bins=40, color="tab:blue")

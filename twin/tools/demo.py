@@ -1,24 +1,34 @@
 """`twin demo`: the README's main job — trace all six objects with the model trained on
 the tap set (trained on first use, then cached), print the metrics table, write plots."""
+
 from __future__ import annotations
 
 import json
+import shutil
 import time
 from pathlib import Path
 
 from twin.core.resources import scenario_path
 from twin.core.scenario import load_scenario
-from twin.runs.sim_env import render_scenario_view
 from twin.runs.contour_run import run_contour
 from twin.runs.parallel import map_ordered
+from twin.runs.sim_env import render_scenario_view
 from twin.runs.training import cached_tap_model
 from twin.tools.video import write_run_video
-import shutil
 
 OBJECTS = ("rectangle", "large_circle", "small_circle", "flower", "spiral", "tape_measure")
-COLUMNS = (("object", "{}"), ("completed", "{}"), ("steps", "{}"), ("orientation_rms_deg", "{:.1f}"),
-           ("lateral_rms_mm", "{:.2f}"), ("path_distance_mean_mm", "{:.2f}"), ("path_distance_max_mm", "{:.2f}"),
-           ("coverage", "{:.2f}"), ("sim_time_s", "{:.1f}"), ("wall_time_s", "{:.1f}"))
+COLUMNS = (
+    ("object", "{}"),
+    ("completed", "{}"),
+    ("steps", "{}"),
+    ("orientation_rms_deg", "{:.1f}"),
+    ("lateral_rms_mm", "{:.2f}"),
+    ("path_distance_mean_mm", "{:.2f}"),
+    ("path_distance_max_mm", "{:.2f}"),
+    ("coverage", "{:.2f}"),
+    ("sim_time_s", "{:.1f}"),
+    ("wall_time_s", "{:.1f}"),
+)
 
 
 def trace_contour(scenario, out: Path, model, video: bool = False) -> dict:
@@ -38,8 +48,9 @@ def format_metrics(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def run_demo(out: Path, seed: int = 0, objects: tuple[str, ...] = OBJECTS, workers: int | None = None,
-             video: bool = False) -> int:
+def run_demo(
+    out: Path, seed: int = 0, objects: tuple[str, ...] = OBJECTS, workers: int | None = None, video: bool = False
+) -> int:
     """Trace `objects` (video: one MP4 per run, twin.tools.video); exit code 0 when all complete."""
 
     out.mkdir(parents=True, exist_ok=True)
@@ -53,7 +64,6 @@ def run_demo(out: Path, seed: int = 0, objects: tuple[str, ...] = OBJECTS, worke
     for s in scenarios:
         run_dir = out / s.name
         if run_dir.exists():
-
             shutil.rmtree(run_dir)
         jobs.append((s, run_dir, model, video))
     rows = list(map_ordered(trace_contour, jobs, workers=workers))
@@ -61,8 +71,12 @@ def run_demo(out: Path, seed: int = 0, objects: tuple[str, ...] = OBJECTS, worke
     print(format_metrics(rows))
     done = sum(r["completed"] for r in rows)
     mean_rms = sum(r["orientation_rms_deg"] for r in rows) / len(rows)
-    print(f"{done}/{len(rows)} contours completed; mean orientation RMS {mean_rms:.1f}° (paper, real rig: 12.2°); "
-          f"all objects in {wall:.1f} s wall time")
+    print(
+        f"{done}/{len(rows)} contours completed; mean orientation RMS {mean_rms:.1f}° (paper, real rig: 12.2°); "
+        f"all objects in {wall:.1f} s wall time"
+    )
     (out / "metrics.json").write_text(json.dumps({"objects": rows, "wall_time_s": wall}, indent=1))
-    print(f"wrote {out}/contour_<object>/contour.png{', video.mp4' if video else ''}, metrics.json and {out}/rig_overview.png")
+    print(
+        f"wrote {out}/contour_<object>/contour.png{', video.mp4' if video else ''}, metrics.json and {out}/rig_overview.png"
+    )
     return 0 if done == len(rows) else 1

@@ -1,5 +1,6 @@
 """The edge figures (twin.analysis.edge_imprint) as text: one column per sensor, so a real
 TacTip's runs and the twin's read side by side in `twin compare` and `twin evaluate`."""
+
 from __future__ import annotations
 
 WIDTH = 22
@@ -25,7 +26,7 @@ def _rows_by_lateral(figures: list[dict], key: str, field: str | None, fmt: str,
 def format_edge_figures(figures: list[dict], labels: list[str] | None = None) -> str:
     """The figures of several sensors (twin.analysis.edge_imprint.edge_figures) side by side."""
     labels = labels or [f["name"] for f in figures]
-    lines = ["edge figures".ljust(34) + "".join(label[:WIDTH - 1].rjust(WIDTH) for label in labels)]
+    lines = ["edge figures".ljust(34) + "".join(label[: WIDTH - 1].rjust(WIDTH) for label in labels)]
     depths = sorted({d for f in figures for d in f["signal_profile"]})
     for depth in depths:
         rows = [{"signal_profile": f["signal_profile"].get(depth, {})} for f in figures]
@@ -33,8 +34,10 @@ def format_edge_figures(figures: list[dict], labels: list[str] | None = None) ->
         lines += _rows_by_lateral(rows, "signal_profile", None, "{:.2f}")
     reach_at = sorted({l for f in figures for l in f["reach"]}, reverse=True)
     for l in reach_at:
-        lines.append(f"  reach at l {l:+g} mm (mean |pin displacement| in 10 bins along the edge normal, "
-                     "beyond the edge → object side, / largest bin):")
+        lines.append(
+            f"  reach at l {l:+g} mm (mean |pin displacement| in 10 bins along the edge normal, "
+            "beyond the edge → object side, / largest bin):"
+        )
         for label, f in zip(labels, figures):
             bins = f["reach"].get(l)
             lines.append(f"    {label}: " + ("—" if bins is None else " ".join(f"{v:.2f}" for v in bins)))
@@ -47,15 +50,24 @@ def format_edge_figures(figures: list[dict], labels: list[str] | None = None) ->
         lines += _rows_by_lateral(figures, "drag_over_signal", "signal_px", "{:.2f}")
     if any(f["along_edge"] for f in figures):
         lines.append("  a 1 mm slide along the edge (sheared taps: fitted; plain taps: the slides' first step):")
-        for field, what, fmt, scale in (("raw_deg_per_mm", "raw pins, deg of edge angle per mm", "{:.1f}", 1.0),
-                                        ("pc23_deg_per_mm", "θ_PC23 turned, deg per mm", "{:.1f}", 1.0),
-                                        ("plane_share", "drag energy in the taps' PC2–PC3, %", "{:.1f}", 100.0),
-                                        ("translation_share", "drag energy in a rigid shift, %", "{:.0f}", 100.0),
-                                        ("radius_px", "the taps' PC2–PC3 radius, px", "{:.1f}", 1.0)):
+        for field, what, fmt, scale in (
+            ("raw_deg_per_mm", "raw pins, deg of edge angle per mm", "{:.1f}", 1.0),
+            ("pc23_deg_per_mm", "θ_PC23 turned, deg per mm", "{:.1f}", 1.0),
+            ("plane_share", "drag energy in the taps' PC2–PC3, %", "{:.1f}", 100.0),
+            ("translation_share", "drag energy in a rigid shift, %", "{:.0f}", 100.0),
+            ("radius_px", "the taps' PC2–PC3 radius, px", "{:.1f}", 1.0),
+        ):
             lines.append(f"   {what}:")
             lines += _rows_by_lateral(figures, "along_edge", field, fmt, scale)
-    lines.append("  PC1/PC2/PC3 of the taps, %".ljust(34) + "".join(
-        _cell(None, "") if not f["pcs_explained"] else
-        ("/".join(f"{100 * v:.0f}" for v in f["pcs_explained"]) + (" (6-fold)" if f["pcs_turned"] else "")).rjust(WIDTH)
-        for f in figures))
+    lines.append(
+        "  PC1/PC2/PC3 of the taps, %".ljust(34)
+        + "".join(
+            _cell(None, "")
+            if not f["pcs_explained"]
+            else (
+                "/".join(f"{100 * v:.0f}" for v in f["pcs_explained"]) + (" (6-fold)" if f["pcs_turned"] else "")
+            ).rjust(WIDTH)
+            for f in figures
+        )
+    )
     return "\n".join(lines)

@@ -1,6 +1,7 @@
 """`twin evaluate`'s report: the evaluation (twin.analysis.evaluation), then Table I, the
 held-out errors, the orientation signal and the along-edge drag as text, and the PCA
 figures (Figs. 5–6)."""
+
 from __future__ import annotations
 
 import json
@@ -23,20 +24,32 @@ def format_table(table: dict, paper: bool = True) -> str:
     head = "model".ljust(24) + "".join(f"{d}° on/off".rjust(16) for d in DIRECTIONS)
     lines = [head]
     for name, rows in table.items():
-        lines.append(f"twin {name}".ljust(24) + "".join(f"{_fmt(rows[d]['on'])}/{_fmt(rows[d]['off'])}".rjust(16) for d in DIRECTIONS))
+        lines.append(
+            f"twin {name}".ljust(24)
+            + "".join(f"{_fmt(rows[d]['on'])}/{_fmt(rows[d]['off'])}".rjust(16) for d in DIRECTIONS)
+        )
         if paper and name in PAPER_TABLE_I:
             p = PAPER_TABLE_I[name]
-            lines.append(f"paper {name}".ljust(24) + "".join(f"{_fmt(p[d][0])}/{_fmt(p[d][1])}".rjust(16) for d in DIRECTIONS))
+            lines.append(
+                f"paper {name}".ljust(24) + "".join(f"{_fmt(p[d][0])}/{_fmt(p[d][1])}".rjust(16) for d in DIRECTIONS)
+            )
     return "\n".join(lines)
 
 
 def format_heldout(table: dict) -> str:
     """The held-out errors as text: one line per model and lateral position."""
-    lines = ["model".ljust(16) + "lateral mm".rjust(12) + "θ RMS °".rjust(10) + "lateral RMS mm".rjust(16) + "taps".rjust(6)]
+    lines = [
+        "model".ljust(16) + "lateral mm".rjust(12) + "θ RMS °".rjust(10) + "lateral RMS mm".rjust(16) + "taps".rjust(6)
+    ]
     for name, rows in table.items():
         for l, row in rows.items():
-            lines.append(name.ljust(16) + f"{l:+.1f}".rjust(12) + _fmt(row["theta_rms_deg"]).rjust(10)
-                         + _fmt(row["lateral_rms_mm"]).rjust(16) + str(row["n"]).rjust(6))
+            lines.append(
+                name.ljust(16)
+                + f"{l:+.1f}".rjust(12)
+                + _fmt(row["theta_rms_deg"]).rjust(10)
+                + _fmt(row["lateral_rms_mm"]).rjust(16)
+                + str(row["n"]).rjust(6)
+            )
     return "\n".join(lines)
 
 
@@ -50,8 +63,9 @@ def format_orientation_signal(signal: dict[float, dict[float, float]], who: str 
 
 def format_along_edge_drag(drag: dict[int, float | None], who: str = "the along-edge slides'") -> str:
     """`along_edge_drag_px` as text, one line."""
-    return (f"{who} drag (the pins' shift from each slide's unslid first sample, RMS), px: "
-            + "  ".join(f"{d}°: {_fmt(v)}" for d, v in drag.items()))
+    return f"{who} drag (the pins' shift from each slide's unslid first sample, RMS), px: " + "  ".join(
+        f"{d}°: {_fmt(v)}" for d, v in drag.items()
+    )
 
 
 def write_pca_figures(train_dir: Path, test_dir: Path, out: Path) -> list[Path]:
@@ -63,8 +77,11 @@ def write_pca_figures(train_dir: Path, test_dir: Path, out: Path) -> list[Path]:
 
     data = pca_projections(load_run(train_dir), load_run(test_dir))
     own, tap, theta, direction = data["own"], data["tap"], data["theta_deg"], data["direction_deg"]
-    panels = [("fig5_multidirectional_pc1_pc2.png", own, (0, 1)), ("fig5_multidirectional_pc4_pc5.png", own, (3, 4)),
-              ("fig6_tap_eigenvectors_pc2_pc3.png", tap, (1, 2))]
+    panels = [
+        ("fig5_multidirectional_pc1_pc2.png", own, (0, 1)),
+        ("fig5_multidirectional_pc4_pc5.png", own, (3, 4)),
+        ("fig6_tap_eigenvectors_pc2_pc3.png", tap, (1, 2)),
+    ]
     paths = []
     for name, proj, (a, b) in panels:
         fig, axes = plt.subplots(1, 4, figsize=(13, 3.4), dpi=110, sharex=True, sharey=True)

@@ -1,5 +1,6 @@
 """`twin figure shear`'s figure: the paper's Fig. 2 from the taps and slides of
 twin.analysis.shear, with its numbers."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -24,11 +25,26 @@ def plot_shear_figure(data: dict, out_png: Path, title: str = "") -> Path:
         for j in pins:
             for (direction, slide), colour in zip(sorted(data["slides"].items()), colours):
                 p = slide["pins_px"][:, j]
-                ax.plot(p[:, 0], p[:, 1], "-", color=colour, lw=0.7 if ax is ax_a else 1.5,
-                        marker="." if ax is ax_b else None, ms=4,
-                        label=f"slide {direction:.0f}°" if (ax is ax_b) else None)
-            ax.plot(taps[:, j, 0], taps[:, j, 1], "-", color="k", lw=0.9 if ax is ax_a else 2.0,
-                    marker="." if ax is ax_b else None, ms=5, label="taps" if ax is ax_b else None)
+                ax.plot(
+                    p[:, 0],
+                    p[:, 1],
+                    "-",
+                    color=colour,
+                    lw=0.7 if ax is ax_a else 1.5,
+                    marker="." if ax is ax_b else None,
+                    ms=4,
+                    label=f"slide {direction:.0f}°" if (ax is ax_b) else None,
+                )
+            ax.plot(
+                taps[:, j, 0],
+                taps[:, j, 1],
+                "-",
+                color="k",
+                lw=0.9 if ax is ax_a else 2.0,
+                marker="." if ax is ax_b else None,
+                ms=5,
+                label="taps" if ax is ax_b else None,
+            )
         ax.set_aspect("equal")
         ax.invert_yaxis()
         ax.set_xlabel("u (px)")

@@ -1,5 +1,6 @@
 """`twin bench sweep`'s files: the sweep (twin.analysis.sweep), then sweep.csv, sweep.json,
 the markdown table sweep.md (also printed) and the fronts' plot pareto.png."""
+
 from __future__ import annotations
 
 import csv
@@ -37,29 +38,79 @@ METRIC_LABELS: dict[str, str] = {
 
 #: Column order of the CSV (everything a row can hold; missing values are blank).
 CSV_COLUMNS: tuple[str, ...] = (
-    "setting", "knob", "output", "dome", "fidelity", "cellcount", "timestep_s", "settle_px", "camera", "msaa", "effects",
-    "status", "stage", "error",
-    "physics_ms", "render_ms", "track_ms", "perception_ms", "total_ms",
-    "time_x_default", "time_x_default_min", "time_x_default_max",
-    "physics_x_default", "physics_x_default_min", "physics_x_default_max",
-    "physics_wall_ms", "render_wall_ms", "track_wall_ms", "perception_wall_ms", "total_wall_ms",
-    "pin_rms_px", "pin_physics_rms_px", "pin_tracking_rms_px", "pin_settling_rms_px", "theta_rms_deg",
+    "setting",
+    "knob",
+    "output",
+    "dome",
+    "fidelity",
+    "cellcount",
+    "timestep_s",
+    "settle_px",
+    "camera",
+    "msaa",
+    "effects",
+    "status",
+    "stage",
+    "error",
+    "physics_ms",
+    "render_ms",
+    "track_ms",
+    "perception_ms",
+    "total_ms",
+    "time_x_default",
+    "time_x_default_min",
+    "time_x_default_max",
+    "physics_x_default",
+    "physics_x_default_min",
+    "physics_x_default_max",
+    "physics_wall_ms",
+    "render_wall_ms",
+    "track_wall_ms",
+    "perception_wall_ms",
+    "total_wall_ms",
+    "pin_rms_px",
+    "pin_physics_rms_px",
+    "pin_tracking_rms_px",
+    "pin_settling_rms_px",
+    "theta_rms_deg",
     "lateral_rms_mm",
-    "contour_path_mean_mm", "contour_completed_mm", "contour_path_max_mm", "contour_orientation_rms_deg",
-    "contour_steps", "contour_stop",
-    "contour_coverage", "on_front", "dominated_by", "on_front_theta", "on_front_contour", "on_front_all",
-    "n_taps", "n_slide_frames", "n_timed_frames", "train_s", "wall_s", "note",
+    "contour_path_mean_mm",
+    "contour_completed_mm",
+    "contour_path_max_mm",
+    "contour_orientation_rms_deg",
+    "contour_steps",
+    "contour_stop",
+    "contour_coverage",
+    "on_front",
+    "dominated_by",
+    "on_front_theta",
+    "on_front_contour",
+    "on_front_all",
+    "n_taps",
+    "n_slide_frames",
+    "n_timed_frames",
+    "train_s",
+    "wall_s",
+    "note",
 )
 
 
-def sweep_and_report(out: Path, quick: bool = False, workers: int | None = None, cluster: str | None = None,
-                     settings: list[Setting] | None = None, probe: Probe | None = None, seed: int = 0,
-                     verbose: bool = True) -> list[dict]:
+def sweep_and_report(
+    out: Path,
+    quick: bool = False,
+    workers: int | None = None,
+    cluster: str | None = None,
+    settings: list[Setting] | None = None,
+    probe: Probe | None = None,
+    seed: int = 0,
+    verbose: bool = True,
+) -> list[dict]:
     """Run the sweep (twin.analysis.sweep.measure.run_sweep, the same arguments) and write
     sweep.csv, sweep.json, sweep.md and pareto.png to `out`. Returns the rows (dicts with
     the CSV_COLUMNS keys present)."""
-    rows, meta = run_sweep(quick=quick, workers=workers, cluster=cluster, settings=settings, probe=probe, seed=seed,
-                           verbose=verbose)
+    rows, meta = run_sweep(
+        quick=quick, workers=workers, cluster=cluster, settings=settings, probe=probe, seed=seed, verbose=verbose
+    )
     write_outputs(rows, meta, Path(out), verbose=verbose)
     return rows
 
@@ -122,10 +173,15 @@ def _dominator_text(rows: list[dict]) -> str:
     parts = []
     for name in (d.get("dominated_by") or "").split():
         r = by[name]
-        settling = ("" if not (is_finite_number(r.get("pin_settling_rms_px")) and is_finite_number(d.get("pin_settling_rms_px"))) else
-                    f", {r['pin_settling_rms_px'] - d['pin_settling_rms_px']:+.2f} px settling error")
-        parts.append(f"{name} ({r['total_ms'] - d['total_ms']:+.1f} ms/frame, "
-                     f"{r['pin_rms_px'] - d['pin_rms_px']:+.2f} px pin error{settling})")
+        settling = (
+            ""
+            if not (is_finite_number(r.get("pin_settling_rms_px")) and is_finite_number(d.get("pin_settling_rms_px")))
+            else f", {r['pin_settling_rms_px'] - d['pin_settling_rms_px']:+.2f} px settling error"
+        )
+        parts.append(
+            f"{name} ({r['total_ms'] - d['total_ms']:+.1f} ms/frame, "
+            f"{r['pin_rms_px'] - d['pin_rms_px']:+.2f} px pin error{settling})"
+        )
     return ", ".join(parts) or "another setting"
 
 
@@ -140,15 +196,19 @@ def _timing_note(meta: dict) -> str:
     """How the times were measured (a sweep.json from before the timing pass has no 'timing')."""
     timing = meta.get("timing")
     if timing is None:
-        return ("Times: CPU ms per frame of the accuracy job's process over the slide and contour frames, measured "
-                "beside the other parallel jobs.")
+        return (
+            "Times: CPU ms per frame of the accuracy job's process over the slide and contour frames, measured "
+            "beside the other parallel jobs."
+        )
     angles = ", ".join(f"{a:g}" for a in timing["orientations_deg"])
-    return ("Times: CPU ms per frame; physics (move into the frame + settle), render and tracking from the timing "
-            f"pass (each setting alone on the machine after the accuracy jobs, in rounds that run every setting once, "
-            f"best of {timing['repeats']} rounds after an untimed one, over the slides at θ = {angles}°), perception "
-            "from the accuracy job; × default: physics + render + tracking against the default's, best against best, "
-            "and in brackets the lowest and highest ratio within one round; wall-clock figures of the accuracy jobs "
-            "in sweep.csv.")
+    return (
+        "Times: CPU ms per frame; physics (move into the frame + settle), render and tracking from the timing "
+        f"pass (each setting alone on the machine after the accuracy jobs, in rounds that run every setting once, "
+        f"best of {timing['repeats']} rounds after an untimed one, over the slides at θ = {angles}°), perception "
+        "from the accuracy job; × default: physics + render + tracking against the default's, best against best, "
+        "and in brackets the lowest and highest ratio within one round; wall-clock figures of the accuracy jobs "
+        "in sweep.csv."
+    )
 
 
 def _ratio_cell(r: dict) -> str:
@@ -161,33 +221,43 @@ def _ratio_cell(r: dict) -> str:
 
 def markdown_table(rows: list[dict], meta: dict) -> str:
     """The sweep's table (in docs/accuracy-cost.md): one line per setting, then the verdict and how it was measured."""
-    head = ("| setting | knob | physics | render | tracking | perception | **total ms/frame** | × default | "
-            "pin err px (phys / track) | settling err px | θ err ° | l err mm | contour err mm (steps, end) | front | "
-            "contour front |")
+    head = (
+        "| setting | knob | physics | render | tracking | perception | **total ms/frame** | × default | "
+        "pin err px (phys / track) | settling err px | θ err ° | l err mm | contour err mm (steps, end) | front | "
+        "contour front |"
+    )
     lines = [head, "|" + "|".join(["---"] * (head.count("|") - 1)) + "|"]
     for r in rows:
         name = f"**{r['setting']}**" if r["setting"] in (DEFAULT, *REFERENCES.values()) else r["setting"]
         if r["status"] != "ok":
             name += f" ⚠ failed in {r['stage']}"
-        pin = (f"{_fmt(r.get('pin_rms_px'), 2)} ({_fmt(r.get('pin_physics_rms_px'), 2)} / "
-               f"{_fmt(r.get('pin_tracking_rms_px'), 2)})")
+        pin = (
+            f"{_fmt(r.get('pin_rms_px'), 2)} ({_fmt(r.get('pin_physics_rms_px'), 2)} / "
+            f"{_fmt(r.get('pin_tracking_rms_px'), 2)})"
+        )
         front = {True: "●", False: "", None: "—"}[r.get("on_front")]
         contour_front = {True: "●", False: "", None: "—"}[r.get("on_front_contour")]
-        lines.append(f"| {name} | {r['knob']} | {_fmt(r.get('physics_ms'))} | {_fmt(r.get('render_ms'))} | "
-                     f"{_fmt(r.get('track_ms'))} | {_fmt(r.get('perception_ms'))} | **{_fmt(r.get('total_ms'))}** | "
-                     f"{_ratio_cell(r)} | {pin} | {_fmt(r.get('pin_settling_rms_px'), 2)} | {_fmt(r.get('theta_rms_deg'))} | "
-                     f"{_fmt(r.get('lateral_rms_mm'), 2)} | "
-                     f"{_contour_cell(r)} | {front} | {contour_front} |")
+        lines.append(
+            f"| {name} | {r['knob']} | {_fmt(r.get('physics_ms'))} | {_fmt(r.get('render_ms'))} | "
+            f"{_fmt(r.get('track_ms'))} | {_fmt(r.get('perception_ms'))} | **{_fmt(r.get('total_ms'))}** | "
+            f"{_ratio_cell(r)} | {pin} | {_fmt(r.get('pin_settling_rms_px'), 2)} | {_fmt(r.get('theta_rms_deg'))} | "
+            f"{_fmt(r.get('lateral_rms_mm'), 2)} | "
+            f"{_contour_cell(r)} | {front} | {contour_front} |"
+        )
     on = default_on_front(rows)
     default_camera = next((r.get("camera") for r in rows if r["setting"] == DEFAULT), "—")
     if on is None:
         verdict = "The default was not measured (or failed), so its place on the front is unknown."
     elif on:
-        verdict = ("The default lies on the Pareto front (time vs pin and settling error, frame-producing "
-                   f"settings at {default_camera}).")
+        verdict = (
+            "The default lies on the Pareto front (time vs pin and settling error, frame-producing "
+            f"settings at {default_camera})."
+        )
     else:
-        verdict = ("**The default is NOT on the Pareto front** (time vs pin and settling error, frame-producing "
-                   f"settings at {default_camera}): dominated by {_dominator_text(rows)}.")
+        verdict = (
+            "**The default is NOT on the Pareto front** (time vs pin and settling error, frame-producing "
+            f"settings at {default_camera}): dominated by {_dominator_text(rows)}."
+        )
     p = meta["probe"]
     failures = meta["failures"]
     notes = [
@@ -235,48 +305,108 @@ def plot_pareto(rows: list[dict], path: Path) -> Path:
     ncols = 2
     nrows = -(-len(panels) // ncols)
     fig, axes = plt.subplots(nrows, ncols, figsize=(6.4 * ncols, 5.2 * nrows), dpi=110, squeeze=False)
-    for ax in axes.ravel()[len(panels):]:
+    for ax in axes.ravel()[len(panels) :]:
         ax.set_visible(False)
     colours = {"frames": "tab:blue", "pins": "tab:orange"}
     for ax, (metric, key, ringed) in zip(axes.ravel(), panels):
         label = METRIC_LABELS[metric]
         for output, colour in colours.items():
-            pts = [r for r in rows if r["output"] == output and is_finite_number(r.get("total_ms")) and is_finite_number(r.get(metric))]
+            pts = [
+                r
+                for r in rows
+                if r["output"] == output and is_finite_number(r.get("total_ms")) and is_finite_number(r.get(metric))
+            ]
             bad = [r for r in pts if r["status"] != "ok"]
             pts = [r for r in pts if r["status"] == "ok"]
             if bad:  # figures measured before the failure, never on a front
-                ax.scatter([r["total_ms"] for r in bad], [r[metric] for r in bad], marker="x", c="red", s=30,
-                           zorder=3, label="failed (partial figures)")
+                ax.scatter(
+                    [r["total_ms"] for r in bad],
+                    [r[metric] for r in bad],
+                    marker="x",
+                    c="red",
+                    s=30,
+                    zorder=3,
+                    label="failed (partial figures)",
+                )
                 for r in bad:
-                    ax.annotate(r["setting"], (r["total_ms"], r[metric]), fontsize=6, xytext=(3, 3),
-                                textcoords="offset points", color="red")
+                    ax.annotate(
+                        r["setting"],
+                        (r["total_ms"], r[metric]),
+                        fontsize=6,
+                        xytext=(3, 3),
+                        textcoords="offset points",
+                        color="red",
+                    )
             if not pts:
                 continue
             for dome, marker in DOME_MARKERS.items():
                 mine = [r for r in pts if r.get("dome", BASE_DOME) == dome]
                 if mine:
-                    ax.scatter([r["total_ms"] for r in mine], [r[metric] for r in mine], c=colour, s=22, zorder=3,
-                               marker=marker, label=("rendered + tracked" if output == "frames" else "projected pins")
-                               + ("" if dome == BASE_DOME else f" ({dome} dome)"))
+                    ax.scatter(
+                        [r["total_ms"] for r in mine],
+                        [r[metric] for r in mine],
+                        c=colour,
+                        s=22,
+                        zorder=3,
+                        marker=marker,
+                        label=("rendered + tracked" if output == "frames" else "projected pins")
+                        + ("" if dome == BASE_DOME else f" ({dome} dome)"),
+                    )
             # a pin metric's front is per dome model (each against its own reference), the others across both
             for dome in list(DOME_MARKERS) if metric in PIN_METRICS else [None]:
-                front = sorted((r for r in pts if r.get(key) and (dome is None or r.get("dome", BASE_DOME) == dome)),
-                               key=lambda r: r["total_ms"])
+                front = sorted(
+                    (r for r in pts if r.get(key) and (dome is None or r.get("dome", BASE_DOME) == dome)),
+                    key=lambda r: r["total_ms"],
+                )
                 if front and ringed:
-                    ax.scatter([r["total_ms"] for r in front], [r[metric] for r in front], s=90, facecolor="none",
-                               edgecolor=colour, lw=1.0, zorder=2, label="on the pin + settling error front")
+                    ax.scatter(
+                        [r["total_ms"] for r in front],
+                        [r[metric] for r in front],
+                        s=90,
+                        facecolor="none",
+                        edgecolor=colour,
+                        lw=1.0,
+                        zorder=2,
+                        label="on the pin + settling error front",
+                    )
                 elif front:
-                    ax.step([r["total_ms"] for r in front], [r[metric] for r in front], where="post", color=colour,
-                            lw=1.0, alpha=0.7, zorder=2)
+                    ax.step(
+                        [r["total_ms"] for r in front],
+                        [r[metric] for r in front],
+                        where="post",
+                        color=colour,
+                        lw=1.0,
+                        alpha=0.7,
+                        zorder=2,
+                    )
             for r in pts:
-                ax.annotate(r["setting"], (r["total_ms"], r[metric]), fontsize=6, xytext=(3, 3),
-                            textcoords="offset points")
+                ax.annotate(
+                    r["setting"], (r["total_ms"], r[metric]), fontsize=6, xytext=(3, 3), textcoords="offset points"
+                )
                 if r["setting"] == DEFAULT:
-                    ax.scatter([r["total_ms"]], [r[metric]], marker="*", s=220, facecolor="none", edgecolor="red",
-                               lw=1.2, zorder=4, label="default")
+                    ax.scatter(
+                        [r["total_ms"]],
+                        [r[metric]],
+                        marker="*",
+                        s=220,
+                        facecolor="none",
+                        edgecolor="red",
+                        lw=1.2,
+                        zorder=4,
+                        label="default",
+                    )
                 if r["setting"] in REFERENCES.values():
-                    ax.scatter([r["total_ms"]], [r[metric]], marker="s", s=90, facecolor="none", edgecolor="k",
-                               lw=1.0, zorder=4, label="reference")
+                    ax.scatter(
+                        [r["total_ms"]],
+                        [r[metric]],
+                        marker="s",
+                        s=90,
+                        facecolor="none",
+                        edgecolor="k",
+                        lw=1.0,
+                        zorder=4,
+                        label="reference",
+                    )
         ax.set_xscale("log")
         ax.xaxis.set_major_formatter(matplotlib.ticker.ScalarFormatter())
         ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())

@@ -11,6 +11,7 @@ A run's frame (1120 × 480 px for a 640 × 480 camera):
 
 Encoded with imageio's ffmpeg plugin (H.264, yuv420p), headless.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -23,14 +24,14 @@ import numpy as np
 from matplotlib import font_manager
 from PIL import Image, ImageDraw, ImageFont
 
+from twin.analysis.comparison import paired_runs
 from twin.core.errors import UserError
 from twin.core.poses import Pose
 from twin.core.scenario import scenario_from_dict
 from twin.runs.contour_run import object_path
 from twin.runs.record import Run, load_run
-from twin.analysis.comparison import paired_runs
-from twin.world.render import OverviewRenderer
 from twin.runs.spec import load_scenario_stimulus, scene_spec
+from twin.world.render import OverviewRenderer
 from twin.world.scene import Overview
 
 VIDEO_FPS = 10  # frames/s: one frame per sample
@@ -69,16 +70,25 @@ def write_text(image: np.ndarray, lines: list[str], corner: str = "top-left", co
     return image
 
 
-def draw_pin_field(image: np.ndarray, pins_px: np.ndarray, rest_px: np.ndarray, scale: float = 1.0,
-                   found: np.ndarray | None = None, colour=PIN_COLOUR, arrow_colour=ARROW_COLOUR) -> np.ndarray:
+def draw_pin_field(
+    image: np.ndarray,
+    pins_px: np.ndarray,
+    rest_px: np.ndarray,
+    scale: float = 1.0,
+    found: np.ndarray | None = None,
+    colour=PIN_COLOUR,
+    arrow_colour=ARROW_COLOUR,
+) -> np.ndarray:
     """Draw pins (127, 2) px and their displacement from `rest_px` (×DISPLACEMENT_GAIN) on
     an RGB image whose pixels are `scale` camera pixels (in place; returned). Lost pins
     (found False) are drawn in LOST_COLOUR, pins without a position (NaN) not at all."""
     ok = np.all(np.isfinite(pins_px), axis=1) & np.all(np.isfinite(rest_px), axis=1)
     lost = np.zeros(len(pins_px), bool) if found is None else ~np.asarray(found, bool)
     with np.errstate(invalid="ignore"):
-        starts, ends, centres = (np.nan_to_num(np.round(p)).astype(int).tolist() for p in (
-            rest_px * scale, (rest_px + DISPLACEMENT_GAIN * (pins_px - rest_px)) * scale, pins_px * scale))
+        starts, ends, centres = (
+            np.nan_to_num(np.round(p)).astype(int).tolist()
+            for p in (rest_px * scale, (rest_px + DISPLACEMENT_GAIN * (pins_px - rest_px)) * scale, pins_px * scale)
+        )
     for k in np.flatnonzero(ok):
         if starts[k] != ends[k]:
             cv2.line(image, starts[k], ends[k], arrow_colour, 1, cv2.LINE_AA)
@@ -86,8 +96,14 @@ def draw_pin_field(image: np.ndarray, pins_px: np.ndarray, rest_px: np.ndarray, 
     return image
 
 
-def sensor_panel(frame: np.ndarray | None, resolution: tuple[int, int], pins_px: np.ndarray | None,
-                 rest_px: np.ndarray, found: np.ndarray | None = None, height: int = PANEL_HEIGHT) -> np.ndarray:
+def sensor_panel(
+    frame: np.ndarray | None,
+    resolution: tuple[int, int],
+    pins_px: np.ndarray | None,
+    rest_px: np.ndarray,
+    found: np.ndarray | None = None,
+    height: int = PANEL_HEIGHT,
+) -> np.ndarray:
     """The camera frame (black where a run kept none), scaled to `height` px, with the
     pins and their displacement from rest drawn on it (RGB uint8)."""
     width_cam, height_cam = resolution
@@ -127,7 +143,9 @@ class PathPanel:
     """The object seen from above (object frame, mm), the sensor's path so far and the
     perceived edge normals, drawn with OpenCV at a fixed scale for the whole run."""
 
-    def __init__(self, run: Run, outline_mm: np.ndarray, size: tuple[int, int] = SIDE_SIZE, margin_mm: float = 12.0) -> None:
+    def __init__(
+        self, run: Run, outline_mm: np.ndarray, size: tuple[int, int] = SIDE_SIZE, margin_mm: float = 12.0
+    ) -> None:
         self.xy, self.normals_deg = object_path(run.samples)
         w, h = size
         points = np.vstack([outline_mm, self.xy]) if len(self.xy) else outline_mm
@@ -167,8 +185,9 @@ class ScenePanel:
     def __init__(self, scenario, size: tuple[int, int] = SIDE_SIZE) -> None:
         self.overview = Overview(scene_spec(scenario))
         lookat = self.overview.object2world[:3, 3] + np.array([-0.15, 0.0, 0.2])  # between base and object
-        self.renderer = OverviewRenderer(self.overview.model, *size, lookat=lookat, distance=1.0,
-                                         azimuth=120.0, elevation=-25.0, shadows=False)
+        self.renderer = OverviewRenderer(
+            self.overview.model, *size, lookat=lookat, distance=1.0, azimuth=120.0, elevation=-25.0, shadows=False
+        )
 
     def draw(self, pose) -> np.ndarray:
         """The rig with the sensor at `pose` (work frame, [x, y, z, α, β, γ] mm/deg)."""
@@ -191,11 +210,18 @@ class VideoWriter:
     path: Path
     fps: float = VIDEO_FPS
 
-    def __enter__(self) -> "VideoWriter":
+    def __enter__(self) -> VideoWriter:
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._writer = imageio.get_writer(str(self.path), format="FFMPEG", fps=self.fps, codec="libx264",
-                                          quality=QUALITY, pixelformat="yuv420p", macro_block_size=2,
-                                          ffmpeg_log_level="error")
+        self._writer = imageio.get_writer(
+            str(self.path),
+            format="FFMPEG",
+            fps=self.fps,
+            codec="libx264",
+            quality=QUALITY,
+            pixelformat="yuv420p",
+            macro_block_size=2,
+            ffmpeg_log_level="error",
+        )
         self.frames = 0
         return self
 
@@ -254,14 +280,22 @@ def compare_frame(a: Run, b: Run, i: int, j: int, n: int, total: int) -> np.ndar
         for image in (panel, overlay):
             draw_pin_field(image, run.sample_pins(k), rest, scale, colour=colour, arrow_colour=colour)
         meta = run.meta
-        write_text(panel, [f"{tag}: {meta['scenario']['name']} ({meta['backend']}, {meta['scenario']['fidelity']})",
-                           f"sample {k + 1}  t {s['time']:.2f} s"], colour=colour)
+        write_text(
+            panel,
+            [
+                f"{tag}: {meta['scenario']['name']} ({meta['backend']}, {meta['scenario']['fidelity']})",
+                f"sample {k + 1}  t {s['time']:.2f} s",
+            ],
+            colour=colour,
+        )
         write_text(panel, [percept_text(s["labels"])], "bottom-left")
         panels.append(panel[:, :w] if panel.shape[1] >= w else np.pad(panel, ((0, 0), (0, w - panel.shape[1]), (0, 0))))
     d2 = np.sum((a.sample_pins(i) - b.sample_pins(j)) ** 2, axis=1)
     rms = float(np.sqrt(np.mean(d2[np.isfinite(d2)]))) if np.isfinite(d2).any() else float("nan")
-    write_text(overlay, [f"pair {n + 1}/{total}", "target " + _pose_text(a.samples[i]["target"]),
-                         f"pin RMS difference {rms:.2f} px"])
+    write_text(
+        overlay,
+        [f"pair {n + 1}/{total}", "target " + _pose_text(a.samples[i]["target"]), f"pin RMS difference {rms:.2f} px"],
+    )
     write_text(overlay, ["A"], "bottom-left", colour=PAIR_COLOURS[0])
     write_text(overlay, [f"B   (displacement ×{DISPLACEMENT_GAIN:g})"], "bottom-right", colour=PAIR_COLOURS[1])
     return np.hstack([*panels, overlay])

@@ -4,6 +4,7 @@ displacement from rest on a screen standing beside the rig (a texture updated pe
 the viewer's own image overlay, Handle.set_images, is drawn behind the scene's geometry in
 mujoco 4.0.0). Nothing is recorded; `twin run --video` is the headless way to watch a run.
 """
+
 from __future__ import annotations
 
 import os
@@ -12,18 +13,17 @@ import time
 from collections.abc import Iterator
 
 import cv2
-import numpy as np
-
 import mujoco.viewer
+import numpy as np
 
 from twin.core.environment import Environment, Observation
 from twin.core.errors import UserError
 from twin.core.scenario import Scenario
 from twin.runs.backends import make_environment
 from twin.runs.contour_run import ScenarioFollower
-from twin.runs.spec import scene_spec
 from twin.runs.protocols import protocol_moves
 from twin.runs.runner import chunk_moves, chunk_samples
+from twin.runs.spec import scene_spec
 from twin.runs.training import model_for_scenario
 from twin.tools.video import percept_text, sensor_panel, write_text
 from twin.world.scene import Overview
@@ -37,7 +37,9 @@ def has_display() -> bool:
     return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
-def scenario_steps(env: Environment, scenario: Scenario) -> Iterator[tuple[Observation, np.ndarray, np.ndarray | None, dict, np.ndarray]]:
+def scenario_steps(
+    env: Environment, scenario: Scenario
+) -> Iterator[tuple[Observation, np.ndarray, np.ndarray | None, dict, np.ndarray]]:
     """(observation, pins px, found, labels, rest pins px) per recorded sample of any
     protocol: contour following closes the loop with the scenario's model; open-loop
     protocols run chunk by chunk from a reset, as `twin run` does."""
@@ -56,16 +58,19 @@ def view_scenario(scenario: Scenario, seed: int | None = None, wait: bool = True
     the window is closed) or the window is closed; returns the number of samples shown.
     Raises UserError without a display."""
     if not has_display():
-        raise UserError("twin view needs a display, and neither DISPLAY nor WAYLAND_DISPLAY is set "
-                        "(headless: `twin run SCENARIO --video` writes an MP4 of the run instead)")
+        raise UserError(
+            "twin view needs a display, and neither DISPLAY nor WAYLAND_DISPLAY is set "
+            "(headless: `twin run SCENARIO --video` writes an MP4 of the run instead)"
+        )
     overview = Overview(scene_spec(scenario), screen_px=SCREEN_PX, screen_azimuth_deg=VIEW_AZIMUTH_DEG)
     env = make_environment(scenario, seed)
     resolution = (env.camera.width, env.camera.height)
     shown = 0
     before = set(threading.enumerate())
     try:
-        with mujoco.viewer.launch_passive(overview.model, overview.data, show_left_ui=False,
-                                          show_right_ui=False) as viewer:
+        with mujoco.viewer.launch_passive(
+            overview.model, overview.data, show_left_ui=False, show_right_ui=False
+        ) as viewer:
             viewer.cam.lookat[:] = overview.object2world[:3, 3] + np.array([0.0, 0.1, 0.2])
             viewer.cam.distance, viewer.cam.azimuth, viewer.cam.elevation = 1.4, VIEW_AZIMUTH_DEG, -25.0
             for obs, pins, found, labels, rest in scenario_steps(env, scenario):

@@ -9,17 +9,17 @@ speed (as RAPID's MoveL does), the servos lag, and every dome step receives the 
 actual tool pose. The contact forces on the 40 mm dome (a few N) are not fed back: at
 the IRB120's servo stiffness they would move the TCP by micrometres.
 """
+
 from __future__ import annotations
 
-import numpy as np
-
 import mujoco
+import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
 
 from twin.core.errors import PhysicsError
+from twin.core.poses import make_transform
 from twin.core.resources import asset_path
 from twin.world.kinematics import Irb120Kinematics
-from twin.core.poses import make_transform
-from scipy.spatial.transform import Rotation, Slerp
 
 ARM_SCENE = asset_path("irb120", "scene.xml")
 TOOL_MASS_KG = 0.35  # TacTip + adapter, added at the flange
@@ -34,8 +34,15 @@ class ArmDynamics:
         spec = mujoco.MjSpec.from_file(str(ARM_SCENE))
         flange = spec.body("flange")
         flange.gravcomp = 1.0  # the controller compensates the tool load, as the links
-        flange.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.02], pos=tool2flange[:3, 3] / 2,
-                        mass=TOOL_MASS_KG, contype=0, conaffinity=0, group=3)
+        flange.add_geom(
+            type=mujoco.mjtGeom.mjGEOM_SPHERE,
+            size=[0.02],
+            pos=tool2flange[:3, 3] / 2,
+            mass=TOOL_MASS_KG,
+            contype=0,
+            conaffinity=0,
+            group=3,
+        )
         self.model = spec.compile()
         self.data = mujoco.MjData(self.model)
         self.kinematics = kinematics
@@ -61,8 +68,14 @@ class ArmDynamics:
         if not np.all(np.isfinite(self.data.qpos)):
             raise PhysicsError(f"arm dynamics diverged (qpos {self.q})")
 
-    def move(self, start: np.ndarray, target: np.ndarray, speed_mm_s: float, sample_dt: float,
-             angular_speed_deg_s: float = 45.0) -> list[np.ndarray]:
+    def move(
+        self,
+        start: np.ndarray,
+        target: np.ndarray,
+        speed_mm_s: float,
+        sample_dt: float,
+        angular_speed_deg_s: float = 45.0,
+    ) -> list[np.ndarray]:
         """Actual tool poses (4×4, m) every `sample_dt` s while the arm executes the line
         from `start` to `target` at `speed_mm_s` (rotating at most `angular_speed_deg_s`)
         and then settles."""
@@ -84,8 +97,10 @@ class ArmDynamics:
         waited = 0.0
         while np.max(np.abs(self.data.qvel[self._dadr])) > SETTLE_JOINT_SPEED:
             if waited > MAX_SETTLE_S:
-                raise PhysicsError(f"arm did not settle within {MAX_SETTLE_S} s after the move "
-                                   f"(joint speeds {self.data.qvel[self._dadr]} rad/s)")
+                raise PhysicsError(
+                    f"arm did not settle within {MAX_SETTLE_S} s after the move "
+                    f"(joint speeds {self.data.qvel[self._dadr]} rad/s)"
+                )
             self._advance(sample_dt)
             waited += sample_dt
             poses.append(self.tool2world())

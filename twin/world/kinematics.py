@@ -11,6 +11,7 @@ those inside the joint limits and returns the one closest to the seed, taking jo
 answer is checked against MuJoCo's own forward kinematics (and polished by Newton steps
 on MuJoCo's Jacobian if ever needed), so the model and the IK agree to ~1e-12.
 """
+
 from __future__ import annotations
 
 import math
@@ -21,8 +22,8 @@ import mujoco
 import numpy as np
 
 from twin.core.errors import UnreachablePoseError
-from twin.core.resources import asset_path
 from twin.core.poses import Pose, invert_transform, make_transform
+from twin.core.resources import asset_path
 
 IRB120_XML = asset_path("irb120", "irb120.xml")
 
@@ -120,11 +121,11 @@ class Irb120Kinematics:
         )
         if not ok:
             raise ValueError(f"{source}: joint layout is not the IRB120's (axes {axes.tolist()})")
-        self._d1 = float(anchors[1][2])                  # base to shoulder, 0.290
+        self._d1 = float(anchors[1][2])  # base to shoulder, 0.290
         self._a2 = float(anchors[2][2] - anchors[1][2])  # upper arm, 0.270
-        self._a3 = float(wrist[2] - anchors[2][2])       # elbow offset, 0.070
-        self._d4 = float(wrist[0] - anchors[2][0])       # forearm, 0.302
-        self._l3 = math.hypot(self._a3, self._d4)        # elbow to wrist centre
+        self._a3 = float(wrist[2] - anchors[2][2])  # elbow offset, 0.070
+        self._d4 = float(wrist[0] - anchors[2][0])  # forearm, 0.302
+        self._l3 = math.hypot(self._a3, self._d4)  # elbow to wrist centre
         self._phi3 = math.atan2(self._a3, self._d4)
         flange2world0 = self._flange_from_data()
         self._flange_rot0 = flange2world0[:3, :3]
@@ -292,7 +293,4 @@ class Irb120Kinematics:
         with warnings.catch_warnings():  # scipy warns on gimbal lock (β = ±90°); the angles are still valid
             warnings.simplefilter("ignore", UserWarning)
             p = Pose.from_matrix(np.asarray(tool2world, float))
-        return (
-            f"(x {p.x:.1f}, y {p.y:.1f}, z {p.z:.1f} mm; "
-            f"α {p.alpha:.1f}, β {p.beta:.1f}, γ {p.gamma:.1f}°)"
-        )
+        return f"(x {p.x:.1f}, y {p.y:.1f}, z {p.z:.1f} mm; α {p.alpha:.1f}, β {p.beta:.1f}, γ {p.gamma:.1f}°)"

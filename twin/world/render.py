@@ -5,11 +5,11 @@ from the camera), fed with the pin tips computed by the physics. Rendering only 
 camera can see keeps the frame rate high and the image identical whichever physics
 fidelity produced the pins.
 """
+
 from __future__ import annotations
 
-import numpy as np
-
 import mujoco
+import numpy as np
 
 from twin.core.sensor import N_PINS, CameraModel
 
@@ -106,9 +106,17 @@ class OverviewRenderer:
     """Renders a whole scene from a free camera (RGB uint8, height × width px), keeping
     one GL context for every frame: for sequences of the same scene (videos, the viewer)."""
 
-    def __init__(self, model: mujoco.MjModel, width: int = 960, height: int = 720,
-                 lookat: np.ndarray | None = None, distance: float = 1.2,
-                 azimuth: float = 135.0, elevation: float = -25.0, shadows: bool = True) -> None:
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        width: int = 960,
+        height: int = 720,
+        lookat: np.ndarray | None = None,
+        distance: float = 1.2,
+        azimuth: float = 135.0,
+        elevation: float = -25.0,
+        shadows: bool = True,
+    ) -> None:
         """lookat (m, world), distance (m), azimuth and elevation (deg): the free camera.
         shadows: off saves most of a frame's time on a software (llvmpipe) renderer."""
         model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
@@ -128,16 +136,23 @@ class OverviewRenderer:
     def close(self) -> None:
         self._renderer.close()
 
-    def __enter__(self) -> "OverviewRenderer":
+    def __enter__(self) -> OverviewRenderer:
         return self
 
     def __exit__(self, *exc) -> None:
         self.close()
 
 
-def render_overview(model: mujoco.MjModel, data: mujoco.MjData, width: int = 960, height: int = 720,
-                    lookat: np.ndarray | None = None, distance: float = 1.2,
-                    azimuth: float = 135.0, elevation: float = -25.0) -> np.ndarray:
+def render_overview(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    width: int = 960,
+    height: int = 720,
+    lookat: np.ndarray | None = None,
+    distance: float = 1.2,
+    azimuth: float = 135.0,
+    elevation: float = -25.0,
+) -> np.ndarray:
     """One overview image of a whole scene from a free camera (RGB uint8)."""
     with OverviewRenderer(model, width, height, lookat, distance, azimuth, elevation) as renderer:
         return renderer.render(data)

@@ -16,6 +16,7 @@ only rendered, never stepped.
 
 World = robot base frame on the table top (docs/conventions.md).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -99,8 +100,9 @@ class Scene:
         return self.spec.work2world
 
 
-def object_and_work_frames(position_mm: tuple[float, float], yaw_deg: float, thickness_mm: float,
-                           work_pose: Pose | None = None) -> tuple[np.ndarray, np.ndarray]:
+def object_and_work_frames(
+    position_mm: tuple[float, float], yaw_deg: float, thickness_mm: float, work_pose: Pose | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """(object2world, work2world) 4×4 (m): the object's reference point at `position_mm`
     (x, y) on the table, turned by `yaw_deg` about the table normal, its top
     `thickness_mm` above the table; the work frame is `work_pose` (world, mm/deg), or the
@@ -122,7 +124,9 @@ def kinematics() -> Irb120Kinematics:
 
 
 def _add_object(spec: mujoco.MjSpec, body: mujoco.MjsBody, stimulus: Stimulus, collide: bool, friction: bool) -> None:
-    colour = {"acrylic": [0.75, 0.85, 0.95, 1.0], "abs": [0.95, 0.75, 0.1, 1.0]}.get(stimulus.material, [0.2, 0.45, 0.8, 1.0])
+    colour = {"acrylic": [0.75, 0.85, 0.95, 1.0], "abs": [0.95, 0.75, 0.1, 1.0]}.get(
+        stimulus.material, [0.2, 0.45, 0.8, 1.0]
+    )
     for g in stimulus.add_to_spec(spec, body, prefix="object"):
         g.rgba = colour
         g.priority = OBJECT_PRIORITY if friction else 0
@@ -149,10 +153,18 @@ def sensor_physics(scene: Scene, start_tool2world: np.ndarray) -> DomeModel:
     """The scene's dome model running, from `start_tool2world` (lab pose of the dome apex,
     4×4 m)."""
     spec = scene.spec
-    return spec.dome.start(scene.model, scene.data, scene.dome_handles, spec.dome_params,
-                           friction=spec.stimulus.friction if spec.friction else 0.0, name=spec.name,
-                           start_tool2world=start_tool2world, stimulus2world=spec.object2world,
-                           work2world=spec.work2world, camera=spec.camera)
+    return spec.dome.start(
+        scene.model,
+        scene.data,
+        scene.dome_handles,
+        spec.dome_params,
+        friction=spec.stimulus.friction if spec.friction else 0.0,
+        name=spec.name,
+        start_tool2world=start_tool2world,
+        stimulus2world=spec.object2world,
+        work2world=spec.work2world,
+        camera=spec.camera,
+    )
 
 
 def _add_tactip_visual(body: mujoco.MjsBody, geometry: TacTipGeometry) -> None:
@@ -160,12 +172,33 @@ def _add_tactip_visual(body: mujoco.MjsBody, geometry: TacTipGeometry) -> None:
     apex = FLANGE_TO_APEX
     dome_centre = apex - geometry.dome_outer_radius
     base_top = dome_centre - geometry.base_length
-    body.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.9 * geometry.dome_outer_radius, base_top / 2],
-                  pos=[0, 0, base_top / 2], rgba=[0.1, 0.1, 0.1, 1], contype=0, conaffinity=0, mass=0)
-    body.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[geometry.dome_outer_radius, geometry.base_length / 2],
-                  pos=[0, 0, base_top + geometry.base_length / 2], rgba=[0.15, 0.15, 0.15, 1], contype=0, conaffinity=0, mass=0)
-    body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[geometry.dome_outer_radius], pos=[0, 0, dome_centre],
-                  rgba=[0.05, 0.05, 0.05, 1], contype=0, conaffinity=0, mass=0)
+    body.add_geom(
+        type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+        size=[0.9 * geometry.dome_outer_radius, base_top / 2],
+        pos=[0, 0, base_top / 2],
+        rgba=[0.1, 0.1, 0.1, 1],
+        contype=0,
+        conaffinity=0,
+        mass=0,
+    )
+    body.add_geom(
+        type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+        size=[geometry.dome_outer_radius, geometry.base_length / 2],
+        pos=[0, 0, base_top + geometry.base_length / 2],
+        rgba=[0.15, 0.15, 0.15, 1],
+        contype=0,
+        conaffinity=0,
+        mass=0,
+    )
+    body.add_geom(
+        type=mujoco.mjtGeom.mjGEOM_SPHERE,
+        size=[geometry.dome_outer_radius],
+        pos=[0, 0, dome_centre],
+        rgba=[0.05, 0.05, 0.05, 1],
+        contype=0,
+        conaffinity=0,
+        mass=0,
+    )
 
 
 class Overview:
@@ -173,8 +206,9 @@ class Overview:
     re-poses the arm by inverse kinematics (no recompilation), so a sequence of poses
     costs one IK solve and one forward pass each."""
 
-    def __init__(self, scene: SceneSpec, screen_px: tuple[int, int] | None = None,
-                 screen_azimuth_deg: float = 120.0) -> None:
+    def __init__(
+        self, scene: SceneSpec, screen_px: tuple[int, int] | None = None, screen_azimuth_deg: float = 120.0
+    ) -> None:
         """scene: the object, its placement and the work frame (twin.runs.spec.sim_spec).
         screen_px: (width, height) of an RGB texture shown on a screen standing beyond
         the object as seen from a free camera at `screen_azimuth_deg` (deg), facing it
@@ -185,10 +219,17 @@ class Overview:
         spec.modelname = f"overview_{scene.name}"
         spec.visual.global_.offwidth, spec.visual.global_.offheight = 1280, 960
         spec.worldbody.add_light(pos=[0.3, -0.3, 1.5], dir=[-0.2, 0.2, -1], diffuse=[0.7, 0.7, 0.7])
-        spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=list(TABLE_HALF_SIZE),
-                                pos=[0.35, 0, -TABLE_HALF_SIZE[2]], rgba=[0.55, 0.45, 0.35, 1], contype=0, conaffinity=0)
-        obj = spec.worldbody.add_body(name="object", pos=self.object2world[:3, 3],
-                                      quat=matrix_to_quat_wxyz(self.object2world[:3, :3]))
+        spec.worldbody.add_geom(
+            type=mujoco.mjtGeom.mjGEOM_BOX,
+            size=list(TABLE_HALF_SIZE),
+            pos=[0.35, 0, -TABLE_HALF_SIZE[2]],
+            rgba=[0.55, 0.45, 0.35, 1],
+            contype=0,
+            conaffinity=0,
+        )
+        obj = spec.worldbody.add_body(
+            name="object", pos=self.object2world[:3, 3], quat=matrix_to_quat_wxyz(self.object2world[:3, :3])
+        )
         _add_object(spec, obj, stimulus, collide=False, friction=False)
         arm = mujoco.MjSpec.from_file(str(IRB120_XML))
         _add_tactip_visual(arm.body("flange"), TacTipGeometry())
@@ -204,8 +245,14 @@ class Overview:
     def _add_screen(self, spec: mujoco.MjSpec, width: int, height: int, azimuth_deg: float) -> None:
         """A SCREEN_HEIGHT_M-high screen of aspect width:height, SCREEN_DISTANCE_M beyond
         and to the right of the object as seen by a free camera at `azimuth_deg`, facing it."""
-        spec.add_texture(name="screen", type=mujoco.mjtTexture.mjTEXTURE_2D, width=width, height=height, nchannel=3,
-                         data=[0] * (width * height * 3))
+        spec.add_texture(
+            name="screen",
+            type=mujoco.mjtTexture.mjTEXTURE_2D,
+            width=width,
+            height=height,
+            nchannel=3,
+            data=[0] * (width * height * 3),
+        )
         material = spec.add_material(name="screen", emission=1.0, specular=0.0)
         material.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "screen"
         a = np.radians(azimuth_deg)
@@ -213,17 +260,26 @@ class Overview:
         up = np.array([0.0, 0.0, 1.0])
         axes = np.column_stack([np.cross(forward, up), up, -forward])  # plane x (right), y (up), normal
         half_h = SCREEN_HEIGHT_M / 2
-        centre = (self.object2world[:3, 3] + SCREEN_DISTANCE_M * (forward + axes[:, 0])  # beyond and to the right
-                  + np.array([0.0, 0.0, half_h + 0.05]))
-        spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[half_h * width / height, half_h, 0.01],
-                                pos=centre, quat=matrix_to_quat_wxyz(axes), material="screen",
-                                contype=0, conaffinity=0)
+        centre = (
+            self.object2world[:3, 3]
+            + SCREEN_DISTANCE_M * (forward + axes[:, 0])  # beyond and to the right
+            + np.array([0.0, 0.0, half_h + 0.05])
+        )
+        spec.worldbody.add_geom(
+            type=mujoco.mjtGeom.mjGEOM_PLANE,
+            size=[half_h * width / height, half_h, 0.01],
+            pos=centre,
+            quat=matrix_to_quat_wxyz(axes),
+            material="screen",
+            contype=0,
+            conaffinity=0,
+        )
 
     def screen_texture(self, image: np.ndarray) -> None:
         """Show an RGB image (height, width, 3) uint8 of the screen's size on the screen
         (the model's texture data; a viewer re-uploads it with update_texture)."""
         adr = self.model.tex_adr[self.screen_texture_id]
-        self.model.tex_data[adr: adr + image.size] = np.ascontiguousarray(image).ravel()
+        self.model.tex_data[adr : adr + image.size] = np.ascontiguousarray(image).ravel()
 
     def pose_sensor(self, pose: Pose) -> None:
         """Put the sensor at `pose` (work frame, mm/deg); the IK starts from the last

@@ -1,6 +1,7 @@
 """The recorded pins a calibration fits: runs read and checked against the calibration
 scenario, grouped (rest, contact, sliding) and weighted, and paired with the replayed
 chunks that simulate them."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -25,11 +26,11 @@ class Data:
     """The recorded pins to fit, paired with the chunks that simulate them."""
 
     runs: list[Path]
-    pins: np.ndarray          # (N, 127, 2) px recorded (NaN where not found)
-    group: np.ndarray         # (N,) index into GROUPS
-    run_index: np.ndarray     # (N,)
+    pins: np.ndarray  # (N, 127, 2) px recorded (NaN where not found)
+    group: np.ndarray  # (N,) index into GROUPS
+    run_index: np.ndarray  # (N,)
     chunks: list[tuple[int, list]]  # (run number, moves) to simulate
-    weights: np.ndarray       # (N,) per-frame weight of its group
+    weights: np.ndarray  # (N,) per-frame weight of its group
     sim_index: list[np.ndarray] = field(default_factory=list)  # per run: recorded sample -> simulated row
     unfinished: list[str] = field(default_factory=list)  # a line per run that did not finish (Run.unfinished_note)
 
@@ -50,27 +51,39 @@ def load_data(run_dirs: list[Path], scenario: Scenario, weights: Weights) -> Dat
         recorded = scenario_from_dict(run.meta["scenario"], str(path / "run.json"))
         for name in SHARED_FIELDS:
             if getattr(recorded, name) != getattr(scenario, name):
-                raise UserError(f"{path}: recorded with scenario field '{name}' = {getattr(recorded, name)!r}, but the "
-                                f"calibration scenario {scenario.source} has {getattr(scenario, name)!r}: runs of "
-                                "different scenarios cannot be fitted together")
+                raise UserError(
+                    f"{path}: recorded with scenario field '{name}' = {getattr(recorded, name)!r}, but the "
+                    f"calibration scenario {scenario.source} has {getattr(scenario, name)!r}: runs of "
+                    "different scenarios cannot be fitted together"
+                )
         if (recorded.sensor.camera.width, recorded.sensor.camera.height) != (cam.width, cam.height):
-            raise UserError(f"{path}: recorded with a {recorded.sensor.camera.width}×{recorded.sensor.camera.height} "
-                            f"camera (field 'sensor.camera'), the calibration scenario has {cam.width}×{cam.height}")
+            raise UserError(
+                f"{path}: recorded with a {recorded.sensor.camera.width}×{recorded.sensor.camera.height} "
+                f"camera (field 'sensor.camera'), the calibration scenario has {cam.width}×{cam.height}"
+            )
         if not run.samples:
             raise UserError(f"{path}: the run has no samples")
         for i, s in enumerate(run.samples):
             if s.get("pins_px") is None:
-                raise UserError(f"{path}: sample {i} has no pins (field 'pins_px' is null; frame "
-                                f"{s.get('frame')!r}): records without frames or pins cannot be fitted")
+                raise UserError(
+                    f"{path}: sample {i} has no pins (field 'pins_px' is null; frame "
+                    f"{s.get('frame')!r}): records without frames or pins cannot be fitted"
+                )
         pins.append(run.pins_px)
         group.extend(_group(recorded, s) for s in run.samples)
         run_index.extend([r] * len(run.samples))
         chunks.extend((r, c) for c in replay_chunks(run, recorded))
         records.append(run)
     group = np.array(group)
-    data = Data(list(run_dirs), np.concatenate(pins), group, np.array(run_index), chunks,
-                np.array([getattr(weights, g) for g in GROUPS])[group],
-                unfinished=[n for n in (run.unfinished_note() for run in records) if n])
+    data = Data(
+        list(run_dirs),
+        np.concatenate(pins),
+        group,
+        np.array(run_index),
+        chunks,
+        np.array([getattr(weights, g) for g in GROUPS])[group],
+        unfinished=[n for n in (run.unfinished_note() for run in records) if n],
+    )
     # pair each recorded sample with its simulated row by target pose (twin compare's pairing)
     for r, run in enumerate(records):
         targets = [m.pose.as_array() for rr, c in chunks if rr == r for m in c if m.record]
@@ -78,7 +91,9 @@ def load_data(run_dirs: list[Path], scenario: Scenario, weights: Weights) -> Dat
         pairs = dict(pair_samples(run, simulated))
         missing = [i for i in range(len(run.samples)) if i not in pairs]
         if missing:
-            raise UserError(f"{run.path}: samples {missing[:5]} have target poses its protocol does not reach "
-                            "(an edited or foreign record)")
+            raise UserError(
+                f"{run.path}: samples {missing[:5]} have target poses its protocol does not reach "
+                "(an edited or foreign record)"
+            )
         data.sim_index.append(np.array([pairs[i] for i in range(len(run.samples))]))
     return data

@@ -1,6 +1,7 @@
 """A calibration's model of the recorded pins: physics candidates simulated in parallel
 (cached), the camera solved by least squares for each, the whitened residuals, χ² and
 the pin RMS (px)."""
+
 from __future__ import annotations
 
 import time
@@ -69,7 +70,7 @@ class Evaluator:
         results = list(self.pool.map_ordered(_replay_candidate, jobs))
         out = []
         for c in range(len(candidates)):
-            done = results[c * n_batches:(c + 1) * n_batches]
+            done = results[c * n_batches : (c + 1) * n_batches]
             in_order = [done[i % n_batches][i // n_batches] for i in range(len(moves))]
             per_run: dict[int, list] = {}
             for (r, _), (_, pins) in zip(self.data.chunks, in_order):
@@ -127,8 +128,12 @@ class Evaluator:
             return float(np.sqrt(e.mean())) if e.size else None
 
         all_ = np.ones(len(err2), bool)
-        return {"overall": rms(all_), "groups": {g: rms(self.data.group == k) for k, g in enumerate(GROUPS)
-                                                  if (self.data.group == k).any()},
-                "runs": {str(p): rms(self.data.run_index == r) for r, p in enumerate(self.data.runs)},
-                "per_pin": np.sqrt(np.nanmean(np.where(self.valid, err2, np.nan), axis=0)).tolist(),
-                "mean_residual": np.nanmean(np.where(self.valid[..., None], self.data.pins - pred, np.nan), axis=0).tolist()}
+        return {
+            "overall": rms(all_),
+            "groups": {g: rms(self.data.group == k) for k, g in enumerate(GROUPS) if (self.data.group == k).any()},
+            "runs": {str(p): rms(self.data.run_index == r) for r, p in enumerate(self.data.runs)},
+            "per_pin": np.sqrt(np.nanmean(np.where(self.valid, err2, np.nan), axis=0)).tolist(),
+            "mean_residual": np.nanmean(
+                np.where(self.valid[..., None], self.data.pins - pred, np.nan), axis=0
+            ).tolist(),
+        }

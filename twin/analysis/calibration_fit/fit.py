@@ -37,11 +37,14 @@ nearly in the span of the others (variance inflation ≤ `max_variance_inflation
 is not is reported as such, with the reasons, and left at its default in the calibration
 file, not silently fitted (twin.analysis.calibration_fit.uncertainty says why each test).
 """
+
 from __future__ import annotations
 
 import json
 import time
 from pathlib import Path
+
+import numpy as np
 
 from twin.analysis.calibration_fit.data import GROUPS, load_data
 from twin.analysis.calibration_fit.evaluator import Evaluator
@@ -49,16 +52,21 @@ from twin.analysis.calibration_fit.search import optimise, search_key
 from twin.analysis.calibration_fit.settings import CalibrationSettings
 from twin.analysis.calibration_fit.space import Space
 from twin.analysis.calibration_fit.uncertainty import uncertainty
-import numpy as np
-
 from twin.core.calibration import REST_OFFSET_LIMIT_PX, write_calibration
 from twin.core.errors import UserError
 from twin.core.scenario import Scenario
 from twin.runs.parallel import WorkerPool
 
 
-def calibrate(run_dirs: list[Path], scenario: Scenario, out: Path, settings: CalibrationSettings,
-              workers: int | None = None, cluster: str | None = None, progress: bool = True) -> dict:
+def calibrate(
+    run_dirs: list[Path],
+    scenario: Scenario,
+    out: Path,
+    settings: CalibrationSettings,
+    workers: int | None = None,
+    cluster: str | None = None,
+    progress: bool = True,
+) -> dict:
     """Fit the twin to the runs (module docstring); writes DIR/calibration.yaml (converged) or
     DIR/best_calibration.yaml (not: the result's status says so), the report data
     report.json (the returned result), history.jsonl and checkpoint.json. The command
@@ -68,8 +76,9 @@ def calibrate(run_dirs: list[Path], scenario: Scenario, out: Path, settings: Cal
         return _calibrate(run_dirs, scenario, out, settings, pool, progress)
 
 
-def _calibrate(run_dirs: list[Path], scenario: Scenario, out: Path, settings: CalibrationSettings, pool: WorkerPool,
-               progress: bool) -> dict:
+def _calibrate(
+    run_dirs: list[Path], scenario: Scenario, out: Path, settings: CalibrationSettings, pool: WorkerPool, progress: bool
+) -> dict:
     wall = time.perf_counter()
     if scenario.backend != "sim":
         scenario = scenario.with_changes(backend="sim")
@@ -101,25 +110,43 @@ def _calibrate(run_dirs: list[Path], scenario: Scenario, out: Path, settings: Ca
         final = ev.solve_camera(final_tips, {n: v for n, v in final.items() if n not in keep}, final)
     _, offsets = ev.predict(final_tips, final)
     if ev.fit_rest and np.abs(offsets).max() > REST_OFFSET_LIMIT_PX:
-        raise UserError(f"the runs' rest pins lie {np.abs(offsets).max():.1f} px from the fitted camera's (a calibration "
-                        f"holds at most {REST_OFFSET_LIMIT_PX:.0f} px): the camera's bounds in the calibration settings "
-                        f"do not reach this sensor's camera; widen them (--settings) and fit again")
+        raise UserError(
+            f"the runs' rest pins lie {np.abs(offsets).max():.1f} px from the fitted camera's (a calibration "
+            f"holds at most {REST_OFFSET_LIMIT_PX:.0f} px): the camera's bounds in the calibration settings "
+            f"do not reach this sensor's camera; widen them (--settings) and fit again"
+        )
     calibration = space.calibration(final, offsets if ev.fit_rest else None)
     after = ev.rms(final_tips, final)
     name = "calibration.yaml" if state["converged"] else "best_calibration.yaml"
     write_calibration(calibration, out / name)
     result = {
-        "status": "converged" if state["converged"] else "not converged", "stop_reason": state["stop"],
-        "runs": [str(r) for r in run_dirs], "scenario": scenario.source, "calibration_file": str(out / name),
-        "samples": int(len(data.pins)), "samples_per_group": {g: int((data.group == k).sum()) for k, g in enumerate(GROUPS)},
-        "fitted": space.fitted, "not_identifiable": dropped,
-        "rest_pins": f"fitted from {int(ev.rest.sum())} no-contact frames" if ev.fit_rest else
-                     ("not fitted: no no-contact frames (target z <= 0) in the runs" if settings.rest_pins else "not fitted (settings)"),
-        "before": before, "after": after, "uncertainty": errors, "generations": state["generation"],
-        "best_chi2": state["best_chi2"], "simulations": ev.simulations,
+        "status": "converged" if state["converged"] else "not converged",
+        "stop_reason": state["stop"],
+        "runs": [str(r) for r in run_dirs],
+        "scenario": scenario.source,
+        "calibration_file": str(out / name),
+        "samples": int(len(data.pins)),
+        "samples_per_group": {g: int((data.group == k).sum()) for k, g in enumerate(GROUPS)},
+        "fitted": space.fitted,
+        "not_identifiable": dropped,
+        "rest_pins": f"fitted from {int(ev.rest.sum())} no-contact frames"
+        if ev.fit_rest
+        else (
+            "not fitted: no no-contact frames (target z <= 0) in the runs"
+            if settings.rest_pins
+            else "not fitted (settings)"
+        ),
+        "before": before,
+        "after": after,
+        "uncertainty": errors,
+        "generations": state["generation"],
+        "best_chi2": state["best_chi2"],
+        "simulations": ev.simulations,
         "simulated_frames_per_s": ev.simulations * len(data.pins) / max(ev.sim_seconds, 1e-9),
         "evaluations_per_s": ev.simulations / max(ev.sim_seconds, 1e-9),
-        "wall_time_s": time.perf_counter() - wall, "workers": pool.workers, "cluster": pool.cluster,
+        "wall_time_s": time.perf_counter() - wall,
+        "workers": pool.workers,
+        "cluster": pool.cluster,
         "unfinished": data.unfinished,
     }
     (out / "report.json").write_text(json.dumps(result, indent=1, default=float))

@@ -1,6 +1,7 @@
 """The search over a calibration's physics parameters: CMA-ES, or a BracketSearch for one
 parameter, the camera solved per candidate; its stop rule, and the checkpoint and history
 that let a calibration started again resume."""
+
 from __future__ import annotations
 
 import hashlib
@@ -21,8 +22,9 @@ from twin.core.scenario import Scenario
 def search_key(runs: list[Path], scenario: Scenario, settings: CalibrationSettings) -> str:
     fixed = settings.model_dump(mode="json")
     fixed["optimiser"].pop("max_generations")  # raising it continues a calibration that ran out of generations
-    text = json.dumps([[str(Path(r).resolve()) for r in runs], scenario.model_dump(mode="json"), fixed],
-                      sort_keys=True, default=str)
+    text = json.dumps(
+        [[str(Path(r).resolve()) for r in runs], scenario.model_dump(mode="json"), fixed], sort_keys=True, default=str
+    )
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -35,7 +37,9 @@ CHECKPOINT_FORMAT = "twin calibration checkpoint 1"
 
 def _save_checkpoint(out: Path, state: dict) -> None:
     """Write the state (all but the search object) under a temporary name, then rename."""
-    replace_file(out / CHECKPOINT, json.dumps({"format": CHECKPOINT_FORMAT, **{k: v for k, v in state.items() if k != "es"}}))
+    replace_file(
+        out / CHECKPOINT, json.dumps({"format": CHECKPOINT_FORMAT, **{k: v for k, v in state.items() if k != "es"}})
+    )
 
 
 def _load_checkpoint(path: Path) -> dict:
@@ -45,8 +49,10 @@ def _load_checkpoint(path: Path) -> dict:
         data = json.loads(path.read_bytes())
     except (OSError, ValueError, RecursionError):
         raise UserError(f"{path}: not a calibration checkpoint (unreadable JSON); delete it to start again") from None
+
     def numbers(v) -> bool:
         return isinstance(v, list) and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)
+
     checks = {
         "format": lambda v: v == CHECKPOINT_FORMAT,
         "key": lambda v: isinstance(v, str),
@@ -64,7 +70,9 @@ def _load_checkpoint(path: Path) -> dict:
         raise UserError(f"{path}: not a calibration checkpoint (a JSON object); delete it to start again")
     for field, ok in checks.items():
         if field not in data or not ok(data[field]):
-            raise UserError(f"{path}: field {field!r} missing or of the wrong type; delete the checkpoint to start again")
+            raise UserError(
+                f"{path}: field {field!r} missing or of the wrong type; delete the checkpoint to start again"
+            )
     if len(data["asked"]) != data["generation"] or [len(g) for g in data["asked"]] != [len(g) for g in data["told"]]:
         raise UserError(f"{path}: fields 'asked' and 'told' do not hold one entry per generation")
     data.pop("format")
@@ -76,9 +84,11 @@ def _new_search(names: list[str], space, opt, best_chi2: float):
     popsize = opt.popsize or 4 + int(3 * np.log(max(len(names), 2)))
     if len(names) == 1:  # pycma does not run in 1-D (CMA-ES/pycma#86, #302)
         return BracketSearch(popsize, float(space.to_unit(names, space.defaults)[0]), best_chi2, opt.tol_bracket)
-    return cma.CMAEvolutionStrategy(space.to_unit(names, space.defaults), opt.sigma0, {
-        "bounds": [0.0, 1.0], "popsize": popsize, "seed": opt.seed, "verbose": -9, "tolfun": 0.0,
-        "tolflatfitness": 3})
+    return cma.CMAEvolutionStrategy(
+        space.to_unit(names, space.defaults),
+        opt.sigma0,
+        {"bounds": [0.0, 1.0], "popsize": popsize, "seed": opt.seed, "verbose": -9, "tolfun": 0.0, "tolflatfitness": 3},
+    )
 
 
 def _replayed_search(names: list[str], space, opt, state: dict):
@@ -136,23 +146,41 @@ def optimise(ev: Evaluator, out: Path, key: str, progress: bool) -> dict:
     if checkpoint.exists():
         state = _load_checkpoint(checkpoint)
         if state["key"] != key:
-            raise UserError(f"{out}: holds a checkpoint of another calibration (other runs, scenario or settings); "
-                            "choose another --out")
+            raise UserError(
+                f"{out}: holds a checkpoint of another calibration (other runs, scenario or settings); "
+                "choose another --out"
+            )
         state["es"] = _replayed_search(names, space, opt, state) if names else None
     else:
         start = {n: space.defaults[n] for n in space.fitted}
         tips = ev.simulate([{n: space.defaults[n] for n in names}])[0]
         best = ev.solve_camera(tips, {n: space.defaults[n] for n in names}, start)
         chi2_0 = ev.chi2(tips, best)
-        state = {"key": key, "es": None, "generation": 0, "best": best, "best_chi2": chi2_0, "start_chi2": chi2_0,
-                 "trace": [], "asked": [], "told": [], "converged": not names,
-                 "stop": "no physics parameters: camera solved by least squares" if not names else None}
+        state = {
+            "key": key,
+            "es": None,
+            "generation": 0,
+            "best": best,
+            "best_chi2": chi2_0,
+            "start_chi2": chi2_0,
+            "trace": [],
+            "asked": [],
+            "told": [],
+            "converged": not names,
+            "stop": "no physics parameters: camera solved by least squares" if not names else None,
+        }
         history_file.write_text(json.dumps({"generation": 0, "values": best, "chi2": state["best_chi2"]}) + "\n")
         if names:
             state["es"] = _new_search(names, space, opt, chi2_0)
         _save_checkpoint(out, state)
     es = state["es"]
-    bar = tqdm(total=opt.max_generations, initial=state["generation"], desc="calibrate", unit="gen", disable=not progress or es is None)
+    bar = tqdm(
+        total=opt.max_generations,
+        initial=state["generation"],
+        desc="calibrate",
+        unit="gen",
+        disable=not progress or es is None,
+    )
     while es is not None and not state["converged"] and state["generation"] < opt.max_generations:
         units = es.ask()
         physics = [space.from_unit(names, np.asarray(u)) for u in units]
@@ -171,10 +199,14 @@ def optimise(ev: Evaluator, out: Path, key: str, progress: bool) -> dict:
             for v, c in zip(fitted, chi2):
                 f.write(json.dumps({"generation": state["generation"], "values": v, "chi2": c}) + "\n")
         trace = state["trace"]
-        if len(trace) > opt.patience and trace[-1 - opt.patience] - trace[-1] <= opt.tol_relative * trace[-1 - opt.patience]:
+        if (
+            len(trace) > opt.patience
+            and trace[-1 - opt.patience] - trace[-1] <= opt.tol_relative * trace[-1 - opt.patience]
+        ):
             state["converged"] = True
-            state["stop"] = (f"best χ² improved by less than {opt.tol_relative:g} (relative) over "
-                             f"{opt.patience} generations")
+            state["stop"] = (
+                f"best χ² improved by less than {opt.tol_relative:g} (relative) over {opt.patience} generations"
+            )
         elif es.stop():
             state["converged"] = True
             state["stop"] = f"{type(es).__name__} stop: {', '.join(es.stop())}"

@@ -1,6 +1,7 @@
 """What `twin calibrate` fits and how: the parameters' names, the settings' types and ranges
 (assets/tactip/calibration_settings.yaml holds their values), and reading a --settings file
 over the shipped one."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -11,10 +12,31 @@ from twin.core.errors import UserError
 from twin.core.resources import asset_path
 from twin.core.validation import read_yaml, validate_mapping
 
-CAMERA = ("camera.focal_px", "camera.cx_px", "camera.cy_px", "camera.k1", "camera.k2", "camera.p1", "camera.p2",
-          "camera.x_mm", "camera.y_mm", "camera.z_mm", "camera.rx_deg", "camera.ry_deg", "camera.rz_deg")
-PHYSICS = ("material.young_kpa", "material.poisson", "material.membrane_young_mpa", "material.skin_held_deg",
-           "friction", "tcp.x_mm", "tcp.y_mm", "tcp.z_mm")
+CAMERA = (
+    "camera.focal_px",
+    "camera.cx_px",
+    "camera.cy_px",
+    "camera.k1",
+    "camera.k2",
+    "camera.p1",
+    "camera.p2",
+    "camera.x_mm",
+    "camera.y_mm",
+    "camera.z_mm",
+    "camera.rx_deg",
+    "camera.ry_deg",
+    "camera.rz_deg",
+)
+PHYSICS = (
+    "material.young_kpa",
+    "material.poisson",
+    "material.membrane_young_mpa",
+    "material.skin_held_deg",
+    "friction",
+    "tcp.x_mm",
+    "tcp.y_mm",
+    "tcp.z_mm",
+)
 PARAMETERS = CAMERA + PHYSICS
 SETTINGS_FILE = ("tactip", "calibration_settings.yaml")
 
@@ -53,8 +75,9 @@ class OptimiserSettings(_Strict):
     max_generations: int = Field(ge=1, le=10000)
     tol_relative: float = Field(gt=0, lt=1)
     patience: int = Field(ge=1, le=1000)
-    tol_bracket: float = Field(gt=0, lt=1, description="one physics parameter: the bracket's stop width, "
-                                                      "fraction of its range")
+    tol_bracket: float = Field(
+        gt=0, lt=1, description="one physics parameter: the bracket's stop width, fraction of its range"
+    )
     seed: int = Field(ge=1)
 
 
@@ -93,7 +116,9 @@ def load_settings(path: Path | None) -> CalibrationSettings:
             if key in ("parameters", "weights", "optimiser") and isinstance(value, dict):
                 for name, entry in value.items():
                     old = data.get(key, {}).get(name)
-                    data.setdefault(key, {})[name] = {**old, **entry} if isinstance(old, dict) and isinstance(entry, dict) else entry
+                    data.setdefault(key, {})[name] = (
+                        {**old, **entry} if isinstance(old, dict) and isinstance(entry, dict) else entry
+                    )
             else:
                 data[key] = value
         source = str(path)

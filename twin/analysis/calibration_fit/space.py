@@ -1,6 +1,7 @@
 """The fitted parameters of a calibration: their defaults (the scenario's values), bounds and
 priors, the unit cube the search runs in, and the calibration file and physics scenario a
 point of it maps to."""
+
 from __future__ import annotations
 
 import math
@@ -12,8 +13,8 @@ from twin.analysis.calibration_fit.settings import CAMERA, PARAMETERS, PHYSICS, 
 from twin.core.calibration import Calibration, CameraCalibration
 from twin.core.errors import UserError
 from twin.core.scenario import Scenario
-from twin.world.dome.material import dome_material_of
 from twin.runs.spec import dome_params, load_scenario_stimulus
+from twin.world.dome.material import dome_material_of
 
 RENDER_EFFECTS = {"render", "camera_noise", "lighting"}
 
@@ -48,14 +49,18 @@ class Space:
             s = self.settings.parameters.get(name)
             if name not in values:  # a material parameter this dome model does not have
                 if s is not None and s.fit:
-                    raise UserError(f"calibration settings: field 'parameters.{name}': the {self.scenario.dome} dome "
-                                    "has no such parameter; set fit: false")
+                    raise UserError(
+                        f"calibration settings: field 'parameters.{name}': the {self.scenario.dome} dome "
+                        "has no such parameter; set fit: false"
+                    )
                 self.defaults[name] = math.nan
                 continue
             value = values[name] if s is None or s.default is None else s.default
             if s is not None and s.fit and not s.lower <= value <= s.upper:
-                raise UserError(f"calibration settings: field 'parameters.{name}': default {value:.6g} lies outside "
-                                f"the bounds [{s.lower:g}, {s.upper:g}]")
+                raise UserError(
+                    f"calibration settings: field 'parameters.{name}': default {value:.6g} lies outside "
+                    f"the bounds [{s.lower:g}, {s.upper:g}]"
+                )
             self.defaults[name] = float(value)
         #: the physics parameters this scenario's dome model has (the others' defaults are NaN)
         self.modelled = [n for n in PHYSICS if not math.isnan(self.defaults[n])]
@@ -82,22 +87,35 @@ class Space:
         cam = self.scenario.sensor.camera
         base = self.scenario.calibration() or Calibration()
         camera = CameraCalibration(
-            width=cam.width, height=cam.height, focal_px=v["camera.focal_px"],
+            width=cam.width,
+            height=cam.height,
+            focal_px=v["camera.focal_px"],
             principal_point_px=[v["camera.cx_px"], v["camera.cy_px"]],
             distortion={k: v[f"camera.{k}"] for k in ("k1", "k2", "p1", "p2")},
             offset_mm=[v["camera.x_mm"], v["camera.y_mm"], v["camera.z_mm"]],
-            rotation_deg=[v["camera.rx_deg"], v["camera.ry_deg"], v["camera.rz_deg"]])
+            rotation_deg=[v["camera.rx_deg"], v["camera.ry_deg"], v["camera.rz_deg"]],
+        )
         material = {n.split(".", 1)[1]: v[n] for n in self.modelled if n.startswith("material.")}
         offsets = base.rest_pin_offsets_px if rest_offsets is None else np.round(rest_offsets, 4).tolist()
-        return Calibration(camera=camera, rest_pin_offsets_px=offsets, dome_material=material, friction=v["friction"],
-                           tcp_offset_mm=[v["tcp.x_mm"], v["tcp.y_mm"], v["tcp.z_mm"]], notes=base.notes)
+        return Calibration(
+            camera=camera,
+            rest_pin_offsets_px=offsets,
+            dome_material=material,
+            friction=v["friction"],
+            tcp_offset_mm=[v["tcp.x_mm"], v["tcp.y_mm"], v["tcp.z_mm"]],
+            notes=base.notes,
+        )
 
     def physics_scenario(self, values: dict[str, float]) -> Scenario:
         """The calibration scenario simulating `values`' physics, pins projected (no rendering)."""
         cal = self.calibration(values)
         cam = self.scenario.sensor.camera  # the nominal camera at the scenario's resolution (a 256×256 lab camera too)
-        physics_only = Calibration(camera=CameraCalibration(width=cam.width, height=cam.height),
-                                   dome_material=cal.dome_material, friction=cal.friction, tcp_offset_mm=cal.tcp_offset_mm)
+        physics_only = Calibration(
+            camera=CameraCalibration(width=cam.width, height=cam.height),
+            dome_material=cal.dome_material,
+            friction=cal.friction,
+            tcp_offset_mm=cal.tcp_offset_mm,
+        )
         effects = [e for e in self.scenario.effects if e not in RENDER_EFFECTS]
         sensor = {"camera": self.scenario.sensor.camera.model_dump(), "calibration": physics_only}
         return self.scenario.with_changes(effects=effects, sensor=sensor, backend="sim")

@@ -1,5 +1,6 @@
 """How well the runs determine each fitted parameter: standard errors (Gauss–Newton and
 cluster-robust), resolution, variance inflation, and whether it is identifiable."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -55,7 +56,9 @@ def variance_inflation(scaled: np.ndarray) -> np.ndarray:
     vif = np.full(scaled.shape[1], np.inf)
     for i in np.nonzero(norms > 1e-12 * max(norms.max(initial=0.0), 1e-300))[0]:
         others = np.delete(unit, i, axis=1)
-        rest = unit[:, i] - others @ np.linalg.lstsq(others, unit[:, i], rcond=None)[0] if others.shape[1] else unit[:, i]
+        rest = (
+            unit[:, i] - others @ np.linalg.lstsq(others, unit[:, i], rcond=None)[0] if others.shape[1] else unit[:, i]
+        )
         vif[i] = 1.0 / max(float(rest @ rest), 1e-300)
     return vif
 
@@ -93,7 +96,7 @@ def uncertainty(ev: Evaluator, values: dict[str, float], tips: np.ndarray) -> di
     r = ev.residuals(tips, values, priors=False)
     n_offsets = 2 * N_PINS if ev.fit_rest else 0
     dof = max(1, r.size - len(space.fitted) - n_offsets)
-    s2 = float(np.sum(r ** 2) / dof)
+    s2 = float(np.sum(r**2) / dof)
     ranges = np.array([space.range[n] for n in space.fitted])
     scaled = jac * ranges  # per unit of the bounds' range
     singular = np.linalg.svd(scaled, compute_uv=False)
@@ -115,15 +118,29 @@ def uncertainty(ev: Evaluator, values: dict[str, float], tips: np.ndarray) -> di
         resolution = float(fit_rms / max(per_unit, 1e-300))
         why = []
         if not data_std < settings.identifiable_fraction * space.range[n]:
-            why.append(f"standard error {data_std:.2g} ≥ {settings.identifiable_fraction:g} × the range {space.range[n]:g}")
+            why.append(
+                f"standard error {data_std:.2g} ≥ {settings.identifiable_fraction:g} × the range {space.range[n]:g}"
+            )
         if not resolution < space.range[n]:
             why.append(f"resolution {resolution:.2g} ≥ the range {space.range[n]:g}")
         if not vif[i] <= settings.max_variance_inflation:
             why.append(f"variance inflation {vif[i]:.3g} > {settings.max_variance_inflation:g}")
-        out[n] = {"value": values[n], "default": space.defaults[n], "std": std,
-                  "data_std": data_std, "pin_rms_px_per_unit": float(per_unit), "bounds": [p[n].lower, p[n].upper],
-                  "identifiable": not why, "not_identifiable_because": why,
-                  "resolution": resolution, "variance_inflation": float(vif[i]),
-                  "at_bound": bool(min(values[n] - p[n].lower, p[n].upper - values[n]) < 1e-6 * space.range[n])}
-    return {"parameters": out, "singular_values": singular.tolist(), "reduced_chi2": s2,
-            "condition_number": float(singular.max() / max(singular.min(), 1e-300))}
+        out[n] = {
+            "value": values[n],
+            "default": space.defaults[n],
+            "std": std,
+            "data_std": data_std,
+            "pin_rms_px_per_unit": float(per_unit),
+            "bounds": [p[n].lower, p[n].upper],
+            "identifiable": not why,
+            "not_identifiable_because": why,
+            "resolution": resolution,
+            "variance_inflation": float(vif[i]),
+            "at_bound": bool(min(values[n] - p[n].lower, p[n].upper - values[n]) < 1e-6 * space.range[n]),
+        }
+    return {
+        "parameters": out,
+        "singular_values": singular.tolist(),
+        "reduced_chi2": s2,
+        "condition_number": float(singular.max() / max(singular.min(), 1e-300)),
+    }

@@ -86,4 +86,3 @@ Peers (`peers`) produce the same output from the same sensor:
 A setting that fails (PhysicsError, LostPinsError, …) is reported with its error and
 stage, counted in every output, and makes the command exit 1; the others still run.
 """
-

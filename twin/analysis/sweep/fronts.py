@@ -1,5 +1,6 @@
 """The sweep's Pareto fronts: which settings no peer beats in time and accuracy together,
 with noise margins; time compared round by round of the timing pass."""
+
 from __future__ import annotations
 
 import math
@@ -19,8 +20,7 @@ ERROR_MARGIN_REL = 0.02
 #: (2.14 px at the default 0.1 px band and at 0.05 px), and a frictionless slide ends
 #: 9 / 13 / 18 µm (≈ 0.1–0.2 px) from the static press at settle 0.025 / 0.05 / 0.1 px
 #: (tests/world/test_dome.py asks < 20 µm). Settle ×2 (0.28 vs 0.12 px) stays distinguishable.
-ERROR_MARGIN_ABS = {"pin_rms_px": 0.02, "pin_settling_rms_px": 0.05, "theta_rms_deg": 0.5,
-                    "contour_completed_mm": 0.1}
+ERROR_MARGIN_ABS = {"pin_rms_px": 0.02, "pin_settling_rms_px": 0.05, "theta_rms_deg": 0.5, "contour_completed_mm": 0.1}
 
 
 #: The Pareto fronts: (row flag, accuracy columns weighed together against time). The first
@@ -85,8 +85,9 @@ def _time_ratios(a: dict, b: dict) -> list[float]:
     return [a["total_ms"] / b["total_ms"]]
 
 
-def pareto_flags(rows: list[dict], metrics: str | tuple[str, ...] = PRIMARY,
-                 by_output: bool = True) -> list[bool | None]:
+def pareto_flags(
+    rows: list[dict], metrics: str | tuple[str, ...] = PRIMARY, by_output: bool = True
+) -> list[bool | None]:
     """Per row: on the front of total_ms against the error column(s) `metrics` (`dominates`)
     (None: a failed row, or no time or first-column figure; failed settings are no
     alternative, so they neither sit on a front nor push others off).
@@ -100,8 +101,9 @@ def pareto_flags(rows: list[dict], metrics: str | tuple[str, ...] = PRIMARY,
         if b.get("status") != "ok" or not (is_finite_number(b.get("total_ms")) and is_finite_number(b.get(first))):
             flags.append(None)
             continue
-        rivals = [a for a in ok if a is not b
-                  and (peers(a, b, metrics) if by_output else _same_dome_if_pins(a, b, metrics))]
+        rivals = [
+            a for a in ok if a is not b and (peers(a, b, metrics) if by_output else _same_dome_if_pins(a, b, metrics))
+        ]
         flags.append(not any(dominates(a, b, metrics) for a in rivals))
     return flags
 
@@ -121,8 +123,11 @@ def _same_dome_if_pins(a: dict, b: dict, metrics: str | tuple[str, ...]) -> bool
 
 def dominators(rows: list[dict], row: dict, metrics: str | tuple[str, ...] = PRIMARY) -> list[str]:
     """Names of the ok peer settings (`peers`) that dominate `row` in total_ms and `metrics`."""
-    return [a["setting"] for a in rows if a is not row and a.get("status") == "ok" and peers(a, row, metrics)
-            and dominates(a, row, metrics)]
+    return [
+        a["setting"]
+        for a in rows
+        if a is not row and a.get("status") == "ok" and peers(a, row, metrics) and dominates(a, row, metrics)
+    ]
 
 
 def annotate_fronts(rows: list[dict]) -> list[dict]:

@@ -1,6 +1,7 @@
 """The sweep's settings: the default scenario with one knob turned each (dome resolution,
 time step, settle tolerance, render resolution, anti-aliasing, each effect on or off, the
 compliant dome's levels and skins), the full set and the smoke check's five."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -62,10 +63,18 @@ class Setting:
     def scenario(self, protocol: dict, seed: int = 0) -> Scenario:
         """The scenario of this setting on the rectangle with `protocol` (a protocol dict)."""
 
-        data = {"name": f"sweep_{self.name}", "object": {"name": "rectangle"}, "dome": self.dome,
-                "placement": {"position_mm": [400, 0], "yaw_deg": 0}, "fidelity": self.fidelity,
-                "physics": dict(self.physics), "effects": list(self.effects),
-                "sensor": {"camera": dict(self.camera)}, "seed": seed, "protocol": protocol}
+        data = {
+            "name": f"sweep_{self.name}",
+            "object": {"name": "rectangle"},
+            "dome": self.dome,
+            "placement": {"position_mm": [400, 0], "yaw_deg": 0},
+            "fidelity": self.fidelity,
+            "physics": dict(self.physics),
+            "effects": list(self.effects),
+            "sensor": {"camera": dict(self.camera)},
+            "seed": seed,
+            "protocol": protocol,
+        }
         return scenario_from_dict(data, f"<sweep setting {self.name}>")
 
 
@@ -85,8 +94,13 @@ def full_settings() -> list[Setting]:
     no_render = ("contact", "friction")
     s0 = _default_settle_px()
     return [
-        Setting(REFERENCE, "reference", "reference", effects=no_render,
-                note="reference fidelity, exact projected pins: the accuracy reference"),
+        Setting(
+            REFERENCE,
+            "reference",
+            "reference",
+            effects=no_render,
+            note="reference fidelity, exact projected pins: the accuracy reference",
+        ),
         Setting("reference_render", "fidelity", "reference", note="reference physics, rendered and tracked"),
         Setting("fast", "fidelity", "fast"),
         Setting(DEFAULT, "default", "default", note="the shipped defaults (fidelity default, 640×480, no MSAA)"),
@@ -96,9 +110,16 @@ def full_settings() -> list[Setting]:
         Setting("settle_x2", "settle tolerance", physics={"settle_px": s0 * 2.0}),
         Setting("grid_3x3x2", "dome resolution", physics={"cellcount": [3, 3, 2]}),
         Setting("grid_5x5x2", "dome resolution", physics={"cellcount": [5, 5, 2]}),
-        Setting("skin_off", "skin layer", physics={"skin_spacing_mm": 0.0}, note="no sub-grid skin layer (twin.world.dome.flex.skin)"),
+        Setting(
+            "skin_off",
+            "skin layer",
+            physics={"skin_spacing_mm": 0.0},
+            note="no sub-grid skin layer (twin.world.dome.flex.skin)",
+        ),
         Setting("skin_1mm", "skin layer", physics={"skin_spacing_mm": 1.0}),
-        Setting("membrane_off", "skin membrane", physics={"membrane_young_mpa": 0.0}, note="gel only (twin.world.dome.flex)"),
+        Setting(
+            "membrane_off", "skin membrane", physics={"membrane_young_mpa": 0.0}, note="gel only (twin.world.dome.flex)"
+        ),
         Setting("render_off", "render", effects=no_render, note="pins projected, no frames"),
         Setting("fast_render_off", "render", "fast", effects=no_render, note="fast physics, pins projected"),
         Setting("cam_320x240", "render resolution", camera={"width": 320, "height": 240}),
@@ -110,27 +131,80 @@ def full_settings() -> list[Setting]:
         Setting("arm_dynamics", "effect", effects=BASE_EFFECTS + ("arm_dynamics",)),
         # the compliant dome (twin.world.dome.compliant): its levels and effects, pin errors
         # against its own reference
-        Setting(COMPLIANT_REFERENCE, "compliant dome", "reference", effects=no_render, dome="compliant",
-                note="compliant reference level (1 mm nodes, 0.25 mm increments), exact projected pins: its accuracy reference"),
+        Setting(
+            COMPLIANT_REFERENCE,
+            "compliant dome",
+            "reference",
+            effects=no_render,
+            dome="compliant",
+            note="compliant reference level (1 mm nodes, 0.25 mm increments), exact projected pins: its accuracy reference",
+        ),
         Setting("compliant_fast", "compliant dome", "fast", dome="compliant", note="2.5 mm nodes, 1 mm increments"),
-        Setting("compliant_default", "compliant dome", "default", dome="compliant", note="1.5 mm nodes, 0.5 mm increments"),
-        Setting("compliant_render_off", "compliant dome", "default", effects=no_render, dome="compliant",
-                note="compliant, pins projected"),
-        Setting("compliant_friction_off", "compliant dome", "default", effects=("contact", "render"), dome="compliant",
-                note="compliant, no tangential problem"),
-        Setting("compliant_open_gel", "compliant dome", "default", physics={"gel_enclosed": False}, dome="compliant",
-                note="compliant, the gel as an open half-space (not sealed)"),
-        Setting("compliant_increment_1mm", "compliant increment", "default", physics={"increment_mm": 1.0},
-                dome="compliant", note="compliant, 1.5 mm nodes, 1 mm increments (the default's are 0.5 mm)"),
-        Setting("compliant_membrane", "compliant skin", "default", physics=SKIN_PRESETS["membrane"], dome="compliant",
-                pins_comparable=False, note="compliant, the skin as a membrane over a softer gel (no pin error: "
-                "another material than compliant_reference)"),
-        Setting("compliant_shell", "compliant skin", "default", physics=SKIN_PRESETS["shell"], dome="compliant",
-                pins_comparable=False, note="compliant, the skin as a thin shell over a softer gel (no pin error: "
-                "another material than compliant_reference)"),
-        Setting("compliant_shell_held_65", "compliant skin", "default", physics=SKIN_PRESETS["shell_held_65"],
-                dome="compliant", pins_comparable=False, note="compliant, the thin shell held by the base at the "
-                "cap's rim, 65° (no pin error: another material than compliant_reference)"),
+        Setting(
+            "compliant_default", "compliant dome", "default", dome="compliant", note="1.5 mm nodes, 0.5 mm increments"
+        ),
+        Setting(
+            "compliant_render_off",
+            "compliant dome",
+            "default",
+            effects=no_render,
+            dome="compliant",
+            note="compliant, pins projected",
+        ),
+        Setting(
+            "compliant_friction_off",
+            "compliant dome",
+            "default",
+            effects=("contact", "render"),
+            dome="compliant",
+            note="compliant, no tangential problem",
+        ),
+        Setting(
+            "compliant_open_gel",
+            "compliant dome",
+            "default",
+            physics={"gel_enclosed": False},
+            dome="compliant",
+            note="compliant, the gel as an open half-space (not sealed)",
+        ),
+        Setting(
+            "compliant_increment_1mm",
+            "compliant increment",
+            "default",
+            physics={"increment_mm": 1.0},
+            dome="compliant",
+            note="compliant, 1.5 mm nodes, 1 mm increments (the default's are 0.5 mm)",
+        ),
+        Setting(
+            "compliant_membrane",
+            "compliant skin",
+            "default",
+            physics=SKIN_PRESETS["membrane"],
+            dome="compliant",
+            pins_comparable=False,
+            note="compliant, the skin as a membrane over a softer gel (no pin error: "
+            "another material than compliant_reference)",
+        ),
+        Setting(
+            "compliant_shell",
+            "compliant skin",
+            "default",
+            physics=SKIN_PRESETS["shell"],
+            dome="compliant",
+            pins_comparable=False,
+            note="compliant, the skin as a thin shell over a softer gel (no pin error: "
+            "another material than compliant_reference)",
+        ),
+        Setting(
+            "compliant_shell_held_65",
+            "compliant skin",
+            "default",
+            physics=SKIN_PRESETS["shell_held_65"],
+            dome="compliant",
+            pins_comparable=False,
+            note="compliant, the thin shell held by the base at the "
+            "cap's rim, 65° (no pin error: another material than compliant_reference)",
+        ),
     ]
 
 

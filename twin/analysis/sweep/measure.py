@@ -1,5 +1,6 @@
 """The sweep: every setting's probe as one parallel job, the timing pass, each setting's
 pin error against its dome's reference, and the fronts."""
+
 from __future__ import annotations
 
 import os
@@ -16,9 +17,15 @@ from twin.runs.parallel import default_workers, map_ordered
 from twin.world import gl
 
 
-def run_sweep(quick: bool = False, workers: int | None = None, cluster: str | None = None,
-              settings: list[Setting] | None = None, probe: Probe | None = None, seed: int = 0,
-              verbose: bool = True) -> tuple[list[dict], dict]:
+def run_sweep(
+    quick: bool = False,
+    workers: int | None = None,
+    cluster: str | None = None,
+    settings: list[Setting] | None = None,
+    probe: Probe | None = None,
+    seed: int = 0,
+    verbose: bool = True,
+) -> tuple[list[dict], dict]:
     """Run the sweep: its rows and meta (how, where and when it was measured). Its files:
     twin.tools.sweep_report.
 
@@ -33,21 +40,27 @@ def run_sweep(quick: bool = False, workers: int | None = None, cluster: str | No
     names = [s.name for s in settings]
     for dome in sorted({s.dome for s in settings}):
         if REFERENCES[dome] not in names:
-            raise UserError(f"the sweep needs the {REFERENCES[dome]!r} setting: the pin error of every {dome} "
-                            "setting is measured against it")
+            raise UserError(
+                f"the sweep needs the {REFERENCES[dome]!r} setting: the pin error of every {dome} "
+                "setting is measured against it"
+            )
     if len(set(names)) != len(names):
         raise UserError(f"sweep settings need distinct names, got {names}")
     n_workers = 1 if cluster is None and workers == 1 else (workers or default_workers())
     wall0 = time.perf_counter()
     results: list[dict] = []
-    for i, result in enumerate(map_ordered(probe_setting, [(s, probe, seed) for s in settings],
-                                           workers=workers, cluster=cluster)):
+    for i, result in enumerate(
+        map_ordered(probe_setting, [(s, probe, seed) for s in settings], workers=workers, cluster=cluster)
+    ):
         results.append(result)
         r = result["row"]
         if verbose:
             state = "ok" if r["status"] == "ok" else f"FAILED in {r['stage']}: {r['error']}"
-            print(f"[{i + 1}/{len(settings)}] {r['setting']:18s} {r.get('total_ms', float('nan')):7.1f} ms/frame  "
-                  f"{r['wall_s']:6.1f} s  {state}", flush=True)
+            print(
+                f"[{i + 1}/{len(settings)}] {r['setting']:18s} {r.get('total_ms', float('nan')):7.1f} ms/frame  "
+                f"{r['wall_s']:6.1f} s  {state}",
+                flush=True,
+            )
     rows = [r["row"] for r in results]
     repeats = TIMING_REPEATS[1] if quick else TIMING_REPEATS[0]
     time_settings(settings, rows, probe, seed, repeats, verbose)
@@ -61,10 +74,16 @@ def run_sweep(quick: bool = False, workers: int | None = None, cluster: str | No
             row["pin_physics_rms_px"] = rms_px(result["slide_truth_px"], ref_truth)
     annotate_fronts(rows)
     meta = {
-        "quick": quick, "probe": asdict(probe), "seed": seed, "workers": n_workers if cluster is None else f"ray {cluster}",
-        "wall_s": wall, "machine": f"{platform.machine()}, {os.cpu_count()} cores, {platform.python_version()}",
-        "gl": gl.GL_BACKEND, "failures": [f"{r['setting']} ({r['stage']}): {r['error']}" for r in rows if r["status"] != "ok"],
-        "reference": REFERENCE, "references": {d: r for d, r in REFERENCES.items() if r in names},
+        "quick": quick,
+        "probe": asdict(probe),
+        "seed": seed,
+        "workers": n_workers if cluster is None else f"ray {cluster}",
+        "wall_s": wall,
+        "machine": f"{platform.machine()}, {os.cpu_count()} cores, {platform.python_version()}",
+        "gl": gl.GL_BACKEND,
+        "failures": [f"{r['setting']} ({r['stage']}): {r['error']}" for r in rows if r["status"] != "ok"],
+        "reference": REFERENCE,
+        "references": {d: r for d, r in REFERENCES.items() if r in names},
         "default": DEFAULT if DEFAULT in names else None,
         "timing": {"repeats": repeats, "orientations_deg": list(probe.slide_orientations_deg[:TIMING_ORIENTATIONS])},
         "date": time.strftime("%Y-%m-%d"),

@@ -1,6 +1,7 @@
 """What every setting of the sweep runs, in one process (one job of the sweep): a tap probe
 that trains the paper's PCA + GP, a slide probe that gives the pin, settling and
 perception errors, and a contour run; timed per stage and frame (CPU and wall ms)."""
+
 from __future__ import annotations
 
 import time
@@ -51,26 +52,52 @@ class Probe:
     gp_restarts: int = 2
 
     def taps(self) -> dict:
-        return {"kind": "taps", "orientations_deg": list(self.tap_orientations_deg), "lateral_mm": list(self.lateral_mm),
-                "depths_mm": list(self.tap_depths_mm), "edge_point_mm": [60, 0], "edge_normal_deg": 0}
+        return {
+            "kind": "taps",
+            "orientations_deg": list(self.tap_orientations_deg),
+            "lateral_mm": list(self.lateral_mm),
+            "depths_mm": list(self.tap_depths_mm),
+            "edge_point_mm": [60, 0],
+            "edge_normal_deg": 0,
+        }
 
     def slides(self) -> dict:
-        return {"kind": "slides", "orientations_deg": list(self.slide_orientations_deg),
-                "directions_deg": list(self.directions_deg), "lateral_mm": list(self.lateral_mm),
-                "depth_mm": self.slide_depth_mm, "edge_point_mm": [60, 0], "edge_normal_deg": 0}
+        return {
+            "kind": "slides",
+            "orientations_deg": list(self.slide_orientations_deg),
+            "directions_deg": list(self.directions_deg),
+            "lateral_mm": list(self.lateral_mm),
+            "depth_mm": self.slide_depth_mm,
+            "edge_point_mm": [60, 0],
+            "edge_normal_deg": 0,
+        }
 
     def contour(self) -> dict:
-        return {"kind": "contour", "depth_mm": 3, "step_mm": 3, "gain": 0.35, "lateral_target_mm": 0,
-                "orientation_deg": 0, "max_steps": self.contour_max_steps, "controller": "paper"}
+        return {
+            "kind": "contour",
+            "depth_mm": 3,
+            "step_mm": 3,
+            "gain": 0.35,
+            "lateral_target_mm": 0,
+            "orientation_deg": 0,
+            "max_steps": self.contour_max_steps,
+            "controller": "paper",
+        }
 
 
 #: Full sweep: θ every 40° (9 orientations): 144 taps, 288 slide frames, the whole loop.
-FULL_PROBE = Probe(tap_orientations_deg=tuple(float(a) for a in range(-160, 181, 40)),
-                   slide_orientations_deg=tuple(float(a) for a in range(-160, 181, 40)))
+FULL_PROBE = Probe(
+    tap_orientations_deg=tuple(float(a) for a in range(-160, 181, 40)),
+    slide_orientations_deg=tuple(float(a) for a in range(-160, 181, 40)),
+)
 #: Quick sweep (smoke check): θ every 90° for training (64 taps), 2 of them for testing
 #: (64 slide frames), 20 contour steps (60 mm along the first edge).
-QUICK_PROBE = Probe(tap_orientations_deg=(-90.0, 0.0, 90.0, 180.0), slide_orientations_deg=(0.0, 90.0),
-                    contour_max_steps=20, gp_restarts=0)
+QUICK_PROBE = Probe(
+    tap_orientations_deg=(-90.0, 0.0, 90.0, 180.0),
+    slide_orientations_deg=(0.0, 90.0),
+    contour_max_steps=20,
+    gp_restarts=0,
+)
 
 
 def _rescale_pins(pins_px: np.ndarray, width: int) -> np.ndarray:
@@ -153,8 +180,13 @@ def open_loop(env, moves, stages: Stages, settling: bool = False) -> dict:
             labels.append(move.labels)
             if settling:
                 converged.append(env.converged_pins_px())
-    return {"pins": np.array(pins), "truth": np.array(truth), "found": np.array(found), "labels": labels,
-            "converged": np.array(converged) if settling else None}
+    return {
+        "pins": np.array(pins),
+        "truth": np.array(truth),
+        "found": np.array(found),
+        "labels": labels,
+        "converged": np.array(converged) if settling else None,
+    }
 
 
 def _contour(env, scenario, model, stages: Stages) -> dict:
@@ -164,8 +196,14 @@ def _contour(env, scenario, model, stages: Stages) -> dict:
 
     stimulus = load_scenario_stimulus(scenario)
     follower = ScenarioFollower(env, scenario, model, stimulus, clock=stages.clock)
-    samples = [{"pose": [float(v) for v in step.observation.pose.as_array()], "time": float(step.observation.time),
-                "labels": step.labels} for step in follower]
+    samples = [
+        {
+            "pose": [float(v) for v in step.observation.pose.as_array()],
+            "time": float(step.observation.time),
+            "labels": step.labels,
+        }
+        for step in follower
+    ]
     run = Run(Path(f"<sweep {scenario.name}>"), {"status": "completed", "stop_reason": follower.stop_reason}, samples)
     return contour_metrics(run, stimulus)
 
@@ -181,9 +219,18 @@ def probe_setting(setting: Setting, probe: Probe, seed: int = 0) -> dict:
     """
 
     wall0 = time.perf_counter()
-    row: dict = {"setting": setting.name, "knob": setting.knob, "output": setting.output, "dome": setting.dome,
-                 "fidelity": setting.fidelity,
-                 "effects": "+".join(setting.effects), "status": "ok", "stage": "", "error": "", "note": setting.note}
+    row: dict = {
+        "setting": setting.name,
+        "knob": setting.knob,
+        "output": setting.output,
+        "dome": setting.dome,
+        "fidelity": setting.fidelity,
+        "effects": "+".join(setting.effects),
+        "status": "ok",
+        "stage": "",
+        "error": "",
+        "note": setting.note,
+    }
     out: dict = {"row": row, "slide_pins_px": None, "slide_truth_px": None}
     stage = "build"
     env = None
@@ -193,8 +240,14 @@ def probe_setting(setting: Setting, probe: Probe, seed: int = 0) -> dict:
         params = dome_params(scenario)
         cam = scenario.sensor.camera
         resolution = dome_builder(scenario).resolution(params)
-        row.update({**resolution, "camera": f"{cam.width}x{cam.height}" if setting.renders else "—",
-                    "msaa": cam.msaa if setting.renders else 0, "effects": "+".join(scenario.effects)})
+        row.update(
+            {
+                **resolution,
+                "camera": f"{cam.width}x{cam.height}" if setting.renders else "—",
+                "msaa": cam.msaa if setting.renders else 0,
+                "effects": "+".join(scenario.effects),
+            }
+        )
         env = SimEnvironment(scenario, seed=seed)
         stage = "taps"
         taps = open_loop(env, protocol_moves(setting.scenario(probe.taps(), seed).protocol), _NoClock())
@@ -203,12 +256,22 @@ def probe_setting(setting: Setting, probe: Probe, seed: int = 0) -> dict:
         t0 = time.perf_counter()
         lab = {k: np.array([x[k] for x in taps["labels"]], float) for k in ("theta_deg", "lateral_mm", "depth_mm")}
         model = PerceptionModel(gp=GPConfig(n_restarts=probe.gp_restarts))
-        model.fit(taps["pins"], lab["theta_deg"], lab["lateral_mm"], lab["depth_mm"], np.random.default_rng(seed),
-                  resolution=(cam.width, cam.height))
+        model.fit(
+            taps["pins"],
+            lab["theta_deg"],
+            lab["lateral_mm"],
+            lab["depth_mm"],
+            np.random.default_rng(seed),
+            resolution=(cam.width, cam.height),
+        )
         row["train_s"] = time.perf_counter() - t0
         stage = "slides"
-        slides = open_loop(env, protocol_moves(setting.scenario(probe.slides(), seed).protocol), stages,
-                            settling=scenario.has("contact"))
+        slides = open_loop(
+            env,
+            protocol_moves(setting.scenario(probe.slides(), seed).protocol),
+            stages,
+            settling=scenario.has("contact"),
+        )
         row["n_slide_frames"] = len(slides["labels"])
         out["slide_pins_px"] = _rescale_pins(slides["pins"], cam.width)
         out["slide_truth_px"] = _rescale_pins(slides["truth"], cam.width)

@@ -1,6 +1,7 @@
 """The sweep's timing pass: after the parallel accuracy jobs, every setting alone on the
 machine, in rounds, its CPU ms per frame (physics, render, tracking) and its ratio to the
 default's within each round."""
+
 from __future__ import annotations
 
 import math
@@ -38,8 +39,14 @@ def timing_pass(setting: Setting, probe: Probe, seed: int = 0) -> dict:
     return {**{f"{k}_ms": per_frame[f"{k}_ms"] for k in TIMED_STAGES}, "n_timed_frames": stages.calls["physics"]}
 
 
-def time_settings(settings: list[Setting], rows: list[dict], probe: Probe, seed: int = 0,
-                  repeats: int = TIMING_REPEATS[0], verbose: bool = False) -> None:
+def time_settings(
+    settings: list[Setting],
+    rows: list[dict],
+    probe: Probe,
+    seed: int = 0,
+    repeats: int = TIMING_REPEATS[0],
+    verbose: bool = False,
+) -> None:
     """The timing pass, into `rows` (one per setting; those not "ok" are skipped). After
     the parallel accuracy jobs, in this one process, so that no other job competes for
     the cores (timed inside the parallel jobs, physics-identical settings spread over
@@ -89,9 +96,13 @@ def time_settings(settings: list[Setting], rows: list[dict], probe: Probe, seed:
                 continue
             mine, theirs = per_round(i, stages), per_round(default, stages)
             row[f"{name}_x_default"] = float(mine.min() / theirs.min())
-            row[f"{name}_x_default_min"], row[f"{name}_x_default_max"] = (float((mine / theirs).min()),
-                                                                          float((mine / theirs).max()))
+            row[f"{name}_x_default_min"], row[f"{name}_x_default_max"] = (
+                float((mine / theirs).min()),
+                float((mine / theirs).max()),
+            )
         if verbose:
-            print(f"[timing] {row['setting']:18s} {row['total_ms']:7.1f} ms/frame  ×{row['time_x_default']:.2f} "
-                  f"of the default ({row['time_x_default_min']:.2f}–{row['time_x_default_max']:.2f} within a round)",
-                  flush=True)
+            print(
+                f"[timing] {row['setting']:18s} {row['total_ms']:7.1f} ms/frame  ×{row['time_x_default']:.2f} "
+                f"of the default ({row['time_x_default_min']:.2f}–{row['time_x_default_max']:.2f} within a round)",
+                flush=True,
+            )

@@ -12,6 +12,7 @@ Shared by the models: `Frame`, `physics_error` (the PhysicsError every model rai
 the stimulus carrier (twin.world.dome.carrier) and the calibrated material's names
 (twin.world.dome.material).
 """
+
 from __future__ import annotations
 
 from collections.abc import Mapping
@@ -54,15 +55,16 @@ class Frame:
     last_motion_px: float = 0.0
 
 
-def physics_error(scenario_name: str, where: str, time_s: float, world2work: np.ndarray, tool2world: np.ndarray,
-                  what: str) -> PhysicsError:
+def physics_error(
+    scenario_name: str, where: str, time_s: float, world2work: np.ndarray, tool2world: np.ndarray, what: str
+) -> PhysicsError:
     """The PhysicsError of a dome model: scenario, `where` ("step 12"), simulated time (s),
     the commanded pose in the lab convention (work frame, mm/deg) and what failed."""
     lab = Pose.from_matrix(world2work @ tool2world)
     return PhysicsError(
         f"[{scenario_name}] {where} (t = {time_s:.4f} s) at pose x={lab.x:.3f} y={lab.y:.3f} z={lab.z:.3f} mm, "
-        f"α={lab.alpha:.2f} β={lab.beta:.2f} γ={lab.gamma:.2f} deg: {what}")
-
+        f"α={lab.alpha:.2f} β={lab.beta:.2f} γ={lab.gamma:.2f} deg: {what}"
+    )
 
 
 class DomeParameters(Protocol):
@@ -134,8 +136,9 @@ class DomeBuilder(Protocol):
     presets: Mapping[str, Mapping[str, Any]]
     quasi_static: bool
 
-    def params(self, fidelity: str, settings: PhysicsSettings, material: Mapping[str, float],
-               source: str) -> DomeParameters:
+    def params(
+        self, fidelity: str, settings: PhysicsSettings, material: Mapping[str, float], source: str
+    ) -> DomeParameters:
         """The `fidelity` level with `settings` and a calibration's dome `material` (units of
         twin.core.calibration.DOME_MATERIAL) applied; UserError naming `source` for a
         combination the model cannot take."""
@@ -146,9 +149,20 @@ class DomeBuilder(Protocol):
         origin); `friction`: frictional contacts. None when the model adds none."""
         ...
 
-    def start(self, model: mujoco.MjModel, data: mujoco.MjData, handles: Any, params: DomeParameters, *,
-              friction: float, name: str, start_tool2world: np.ndarray, stimulus2world: np.ndarray,
-              work2world: np.ndarray, camera: CameraModel) -> DomeModel:
+    def start(
+        self,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        handles: Any,
+        params: DomeParameters,
+        *,
+        friction: float,
+        name: str,
+        start_tool2world: np.ndarray,
+        stimulus2world: np.ndarray,
+        work2world: np.ndarray,
+        camera: CameraModel,
+    ) -> DomeModel:
         """The running dome in the compiled scene, at `start_tool2world` (out of contact).
         handles: `add_to_scene`'s, resolved. friction: the skin–object Coulomb coefficient
         (0 = no friction). name: named in every PhysicsError. camera: the camera whose

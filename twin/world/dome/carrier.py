@@ -2,6 +2,7 @@
 physics scene (the scene is built in the tool frame, the sensor still at the origin).
 Shared by the dome models (twin.world.dome.flex drives it by velocity, twin.world.dome.compliant
 poses it for its rays)."""
+
 from __future__ import annotations
 
 import mujoco

@@ -7,6 +7,7 @@ The machine code is cached in the twin's cache folder (``numba/`` beside the oth
 at the first call on a machine and loaded by every later process. numba checks it against
 the source file's time stamp, so an edit to a kernel recompiles it.
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable

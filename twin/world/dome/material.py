@@ -1,5 +1,6 @@
 """The calibrated dome material (twin.core.calibration.DOME_MATERIAL) applied to the dome
 models: the one place that knows which model parameter a material name sets."""
+
 from __future__ import annotations
 
 from collections.abc import Mapping
@@ -33,11 +34,15 @@ def apply_dome_material(params: Params, material: Mapping[str, float]) -> Params
     names = material_names(params)
     for name in material:
         if name not in names:
-            raise UserError(f"dome material {name!r} has no meaning for the {type(params).__name__} dome model "
-                            f"(it has {', '.join(names)})")
+            raise UserError(
+                f"dome material {name!r} has no meaning for the {type(params).__name__} dome model "
+                f"(it has {', '.join(names)})"
+            )
     if material.get("poisson", 0.0) > params.max_poisson:
-        raise UserError(f"dome material poisson = {material['poisson']} is beyond the {type(params).__name__} dome "
-                        f"model's ν ≤ {params.max_poisson}")
+        raise UserError(
+            f"dome material poisson = {material['poisson']} is beyond the {type(params).__name__} dome "
+            f"model's ν ≤ {params.max_poisson}"
+        )
     return params.with_(**{_TO_DOME[name][0]: value * _TO_DOME[name][1] for name, value in material.items()})
 
 

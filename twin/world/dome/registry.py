@@ -1,6 +1,7 @@
 """The dome models a scenario can name (`dome:`): one line per model, name → builder
 (twin.world.dome.base.DomeBuilder). Adding a model is a subpackage of twin.world.dome
 exporting a builder, and its line here."""
+
 from __future__ import annotations
 
 from twin.world.dome.base import DomeBuilder, DomeParameters

@@ -1,5 +1,6 @@
 """A minimal dome scene for tests and benchmarks: the TacTip pressed onto a straight box
 edge, built without a scenario (tool frame, m; docs/conventions.md)."""
+
 from __future__ import annotations
 
 import mujoco
@@ -13,9 +14,13 @@ from twin.world.dome.carrier import add_stimulus_carrier
 from twin.world.dome.registry import builder_of
 
 
-def edge_scene(params: DomeParameters, friction: bool = True, object_friction: float = 1.0,
-               scenario: str = "edge", start_tool2world: np.ndarray | None = None
-               ) -> tuple[mujoco.MjModel, mujoco.MjData, object, DomeModel]:
+def edge_scene(
+    params: DomeParameters,
+    friction: bool = True,
+    object_friction: float = 1.0,
+    scenario: str = "edge",
+    start_tool2world: np.ndarray | None = None,
+) -> tuple[mujoco.MjModel, mujoco.MjData, object, DomeModel]:
     """A minimal scene for tests and benchmarks: a 60 × 60 × 20 mm box whose top face is
     z = 0 with a straight edge along y at x = 0 (box at x < 0), and the TacTip pointing
     down (tool z = −world z). Returns (model, data, handles, physics): the dome model of
@@ -25,16 +30,30 @@ def edge_scene(params: DomeParameters, friction: bool = True, object_friction: f
     builder = builder_of(params)
     spec = mujoco.MjSpec()
     carrier = add_stimulus_carrier(spec)
-    carrier.add_geom(name="rectangle", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.03, 0.03, 0.01],
-                     pos=[-0.03, 0.0, -0.01], friction=[object_friction, 0.005, 0.0001])
+    carrier.add_geom(
+        name="rectangle",
+        type=mujoco.mjtGeom.mjGEOM_BOX,
+        size=[0.03, 0.03, 0.01],
+        pos=[-0.03, 0.0, -0.01],
+        friction=[object_friction, 0.005, 0.0001],
+    )
     start = sensor_down(0.0, 0.0, -2.0) if start_tool2world is None else start_tool2world
     added = builder.add_to_scene(spec, params, friction)
     model = spec.compile()
     data = mujoco.MjData(model)
     handles = None if added is None else added.resolve(model)
-    physics = builder.start(model, data, handles, params, friction=object_friction if friction else 0.0, name=scenario,
-                            start_tool2world=start, stimulus2world=np.eye(4), work2world=np.eye(4),
-                            camera=CameraModel())
+    physics = builder.start(
+        model,
+        data,
+        handles,
+        params,
+        friction=object_friction if friction else 0.0,
+        name=scenario,
+        start_tool2world=start,
+        stimulus2world=np.eye(4),
+        work2world=np.eye(4),
+        camera=CameraModel(),
+    )
     return model, data, handles, physics
 
 

@@ -18,6 +18,7 @@ spiral is traced from its outer end inwards along the band's outer edge and stop
 Dimensions are not given in the paper; every number below is an estimate explained in
 `assets/stimuli/README.md` (written by `python -m twin.tools.assets`).
 """
+
 from __future__ import annotations
 
 import math
@@ -28,6 +29,7 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 
+import mujoco
 import numpy as np
 import shapely
 import shapely.affinity
@@ -37,12 +39,22 @@ from shapely.geometry.polygon import orient
 
 from twin.core.errors import UserError
 from twin.core.poses import wrap_deg
-
 from twin.world.stimuli.outlines import (
-    MM, SAGITTA_MM, SpiralParams, circle_outline, convex_partition, extrude_mesh, flower_curvature_radii,
-    flower_outline, open_edge_count, rectangle_outline, spiral_outline, spiral_start_end, tape_measure_outline,
+    MM,
+    SAGITTA_MM,
+    SpiralParams,
+    circle_outline,
+    convex_partition,
+    extrude_mesh,
+    flower_curvature_radii,
+    flower_outline,
+    open_edge_count,
+    rectangle_outline,
+    spiral_outline,
+    spiral_start_end,
+    tape_measure_outline,
 )
-import mujoco
+
 MIN_SIZE_MM, MAX_SIZE_MM = 5.0, 500.0  # plausible extent of a user object (mm)
 
 
@@ -60,20 +72,23 @@ class Material:
 
 MATERIALS: dict[str, Material] = {
     "pla": Material(
-        "pla", 0.7,
+        "pla",
+        0.7,
         "3D-printed PLA (the paper's four printed shapes). Hard thermoplastic on a soft "
         "rubber-like (Agilus/Tango-type) skin: handbook range for hard polymer on soft "
         "elastomer is about 0.5-1.0; the layer lines of an FDM print add some grip, so "
         "0.7 (middle of the 0.6-0.8 band usually quoted for PLA on silicone).",
     ),
     "acrylic": Material(
-        "acrylic", 0.45,
+        "acrylic",
+        0.45,
         "Laser-cut cast acrylic (PMMA, the spiral). Smooth, glossy faces and cut edges "
         "slide more easily than printed parts: 0.4-0.5 for PMMA on soft elastomer, 0.45. "
         "The paper notes this is a different material from the training object.",
     ),
     "abs": Material(
-        "abs", 0.5,
+        "abs",
+        0.5,
         "Tape-measure housing: injection-moulded ABS (often with a thin rubber overmould "
         "on the sides, ignored here). Smooth moulded ABS on elastomer is about 0.4-0.6: 0.5.",
     ),
@@ -280,99 +295,184 @@ class _Builtin:
     frame: str = "origin at the centre of the outline"
 
 
-_SCALE_NOTE = ("the paper gives no dimensions; the contour plots of Figs 7-8 span roughly "
-               "100-150 mm, and the TacTip dome (40 mm) fixes the smallest sensible features")
-_PRINT_T = ("thickness", "10 mm", "a typical FDM print of a flat stimulus; thicker than any "
-            "indentation used (the paper's 2 and 4 mm, at most 6 mm), so the dome apex never "
-            "reaches the table beside the object")
+_SCALE_NOTE = (
+    "the paper gives no dimensions; the contour plots of Figs 7-8 span roughly "
+    "100-150 mm, and the TacTip dome (40 mm) fixes the smallest sensible features"
+)
+_PRINT_T = (
+    "thickness",
+    "10 mm",
+    "a typical FDM print of a flat stimulus; thicker than any "
+    "indentation used (the paper's 2 and 4 mm, at most 6 mm), so the dome apex never "
+    "reaches the table beside the object",
+)
 _FLOWER_R = flower_curvature_radii()
 
 BUILTINS: dict[str, _Builtin] = {
     "rectangle": _Builtin(
         "Rectangle (3D-printed)",
-        "\"The rectangle has zero curvature and corners.\" Also the training object: taps "
+        '"The rectangle has zero curvature and corners." Also the training object: taps '
         "and multi-directional slides on one of its straight edges.",
-        rectangle_outline, 10.0, "pla",
-        (("outline", "120 x 80 mm, sharp corners", _SCALE_NOTE + "; long straight edges leave "
-          "room for the ±9.9 mm lateral training range away from the corners"),
-         _PRINT_T),
+        rectangle_outline,
+        10.0,
+        "pla",
+        (
+            (
+                "outline",
+                "120 x 80 mm, sharp corners",
+                _SCALE_NOTE + "; long straight edges leave "
+                "room for the ±9.9 mm lateral training range away from the corners",
+            ),
+            _PRINT_T,
+        ),
     ),
     "large_circle": _Builtin(
         "Large circle (3D-printed)",
-        "\"The two circles have different constant curvatures.\"",
-        lambda: circle_outline(110.0), 10.0, "pla",
-        (("diameter", "110 mm", _SCALE_NOTE + "; clearly larger than the small circle"),
-         ("sampling", f"{len(circle_outline(110.0).exterior.coords) - 1}-gon",
-          f"inscribed regular polygon, chord sagitta ≤ {SAGITTA_MM} mm"),
-         _PRINT_T),
+        '"The two circles have different constant curvatures."',
+        lambda: circle_outline(110.0),
+        10.0,
+        "pla",
+        (
+            ("diameter", "110 mm", _SCALE_NOTE + "; clearly larger than the small circle"),
+            (
+                "sampling",
+                f"{len(circle_outline(110.0).exterior.coords) - 1}-gon",
+                f"inscribed regular polygon, chord sagitta ≤ {SAGITTA_MM} mm",
+            ),
+            _PRINT_T,
+        ),
     ),
     "small_circle": _Builtin(
         "Small circle (3D-printed)",
-        "\"The two circles have different constant curvatures.\"",
-        lambda: circle_outline(60.0), 10.0, "pla",
-        (("diameter", "60 mm", "about half the large circle; radius 30 mm is still larger than "
-          "the 20 mm dome radius, so the curvature stays distinct from a corner"),
-         ("sampling", f"{len(circle_outline(60.0).exterior.coords) - 1}-gon",
-          f"inscribed regular polygon, chord sagitta ≤ {SAGITTA_MM} mm"),
-         _PRINT_T),
+        '"The two circles have different constant curvatures."',
+        lambda: circle_outline(60.0),
+        10.0,
+        "pla",
+        (
+            (
+                "diameter",
+                "60 mm",
+                "about half the large circle; radius 30 mm is still larger than "
+                "the 20 mm dome radius, so the curvature stays distinct from a corner",
+            ),
+            (
+                "sampling",
+                f"{len(circle_outline(60.0).exterior.coords) - 1}-gon",
+                f"inscribed regular polygon, chord sagitta ≤ {SAGITTA_MM} mm",
+            ),
+            _PRINT_T,
+        ),
     ),
     "flower": _Builtin(
         "Five-petal flower (3D-printed)",
-        "\"The flower-like shape has both negative and positive curvatures.\"",
-        flower_outline, 10.0, "pla",
-        (("outline", "r(φ) = 50 + 8·cos(5(φ − 90°)) mm, one petal tip at +y",
-          "a smooth polar curve with 5 petals; " + _SCALE_NOTE),
-         ("span", "Ø 116 mm at the petal tips, Ø 84 mm at the valleys", "r0 ± a"),
-         ("concave radius", f"{_FLOWER_R[0]:.1f} mm (between petals)",
-          "negative curvature the paper asks for, about the contact-patch radius of the "
-          "dome at 2-4 mm indentation (√(2·20·d) ≈ 9-12 mm), so the valleys are felt but "
-          "smooth enough to follow"),
-         ("convex radius", f"{_FLOWER_R[1]:.1f} mm (petal tips)", "analytic curvature of r(φ)"),
-         ("sampling", "180 vertices (every 2°)", f"chord sagitta < {SAGITTA_MM} mm everywhere"),
-         _PRINT_T),
+        '"The flower-like shape has both negative and positive curvatures."',
+        flower_outline,
+        10.0,
+        "pla",
+        (
+            (
+                "outline",
+                "r(φ) = 50 + 8·cos(5(φ − 90°)) mm, one petal tip at +y",
+                "a smooth polar curve with 5 petals; " + _SCALE_NOTE,
+            ),
+            ("span", "Ø 116 mm at the petal tips, Ø 84 mm at the valleys", "r0 ± a"),
+            (
+                "concave radius",
+                f"{_FLOWER_R[0]:.1f} mm (between petals)",
+                "negative curvature the paper asks for, about the contact-patch radius of the "
+                "dome at 2-4 mm indentation (√(2·20·d) ≈ 9-12 mm), so the valleys are felt but "
+                "smooth enough to follow",
+            ),
+            ("convex radius", f"{_FLOWER_R[1]:.1f} mm (petal tips)", "analytic curvature of r(φ)"),
+            ("sampling", "180 vertices (every 2°)", f"chord sagitta < {SAGITTA_MM} mm everywhere"),
+            _PRINT_T,
+        ),
     ),
     "spiral": _Builtin(
         "Spiral (laser-cut acrylic)",
-        "\"The spiral shape has negative and positive curvatures, contains corners and has "
-        "closely spaced features.\" Laser-cut acrylic, a different material from the "
+        '"The spiral shape has negative and positive curvatures, contains corners and has '
+        'closely spaced features." Laser-cut acrylic, a different material from the '
         "training set; traced from the outside inwards (Fig. 8b).",
-        spiral_outline, 8.0, "acrylic",
-        (("shape", "Archimedean band, 2 turns, winding clockwise outwards",
-          "closely spaced turns give the 'closely spaced features'; the band's outer edge is "
-          "convex and its inner edge concave; square-cut ends give the corners"),
-         ("band width", "8 mm (radial)", "narrow enough that the dome on the band at l = −6 mm "
-          "also feels the far edge (closely spaced features)"),
-         ("gap between turns", "20 mm (radial), pitch 28 mm", "the dome's contact patch "
-          "(radius ≈ 12 mm at 4 mm depth) fits between turns when centred on an edge, but "
-          "a lateral error towards +9.9 mm reaches the next turn: the paper's 'upper limit "
-          "on the lateral position perception error'"),
-         ("inner end", "centreline radius 22 mm (inner edge 18 mm)", "the free centre is "
-          "wider than the contact patch, so the sensor can reach the inner end"),
-         ("outer end", "centreline radius 78 mm (outer edge 82 mm), at φ = −90°",
-          "overall span ≈ 150 mm like the figures"),
-         ("thickness", "8 mm", "a stock acrylic sheet thickness; deeper than the 6 mm "
-          "the dome ever indents, so the apex never touches the table in the gaps"),
-         ("sampling", f"adaptive, chord sagitta ≤ {SpiralParams().sagitta} mm", "about the laser "
-          "kerf; keeps the convex partition under 100 pieces (a convex piece of the band "
-          "spans at most one segment of its concave inner edge)"),
-         ("tracing", "start on the outer edge 15 mm from the outer end; end at the "
-          "outer-edge corner of the inner end", "the outer edge of the band, wound inwards, "
-          "is counter-clockwise with the object on the left like every other object")),
-        open_ends=spiral_start_end, frame="origin at the spiral's pole (not the bounding-box centre)",
+        spiral_outline,
+        8.0,
+        "acrylic",
+        (
+            (
+                "shape",
+                "Archimedean band, 2 turns, winding clockwise outwards",
+                "closely spaced turns give the 'closely spaced features'; the band's outer edge is "
+                "convex and its inner edge concave; square-cut ends give the corners",
+            ),
+            (
+                "band width",
+                "8 mm (radial)",
+                "narrow enough that the dome on the band at l = −6 mm "
+                "also feels the far edge (closely spaced features)",
+            ),
+            (
+                "gap between turns",
+                "20 mm (radial), pitch 28 mm",
+                "the dome's contact patch "
+                "(radius ≈ 12 mm at 4 mm depth) fits between turns when centred on an edge, but "
+                "a lateral error towards +9.9 mm reaches the next turn: the paper's 'upper limit "
+                "on the lateral position perception error'",
+            ),
+            (
+                "inner end",
+                "centreline radius 22 mm (inner edge 18 mm)",
+                "the free centre is wider than the contact patch, so the sensor can reach the inner end",
+            ),
+            (
+                "outer end",
+                "centreline radius 78 mm (outer edge 82 mm), at φ = −90°",
+                "overall span ≈ 150 mm like the figures",
+            ),
+            (
+                "thickness",
+                "8 mm",
+                "a stock acrylic sheet thickness; deeper than the 6 mm "
+                "the dome ever indents, so the apex never touches the table in the gaps",
+            ),
+            (
+                "sampling",
+                f"adaptive, chord sagitta ≤ {SpiralParams().sagitta} mm",
+                "about the laser "
+                "kerf; keeps the convex partition under 100 pieces (a convex piece of the band "
+                "spans at most one segment of its concave inner edge)",
+            ),
+            (
+                "tracing",
+                "start on the outer edge 15 mm from the outer end; end at the outer-edge corner of the inner end",
+                "the outer edge of the band, wound inwards, "
+                "is counter-clockwise with the object on the left like every other object",
+            ),
+        ),
+        open_ends=spiral_start_end,
+        frame="origin at the spiral's pole (not the bounding-box centre)",
     ),
     "tape_measure": _Builtin(
         "Tape measure (natural object)",
-        "\"The tape measure is a natural object and has different curvature values and a "
-        "corner.\"",
-        tape_measure_outline, 38.0, "abs",
-        (("outline", "70 x 70 mm case lying on its side", "a common 5 m tape measure case is "
-          "about 70-75 mm square and 35-40 mm thick"),
-         ("corners", "R30 top-left and top-right (reel housing), R12 back-bottom, sharp "
-          "front-bottom (+x, −y) where the blade exits", "'different curvature values and a "
-          "corner'; the blade and hook sit below the top 6 mm the dome can reach, so they "
-          "are not part of the outline"),
-         ("thickness", "38 mm", "case thickness of a 25 mm-blade tape measure"),
-         ("shape note", "convex", "so its collision is one piece")),
+        '"The tape measure is a natural object and has different curvature values and a corner."',
+        tape_measure_outline,
+        38.0,
+        "abs",
+        (
+            (
+                "outline",
+                "70 x 70 mm case lying on its side",
+                "a common 5 m tape measure case is about 70-75 mm square and 35-40 mm thick",
+            ),
+            (
+                "corners",
+                "R30 top-left and top-right (reel housing), R12 back-bottom, sharp "
+                "front-bottom (+x, −y) where the blade exits",
+                "'different curvature values and a "
+                "corner'; the blade and hook sit below the top 6 mm the dome can reach, so they "
+                "are not part of the outline",
+            ),
+            ("thickness", "38 mm", "case thickness of a 25 mm-blade tape measure"),
+            ("shape note", "convex", "so its collision is one piece"),
+        ),
     ),
 }
 
@@ -386,18 +486,32 @@ def builtin_stimulus(name: str) -> Stimulus:
     else:
         start, end = _default_start(outline), None
     mat = MATERIALS[spec.material]
-    return Stimulus(name=name, outline=outline, thickness_mm=spec.thickness_mm,
-                    material=mat.name, friction=mat.friction,
-                    mesh=extrude_mesh(outline, spec.thickness_mm), start_point_mm=start,
-                    is_open=end is not None, end_point_mm=end, notes=spec.notes)
+    return Stimulus(
+        name=name,
+        outline=outline,
+        thickness_mm=spec.thickness_mm,
+        material=mat.name,
+        friction=mat.friction,
+        mesh=extrude_mesh(outline, spec.thickness_mm),
+        start_point_mm=start,
+        is_open=end is not None,
+        end_point_mm=end,
+        notes=spec.notes,
+    )
 
 
 # --------------------------------------------------------------------------- user objects
 
 
-def load_stimulus(name_or_spec: str | os.PathLike, *, thickness_mm: float | None = None,
-                  material: str | None = None, friction: float | None = None,
-                  stl_units: str = "mm", recentre: bool = True) -> Stimulus:
+def load_stimulus(
+    name_or_spec: str | os.PathLike,
+    *,
+    thickness_mm: float | None = None,
+    material: str | None = None,
+    friction: float | None = None,
+    stl_units: str = "mm",
+    recentre: bool = True,
+) -> Stimulus:
     """A built-in object by name, or a user object from a file.
 
     * built-in names: rectangle, large_circle, small_circle, flower, spiral, tape_measure;
@@ -416,8 +530,7 @@ def load_stimulus(name_or_spec: str | os.PathLike, *, thickness_mm: float | None
     """
     spec = os.fspath(name_or_spec)
     if material is not None and material not in MATERIALS:
-        raise UserError(f"stimulus {spec}: unknown material {material!r} "
-                        f"(known: {', '.join(sorted(MATERIALS))})")
+        raise UserError(f"stimulus {spec}: unknown material {material!r} (known: {', '.join(sorted(MATERIALS))})")
     if spec in BUILTINS:
         stim = builtin_stimulus(spec)
         if material is not None:
@@ -429,8 +542,9 @@ def load_stimulus(name_or_spec: str | os.PathLike, *, thickness_mm: float | None
     path = Path(spec)
     suffix = path.suffix.lower()
     if suffix not in (".stl", ".csv", ".txt"):
-        raise UserError(f"unknown stimulus {spec!r}: not a built-in "
-                        f"({', '.join(BUILTINS)}) and not an .stl or outline .csv file")
+        raise UserError(
+            f"unknown stimulus {spec!r}: not a built-in ({', '.join(BUILTINS)}) and not an .stl or outline .csv file"
+        )
     if not path.is_file():
         raise UserError(f"stimulus file {path} does not exist")
     mu = MATERIALS[material].friction if friction is None else float(friction)
@@ -449,8 +563,9 @@ def _check_size(path: Path, extent_mm: np.ndarray, what: str) -> None:
     size = float(np.max(extent_mm))
     if not (MIN_SIZE_MM <= size <= MAX_SIZE_MM):
         hint = " (is the file in metres? pass stl_units='m')" if size < MIN_SIZE_MM and what == "mesh" else ""
-        raise UserError(f"broken {what} {path}: implausible size {size:.4g} mm, expected "
-                        f"{MIN_SIZE_MM:g}-{MAX_SIZE_MM:g} mm{hint}")
+        raise UserError(
+            f"broken {what} {path}: implausible size {size:.4g} mm, expected {MIN_SIZE_MM:g}-{MAX_SIZE_MM:g} mm{hint}"
+        )
 
 
 def _load_stl(path: Path, material: str, friction: float, units: str, recentre: bool) -> Stimulus:
@@ -484,11 +599,18 @@ def _load_stl(path: Path, material: str, friction: float, units: str, recentre: 
     mesh.apply_translation([-cx, -cy, -dz])
     mesh.apply_scale(MM)
     convex = abs(mesh.convex_hull.volume - mesh.volume) <= 1e-3 * mesh.volume
-    return Stimulus(name=path.stem, outline=outline, thickness_mm=float(zmax - zmin),
-                    material=material, friction=friction, mesh=mesh,
-                    start_point_mm=_default_start(outline),
-                    collision="convex" if convex else "prism", source=str(path),
-                    source_offset_mm=(float(cx), float(cy), float(dz)))
+    return Stimulus(
+        name=path.stem,
+        outline=outline,
+        thickness_mm=float(zmax - zmin),
+        material=material,
+        friction=friction,
+        mesh=mesh,
+        start_point_mm=_default_start(outline),
+        collision="convex" if convex else "prism",
+        source=str(path),
+        source_offset_mm=(float(cx), float(cy), float(dz)),
+    )
 
 
 def _mesh_section(mesh: trimesh.Trimesh, z: float, path: Path) -> Polygon:
@@ -501,8 +623,10 @@ def _mesh_section(mesh: trimesh.Trimesh, z: float, path: Path) -> Polygon:
     planar, _ = section.to_2D(to_2D=to_2d)
     polys = [p for p in planar.polygons_full if p is not None and p.area > 0]
     if len(polys) != 1:
-        raise UserError(f"broken mesh {path}: the cross-section at mid-height has {len(polys)} "
-                        "separate regions; a stimulus must be one piece")
+        raise UserError(
+            f"broken mesh {path}: the cross-section at mid-height has {len(polys)} "
+            "separate regions; a stimulus must be one piece"
+        )
     poly = polys[0].simplify(0.02, preserve_topology=True)
     return orient(Polygon(poly.exterior, [i for i in poly.interiors]), 1.0)
 
@@ -530,12 +654,15 @@ def read_outline_csv(path: Path) -> tuple[np.ndarray, list[int]]:
             if header_allowed:
                 header_allowed = False
                 continue
-            raise UserError(f"outline {path} line {lineno}: expected 'x,y' in mm, "
-                            "the line holds something else") from None
+            raise UserError(
+                f"outline {path} line {lineno}: expected 'x,y' in mm, the line holds something else"
+            ) from None
         header_allowed = False
         if len(values) != 2 or not all(math.isfinite(v) for v in values):
-            raise UserError(f"outline {path} line {lineno}: expected two finite numbers 'x,y' in mm, "
-                            f"got {len(values)} numbers" + (" not both finite" if len(values) == 2 else ""))
+            raise UserError(
+                f"outline {path} line {lineno}: expected two finite numbers 'x,y' in mm, "
+                f"got {len(values)} numbers" + (" not both finite" if len(values) == 2 else "")
+            )
         if pts and values == list(pts[-1]):
             continue  # repeated vertex
         pts.append((values[0], values[1]))
@@ -548,8 +675,7 @@ def read_outline_csv(path: Path) -> tuple[np.ndarray, list[int]]:
     return np.array(pts), lines
 
 
-def _load_outline(path: Path, thickness_mm: float, material: str, friction: float,
-                  recentre: bool) -> Stimulus:
+def _load_outline(path: Path, thickness_mm: float, material: str, friction: float, recentre: bool) -> Stimulus:
     pts, lines = read_outline_csv(path)
     poly = Polygon(pts)
     if np.linalg.matrix_rank(pts - pts.mean(axis=0), tol=1e-9) < 2:
@@ -560,10 +686,17 @@ def _load_outline(path: Path, thickness_mm: float, material: str, friction: floa
     minx, miny, maxx, maxy = poly.bounds
     cx, cy = ((minx + maxx) / 2, (miny + maxy) / 2) if recentre else (0.0, 0.0)
     poly = orient(shapely.affinity.translate(poly, -cx, -cy), 1.0)
-    return Stimulus(name=path.stem, outline=poly, thickness_mm=thickness_mm,
-                    material=material, friction=friction,
-                    mesh=extrude_mesh(poly, thickness_mm), start_point_mm=_default_start(poly),
-                    source=str(path), source_offset_mm=(float(cx), float(cy), 0.0))
+    return Stimulus(
+        name=path.stem,
+        outline=poly,
+        thickness_mm=thickness_mm,
+        material=material,
+        friction=friction,
+        mesh=extrude_mesh(poly, thickness_mm),
+        start_point_mm=_default_start(poly),
+        source=str(path),
+        source_offset_mm=(float(cx), float(cy), 0.0),
+    )
 
 
 def _crossing(pts: np.ndarray, lines: list[int]) -> str:
@@ -574,8 +707,5 @@ def _crossing(pts: np.ndarray, lines: list[int]) -> str:
     for i, j in sorted(zip(left.tolist(), right.tolist())):
         if j <= i or j == (i + 1) % n or i == (j + 1) % n:
             continue
-        return (f"edge line {lines[i]}→{lines[(i + 1) % n]} crosses edge line "
-                f"{lines[j]}→{lines[(j + 1) % n]}")
+        return f"edge line {lines[i]}→{lines[(i + 1) % n]} crosses edge line {lines[j]}→{lines[(j + 1) % n]}"
     return shapely.is_valid_reason(Polygon(pts))
-
-

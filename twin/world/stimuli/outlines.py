@@ -1,5 +1,6 @@
 """Outline geometry of flat stimuli: the paper's outlines, triangulation, convex
 partition and extrusion (mm in outlines, m in meshes; object frame of twin.world.stimuli.objects)."""
+
 from __future__ import annotations
 
 import math
@@ -11,7 +12,6 @@ import numpy as np
 import trimesh
 from shapely.geometry import Polygon
 from shapely.geometry.polygon import orient
-
 
 MM = 1e-3  # m per mm
 SAGITTA_MM = 0.05  # max chord-to-arc deviation when curved outlines are sampled (mm)
@@ -51,8 +51,7 @@ def circle_outline(diameter_mm: float) -> Polygon:
     return _polygon(np.column_stack([r * np.cos(phi), r * np.sin(phi)]))
 
 
-def flower_outline(r0_mm: float = 50.0, amplitude_mm: float = 8.0, petals: int = 5,
-                   samples: int = 180) -> Polygon:
+def flower_outline(r0_mm: float = 50.0, amplitude_mm: float = 8.0, petals: int = 5, samples: int = 180) -> Polygon:
     """Polar flower r(φ) = r0 + a·cos(n(φ − 90°)): `petals` lobes, one petal tip at +y.
 
     Between the petals the outline is concave; with the defaults the tightest concave
@@ -63,8 +62,7 @@ def flower_outline(r0_mm: float = 50.0, amplitude_mm: float = 8.0, petals: int =
     return _polygon(np.column_stack([r * np.cos(phi), r * np.sin(phi)]))
 
 
-def flower_curvature_radii(r0_mm: float = 50.0, amplitude_mm: float = 8.0,
-                           petals: int = 5) -> tuple[float, float]:
+def flower_curvature_radii(r0_mm: float = 50.0, amplitude_mm: float = 8.0, petals: int = 5) -> tuple[float, float]:
     """(concave radius between petals, convex radius at a petal tip) in mm, analytic."""
     n2a = petals**2 * amplitude_mm
     valley, tip = r0_mm - amplitude_mm, r0_mm + amplitude_mm
@@ -82,13 +80,13 @@ class SpiralParams:
     radially; both ends are cut square (radially), giving 4 corners.
     """
 
-    width: float = 8.0         # radial width of the acrylic band
-    gap: float = 20.0          # radial clear gap between neighbouring turns
-    r_start: float = 22.0      # centreline radius at the inner end
-    turns: float = 2.0         # number of turns of the band
+    width: float = 8.0  # radial width of the acrylic band
+    gap: float = 20.0  # radial clear gap between neighbouring turns
+    r_start: float = 22.0  # centreline radius at the inner end
+    turns: float = 2.0  # number of turns of the band
     phi_end_deg: float = -90.0  # polar angle of the outer end (start of tracing)
-    start_arc: float = 15.0    # tracing starts this far (arc length) from the outer end
-    sagitta: float = 0.1       # chord sagitta of the edge sampling (≈ laser kerf); sets the piece count
+    start_arc: float = 15.0  # tracing starts this far (arc length) from the outer end
+    sagitta: float = 0.1  # chord sagitta of the edge sampling (≈ laser kerf); sets the piece count
 
     @property
     def pitch(self) -> float:
@@ -140,8 +138,7 @@ def spiral_start_end(p: SpiralParams = SpiralParams()) -> tuple[tuple[float, flo
     return start, p.edge_point(0.0, +1.0)
 
 
-def rounded_rectangle_outline(width_mm: float, height_mm: float,
-                              radii_mm: Sequence[float]) -> Polygon:
+def rounded_rectangle_outline(width_mm: float, height_mm: float, radii_mm: Sequence[float]) -> Polygon:
     """Rectangle centred on the origin with per-corner radii (mm), in the order
     bottom-right, top-right, top-left, bottom-left; a radius of 0 keeps the corner sharp."""
     w, h = width_mm / 2, height_mm / 2
@@ -176,8 +173,7 @@ def tape_measure_outline() -> Polygon:
 def _rings(poly: Polygon) -> list[np.ndarray]:
     """Exterior (CCW) then interiors (CW) as (k, 2) arrays without the closing point."""
     poly = orient(poly, 1.0)
-    return [np.asarray(poly.exterior.coords)[:-1]] + [
-        np.asarray(r.coords)[:-1] for r in poly.interiors]
+    return [np.asarray(poly.exterior.coords)[:-1]] + [np.asarray(r.coords)[:-1] for r in poly.interiors]
 
 
 def _triangulate(poly: Polygon) -> tuple[np.ndarray, np.ndarray]:
@@ -263,7 +259,8 @@ def convex_partition(poly: Polygon) -> list[np.ndarray]:
             edge_owner[(cyc[k], cyc[(k + 1) % 3])] = pid
     diagonals = sorted(
         {(min(u, v), max(u, v)) for (u, v) in edge_owner if (v, u) in edge_owner},
-        key=lambda e: (-float(np.hypot(*(verts[e[0]] - verts[e[1]]))), e))
+        key=lambda e: (-float(np.hypot(*(verts[e[0]] - verts[e[1]]))), e),
+    )
     next_id = len(pieces)
     for u, v in diagonals:
         a, b = edge_owner.get((u, v)), edge_owner.get((v, u))
@@ -271,8 +268,8 @@ def convex_partition(poly: Polygon) -> list[np.ndarray]:
             continue
         A, B = pieces[a], pieces[b]
         ia, ib = A.index(u), B.index(v)
-        A_rot = A[ia + 1:] + A[:ia + 1]  # starts at v, ends at u
-        B_rot = B[ib + 1:] + B[:ib + 1]  # starts at u, ends at v
+        A_rot = A[ia + 1 :] + A[: ia + 1]  # starts at v, ends at u
+        B_rot = B[ib + 1 :] + B[: ib + 1]  # starts at u, ends at v
         merged = A_rot + B_rot[1:-1]
         if not _is_convex_cycle(verts, merged, [0, len(A_rot) - 1]):
             continue
@@ -317,5 +314,3 @@ def open_edge_count(mesh: trimesh.Trimesh) -> int:
     edges = np.sort(mesh.edges, axis=1)
     _, counts = np.unique(edges, axis=0, return_counts=True)
     return int(np.sum(counts == 1))
-
-

@@ -2,6 +2,7 @@
 increment (twin.world.dome.compliant.physics), from the influence model of
 twin.world.dome.compliant.compliance and the contact solver of
 twin.world.dome.compliant.contact. `COMPLIANT` is its builder (twin.world.dome.registry)."""
+
 from twin.world.dome.compliant.builder import COMPLIANT, CompliantSettings
 from twin.world.dome.compliant.physics import COMPLIANT_LEVELS, SKIN_PHYSICS, CompliantParams, CompliantPhysics
 

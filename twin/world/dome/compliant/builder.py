@@ -1,6 +1,7 @@
 """The compliant dome as the registry holds it: its scenario `physics` settings (units,
 bounds, conversion to CompliantParams' SI fields) and its builder
 (twin.world.dome.base.DomeBuilder)."""
+
 from __future__ import annotations
 
 import time
@@ -25,30 +26,46 @@ class CompliantSettings(PhysicsSettings):
     """The compliant dome's scenario `physics`: overrides of the fidelity level's CompliantParams."""
 
     surface_spacing_mm: float | None = bounded(0.5, 10, "mm", "node spacing on the dome's surface", None)
-    membrane_young_mpa: float | None = bounded(0, 10, "MPa", "skin membrane's Young's modulus "
-                                               "(twin.world.dome.compliant.compliance), 0 = off", None)
-    gel_young_kpa: float | None = bounded(1, 1000, "kPa", "the gel's Young's modulus (the skin "
-                                          "and gel as one solid without a membrane)", None)
+    membrane_young_mpa: float | None = bounded(
+        0, 10, "MPa", "skin membrane's Young's modulus (twin.world.dome.compliant.compliance), 0 = off", None
+    )
+    gel_young_kpa: float | None = bounded(
+        1, 1000, "kPa", "the gel's Young's modulus (the skin and gel as one solid without a membrane)", None
+    )
     skin_bending: bool | None = Field(
-        default=None, description="the skin membrane also resists bending, a thin shell of its "
-                                  "modulus and thickness (default false; needs membrane_young_mpa > 0 here or in the "
-                                  "calibration's dome_material)")
-    increment_mm: float | None = bounded(0.05, 5, "mm", "the largest tool motion per contact increment "
-                                         "(the friction path's resolution; default 0.5 at fidelity default)", None)
+        default=None,
+        description="the skin membrane also resists bending, a thin shell of its "
+        "modulus and thickness (default false; needs membrane_young_mpa > 0 here or in the "
+        "calibration's dome_material)",
+    )
+    increment_mm: float | None = bounded(
+        0.05,
+        5,
+        "mm",
+        "the largest tool motion per contact increment "
+        "(the friction path's resolution; default 0.5 at fidelity default)",
+        None,
+    )
     gel_enclosed: bool | None = Field(
-        default=None, description="the gel is sealed in the dome and keeps its volume (default true); "
-                                  "false = an open elastic half-space, the body of the closed-form contact checks")
-    skin_held_deg: float | None = bounded(*DOME_MATERIAL["skin_held_deg"][1:3], "deg",
-                                          DOME_MATERIAL["skin_held_deg"][3] + "; default 90", None)
+        default=None,
+        description="the gel is sealed in the dome and keeps its volume (default true); "
+        "false = an open elastic half-space, the body of the closed-form contact checks",
+    )
+    skin_held_deg: float | None = bounded(
+        *DOME_MATERIAL["skin_held_deg"][1:3], "deg", DOME_MATERIAL["skin_held_deg"][3] + "; default 90", None
+    )
 
     def changes(self) -> dict[str, Any]:
         """The settings given, as CompliantParams fields (SI)."""
-        changes = {"spacing": None if self.surface_spacing_mm is None else self.surface_spacing_mm * 1e-3,
-                   "enclosed": self.gel_enclosed, "skin_bending": self.skin_bending,
-                   "young": None if self.gel_young_kpa is None else self.gel_young_kpa * 1e3,
-                   "membrane_young": None if self.membrane_young_mpa is None else self.membrane_young_mpa * 1e6,
-                   "step_length": None if self.increment_mm is None else self.increment_mm * 1e-3,
-                   "skin_held_deg": self.skin_held_deg}
+        changes = {
+            "spacing": None if self.surface_spacing_mm is None else self.surface_spacing_mm * 1e-3,
+            "enclosed": self.gel_enclosed,
+            "skin_bending": self.skin_bending,
+            "young": None if self.gel_young_kpa is None else self.gel_young_kpa * 1e3,
+            "membrane_young": None if self.membrane_young_mpa is None else self.membrane_young_mpa * 1e6,
+            "step_length": None if self.increment_mm is None else self.increment_mm * 1e-3,
+            "skin_held_deg": self.skin_held_deg,
+        }
         return {k: v for k, v in changes.items() if v is not None}
 
 
@@ -64,24 +81,39 @@ class CompliantBuilder:
     presets: Mapping[str, Mapping[str, Any]] = {**SKIN_PHYSICS, "increment_1mm": {"increment_mm": 1.0}}
     quasi_static = True
 
-    def params(self, fidelity: str, settings: CompliantSettings, material: Mapping[str, float],
-               source: str) -> CompliantParams:
+    def params(
+        self, fidelity: str, settings: CompliantSettings, material: Mapping[str, float], source: str
+    ) -> CompliantParams:
         params = self.levels[fidelity].with_(**settings.changes())
         if material:
             params = apply_dome_material(params, material)
         if params.skin_bending and not params.membrane_young:
-            raise UserError(f"{source}: physics.skin_bending: true needs the skin membrane, membrane_young_mpa > 0 in "
-                            f"`physics` or in the calibration's dome_material (neither sets it)")
+            raise UserError(
+                f"{source}: physics.skin_bending: true needs the skin membrane, membrane_young_mpa > 0 in "
+                f"`physics` or in the calibration's dome_material (neither sets it)"
+            )
         return params
 
     def add_to_scene(self, spec: mujoco.MjSpec, params: CompliantParams, friction: bool) -> None:
         return None
 
-    def start(self, model: mujoco.MjModel, data: mujoco.MjData, handles: None, params: CompliantParams, *,
-              friction: float, name: str, start_tool2world: np.ndarray, stimulus2world: np.ndarray,
-              work2world: np.ndarray, camera: CameraModel) -> CompliantPhysics:
-        return CompliantPhysics(model, data, params, friction, name, start_tool2world, stimulus2world=stimulus2world,
-                                work2world=work2world)
+    def start(
+        self,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        handles: None,
+        params: CompliantParams,
+        *,
+        friction: float,
+        name: str,
+        start_tool2world: np.ndarray,
+        stimulus2world: np.ndarray,
+        work2world: np.ndarray,
+        camera: CameraModel,
+    ) -> CompliantPhysics:
+        return CompliantPhysics(
+            model, data, params, friction, name, start_tool2world, stimulus2world=stimulus2world, work2world=work2world
+        )
 
     def precompute(self, params: CompliantParams) -> tuple[float, float]:
         """Computing and storing the influence matrices (DomeCompliance.one_off: the sealed

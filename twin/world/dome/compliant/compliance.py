@@ -57,6 +57,7 @@ t) is added to the membrane's.
 
 Everything in the tool frame (m): apex at the origin, +z out of the tip.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -77,8 +78,13 @@ from twin.world.dome.compiled import compiled
 
 GOLDEN_ANGLE = math.pi * (3.0 - math.sqrt(5.0))  # rad
 #: Radon's 7-point rule on the unit disc: (x, y, weight), exact for polynomials of degree 3
-DISC_RULE = np.array([[0.0, 0.0, 0.25]] + [[math.sqrt(2 / 3) * math.cos(k * math.pi / 3),
-                                              math.sqrt(2 / 3) * math.sin(k * math.pi / 3), 0.125] for k in range(6)])
+DISC_RULE = np.array(
+    [[0.0, 0.0, 0.25]]
+    + [
+        [math.sqrt(2 / 3) * math.cos(k * math.pi / 3), math.sqrt(2 / 3) * math.sin(k * math.pi / 3), 0.125]
+        for k in range(6)
+    ]
+)
 
 
 @dataclass(frozen=True)
@@ -97,8 +103,8 @@ class CapSurface:
 
     @cached_property
     def count(self) -> int:
-        cap_area = 2 * math.pi * self.geometry.dome_outer_radius ** 2 * (1 - math.cos(math.radians(self.extent_deg)))
-        return max(7, int(round(cap_area / (math.sqrt(3) / 2 * self.spacing ** 2))))
+        cap_area = 2 * math.pi * self.geometry.dome_outer_radius**2 * (1 - math.cos(math.radians(self.extent_deg)))
+        return max(7, int(round(cap_area / (math.sqrt(3) / 2 * self.spacing**2))))
 
     @cached_property
     def area(self) -> float:
@@ -139,13 +145,14 @@ class CapSurface:
         at the cap's rim). It takes the sealed gel's pressure but never contact."""
         top = math.cos(math.radians(self.extent_deg))
         bottom = math.sin(math.radians(90.0 - held_deg))  # cos(held), exactly 0 at the equator
-        count = int(round(2 * math.pi * self.geometry.dome_outer_radius ** 2 * (top - bottom) / self.area))
+        count = int(round(2 * math.pi * self.geometry.dome_outer_radius**2 * (top - bottom) / self.area))
         k = np.arange(count) + 0.5
-        frames = _sphere_frames(np.arccos(bottom + (top - bottom) * (1.0 - k / count)),
-                                (self.count + np.arange(count)) * GOLDEN_ANGLE)
+        frames = _sphere_frames(
+            np.arccos(bottom + (top - bottom) * (1.0 - k / count)), (self.count + np.arange(count)) * GOLDEN_ANGLE
+        )
         return self._on_dome(frames[:, 0]), frames
 
-    def skin_to(self, held_deg: float) -> "SkinSheet":
+    def skin_to(self, held_deg: float) -> SkinSheet:
         """The skin from the apex to `held_deg`, where the base holds it: the cap's nodes,
         then the band's (`band_to`)."""
         band_points, band_frames = self.band_to(held_deg)
@@ -155,8 +162,9 @@ class CapSurface:
         azimuth = np.arctan2(frames[:, 0, 1], frames[:, 0, 0])
         triangles = Delaunay(np.column_stack([polar * np.cos(azimuth), polar * np.sin(azimuth)])).simplices
         held = polar > math.radians(held_deg) - self.spacing / self.geometry.dome_outer_radius
-        return SkinSheet(points, frames, triangles, held, self.geometry.dome_outer_radius, self.spacing,
-                         math.radians(held_deg))
+        return SkinSheet(
+            points, frames, triangles, held, self.geometry.dome_outer_radius, self.spacing, math.radians(held_deg)
+        )
 
     def _on_dome(self, normals: np.ndarray) -> np.ndarray:
         g = self.geometry
@@ -195,8 +203,9 @@ class SkinSheet:
         return np.arccos(np.clip(self.normals[:, 2], -1.0, 1.0))
 
 
-def disc_averaged_kernel(targets: np.ndarray, sources: np.ndarray, frames: np.ndarray, radius: float, poisson: float,
-                         shear_modulus: float) -> np.ndarray:
+def disc_averaged_kernel(
+    targets: np.ndarray, sources: np.ndarray, frames: np.ndarray, radius: float, poisson: float, shear_modulus: float
+) -> np.ndarray:
     """(Nt, 3, Ns, 3) m/N: displacement of each target point per unit force at each source
     ([target, displacement axis, source, force axis]), the force spread uniformly over a
     disc of `radius` (m) about the source in its tangent plane (frames (Ns, 3, 3): outward
@@ -208,14 +217,27 @@ def disc_averaged_kernel(targets: np.ndarray, sources: np.ndarray, frames: np.nd
     direction. A target on a rule point is NaN (the self term is singular: the caller's to
     set).
     """
-    return _disc_kernel(np.ascontiguousarray(targets, dtype=float), np.ascontiguousarray(sources, dtype=float),
-                        np.ascontiguousarray(frames, dtype=float), float(radius), DISC_RULE, float(poisson),
-                        float(shear_modulus))
+    return _disc_kernel(
+        np.ascontiguousarray(targets, dtype=float),
+        np.ascontiguousarray(sources, dtype=float),
+        np.ascontiguousarray(frames, dtype=float),
+        float(radius),
+        DISC_RULE,
+        float(poisson),
+        float(shear_modulus),
+    )
 
 
 @compiled
-def _disc_kernel(targets: np.ndarray, sources: np.ndarray, frames: np.ndarray, radius: float, rule: np.ndarray,
-                 poisson: float, shear_modulus: float) -> np.ndarray:
+def _disc_kernel(
+    targets: np.ndarray,
+    sources: np.ndarray,
+    frames: np.ndarray,
+    radius: float,
+    rule: np.ndarray,
+    poisson: float,
+    shear_modulus: float,
+) -> np.ndarray:
     """`disc_averaged_kernel` by `rule` (rows x, y, weight on the unit disc), point by point:
     no (Nt, Ns, 3) temporaries (the one-off matrices of a 1.5 mm cap are 10⁷ such points)."""
     nt, ns = len(targets), len(sources)
@@ -228,7 +250,7 @@ def _disc_kernel(targets: np.ndarray, sources: np.ndarray, frames: np.ndarray, r
     tangential = np.empty(3)
     for j in range(ns):
         for a in range(3):
-            e[a] = -frames[j, 0, a]                                   # into the solid
+            e[a] = -frames[j, 0, a]  # into the solid
         for q in range(len(rule)):
             weight = rule[q, 2] * scale
             for a in range(3):
@@ -249,16 +271,18 @@ def _disc_kernel(targets: np.ndarray, sources: np.ndarray, frames: np.ndarray, r
                 rz = rho + z
                 inv_rho = 1.0 / rho
                 inv_rho3 = inv_rho * inv_rho * inv_rho
-                for b in range(3):                                    # the unit force along axis b
-                    fe = e[b]                                         # its normal part (along e)
-                    ts = tangential[b] - fe * normal_of_tangential    # its tangential part · tangential
+                for b in range(3):  # the unit force along axis b
+                    fe = e[b]  # its normal part (along e)
+                    ts = tangential[b] - fe * normal_of_tangential  # its tangential part · tangential
                     along_s = ts * inv_rho3 - c * ts / (rho * rz * rz) + fe * (z * inv_rho3 - c / (rho * rz))
-                    along_e = ts * z * inv_rho3 + c * ts / (rho * rz) + fe * (z * z * inv_rho3
-                                                                             + 2.0 * (1.0 - poisson) * inv_rho)
+                    along_e = (
+                        ts * z * inv_rho3
+                        + c * ts / (rho * rz)
+                        + fe * (z * z * inv_rho3 + 2.0 * (1.0 - poisson) * inv_rho)
+                    )
                     for a in range(3):
-                        ft = (1.0 if a == b else 0.0) - fe * e[a]     # its tangential part
-                        out[t, a, j, b] += weight * (ft * (inv_rho + c / rz) + along_s * tangential[a]
-                                                     + along_e * e[a])
+                        ft = (1.0 if a == b else 0.0) - fe * e[a]  # its tangential part
+                        out[t, a, j, b] += weight * (ft * (inv_rho + c / rz) + along_s * tangential[a] + along_e * e[a])
     return out
 
 
@@ -272,16 +296,25 @@ def self_compliance(outward: np.ndarray, area: float, poisson: float, shear_modu
     return tangential * (np.eye(3)[None] - nn) + normal * nn
 
 
-def post_tip_kernel(geometry: TacTipGeometry, sources: np.ndarray, frames: np.ndarray, radius: float, poisson: float,
-                    shear_modulus: float, step: float | None = None) -> np.ndarray:
+def post_tip_kernel(
+    geometry: TacTipGeometry,
+    sources: np.ndarray,
+    frames: np.ndarray,
+    radius: float,
+    poisson: float,
+    shear_modulus: float,
+    step: float | None = None,
+) -> np.ndarray:
     """(127, 3, Ns, 3) m/N: displacement of each pin tip per unit force at each source, on
     the half-space gel (`disc_averaged_kernel`; `post_tips`)."""
-    return post_tips(geometry, lambda points: disc_averaged_kernel(points, sources, frames, radius, poisson,
-                                                                   shear_modulus), step)
+    return post_tips(
+        geometry, lambda points: disc_averaged_kernel(points, sources, frames, radius, poisson, shear_modulus), step
+    )
 
 
-def post_tips(geometry: TacTipGeometry, gel_at: Callable[[np.ndarray], np.ndarray],
-              step: float | None = None) -> np.ndarray:
+def post_tips(
+    geometry: TacTipGeometry, gel_at: Callable[[np.ndarray], np.ndarray], step: float | None = None
+) -> np.ndarray:
     """(127, 3, Ns, 3) m/N: displacement of each pin tip per unit force at each of Ns
     sources, given the gel's displacement at any points (`gel_at(points)`: (P, 3, Ns, 3)
     m/N).
@@ -345,22 +378,25 @@ def membrane_stiffness(sheet: SkinSheet, young: float, poisson: float, thickness
     them, E·t·(node's share of the circumference) / (its distance to the base, at least a
     quarter spacing)."""
     triangles = sheet.triangles
-    x = sheet.points[triangles]                                       # (T, 3 corners, 3)
+    x = sheet.points[triangles]  # (T, 3 corners, 3)
     e1 = _unit(x[:, 1] - x[:, 0])
     normal = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
     area = 0.5 * np.linalg.norm(normal, axis=1)
     e2 = np.cross(normal / (2.0 * area)[:, None], e1)
     local = np.stack([np.einsum("tck,tk->tc", x - x[:, :1], e) for e in (e1, e2)], axis=2)  # (T, 3, 2)
     lx, ly = local[..., 0], local[..., 1]
-    b = np.roll(ly, -1, axis=1) - np.roll(ly, -2, axis=1)            # ∂N/∂x · 2A
-    c = np.roll(lx, -2, axis=1) - np.roll(lx, -1, axis=1)            # ∂N/∂y · 2A
-    strain = np.zeros((len(triangles), 3, 3, 2))                      # [t, strain εxx/εyy/γxy, corner, axis]
+    b = np.roll(ly, -1, axis=1) - np.roll(ly, -2, axis=1)  # ∂N/∂x · 2A
+    c = np.roll(lx, -2, axis=1) - np.roll(lx, -1, axis=1)  # ∂N/∂y · 2A
+    strain = np.zeros((len(triangles), 3, 3, 2))  # [t, strain εxx/εyy/γxy, corner, axis]
     strain[:, 0, :, 0], strain[:, 1, :, 1] = b, c
     strain[:, 2, :, 0], strain[:, 2, :, 1] = c, b
     strain /= (2.0 * area)[:, None, None, None]
     strain = np.einsum("tscl,tlk->tsck", strain, np.stack([e1, e2], axis=1)).reshape(len(triangles), 3, 9)
-    elastic = young / (1.0 - poisson ** 2) * np.array([[1.0, poisson, 0.0], [poisson, 1.0, 0.0],
-                                                        [0.0, 0.0, 0.5 * (1.0 - poisson)]])
+    elastic = (
+        young
+        / (1.0 - poisson**2)
+        * np.array([[1.0, poisson, 0.0], [poisson, 1.0, 0.0], [0.0, 0.0, 0.5 * (1.0 - poisson)]])
+    )
     element = thickness * area[:, None, None] * np.einsum("tsi,sr,trj->tij", strain, elastic, strain)
     dofs = _dofs(triangles.ravel()).reshape(len(triangles), 9)
     n = len(sheet.points)
@@ -370,7 +406,7 @@ def membrane_stiffness(sheet: SkinSheet, young: float, poisson: float, thickness
     share = 2.0 * math.pi * sheet.radius * math.sin(sheet.held_at) / len(held)
     to_base = np.maximum(sheet.radius * (sheet.held_at - sheet.polar[held]), 0.25 * sheet.spacing)
     for i, length in zip(held, to_base):
-        stiffness[3 * i: 3 * i + 3, 3 * i: 3 * i + 3] += young * thickness * share / length * np.eye(3)
+        stiffness[3 * i : 3 * i + 3, 3 * i : 3 * i + 3] += young * thickness * share / length * np.eye(3)
     return stiffness
 
 
@@ -387,7 +423,7 @@ def bending_stiffness(sheet: SkinSheet, young: float, poisson: float, thickness:
     triangles = sheet.triangles
     x = sheet.points
     n = len(x)
-    laplacian = np.zeros((n, n))   # positive semi-definite: wᵀ S w = ∫ |∇w|²
+    laplacian = np.zeros((n, n))  # positive semi-definite: wᵀ S w = ∫ |∇w|²
     area = np.zeros(n)
     for k in range(3):
         i, j, o = triangles[:, k], triangles[:, (k + 1) % 3], triangles[:, (k + 2) % 3]
@@ -399,8 +435,8 @@ def bending_stiffness(sheet: SkinSheet, young: float, poisson: float, thickness:
         np.add.at(laplacian, (j, j), half_cot)
         np.add.at(area, i, np.linalg.norm(np.cross(x[j] - x[i], x[o] - x[i]), axis=1) / 6.0)
     free = ~sheet.held
-    operator = (2.0 / sheet.radius ** 2 * np.diag(area) - laplacian)[free]  # rows ≈ A_i (Δ + 2/R²) w at node i
-    rigidity = young * thickness ** 3 / (12.0 * (1.0 - poisson ** 2))
+    operator = (2.0 / sheet.radius**2 * np.diag(area) - laplacian)[free]  # rows ≈ A_i (Δ + 2/R²) w at node i
+    rigidity = young * thickness**3 / (12.0 * (1.0 - poisson**2))
     normal_stiffness = rigidity * operator.T @ (operator / area[free, None])
     normals = sheet.normals
     return np.einsum("ia,ij,jb->iajb", normals, normal_stiffness, normals).reshape(3 * n, 3 * n)
@@ -410,22 +446,27 @@ def bending_stiffness(sheet: SkinSheet, young: float, poisson: float, thickness:
 _SOURCE_DIGEST = code_digest(Path(__file__))
 
 
-def half_space_columns(surface: CapSurface, nodes: np.ndarray, poisson: float,
-                       shear_modulus: float) -> tuple[np.ndarray, np.ndarray]:
+def half_space_columns(
+    surface: CapSurface, nodes: np.ndarray, poisson: float, shear_modulus: float
+) -> tuple[np.ndarray, np.ndarray]:
     """The open half-space's columns of `nodes`: every node's displacement (k, 3, N, 3)
     and the pin tips' (k, 3, 127, 3) per unit force at each (m/N; [source, force axis,
     point, displacement axis])."""
     frames, radius = surface.frames, math.sqrt(surface.area / math.pi)
     block = disc_averaged_kernel(surface.points, surface.points[nodes], frames[nodes], radius, poisson, shear_modulus)
-    block[nodes, :, np.arange(len(nodes)), :] = self_compliance(surface.normals[nodes], surface.area, poisson,
-                                                                shear_modulus)
+    block[nodes, :, np.arange(len(nodes)), :] = self_compliance(
+        surface.normals[nodes], surface.area, poisson, shear_modulus
+    )
     pins = post_tip_kernel(surface.geometry, surface.points[nodes], frames[nodes], radius, poisson, shear_modulus)
-    return (np.ascontiguousarray(np.transpose(block, (2, 3, 0, 1))),
-            np.ascontiguousarray(np.transpose(pins, (2, 3, 0, 1))))
+    return (
+        np.ascontiguousarray(np.transpose(block, (2, 3, 0, 1))),
+        np.ascontiguousarray(np.transpose(pins, (2, 3, 0, 1))),
+    )
 
 
-def sealed_gel(surface: CapSurface, poisson: float, held_deg: float = 90.0,
-               refresh: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def sealed_gel(
+    surface: CapSurface, poisson: float, held_deg: float = 90.0, refresh: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
     """The sealed gel's influence matrices at unit shear modulus (G = 1 Pa; at a fixed ν
     linear elasticity scales as 1/G, so one pair serves every modulus): the nodes'
     (N, 3, N, 3) and the pin tips' (N, 3, 127, 3), [source, force axis, point,
@@ -436,10 +477,20 @@ def sealed_gel(surface: CapSurface, poisson: float, held_deg: float = 90.0,
     (twin.core.resources.cached_arrays); `refresh` computes and stores them even if they
     are there (what `twin bench physics` times)."""
     n, pins = surface.count, len(surface.geometry.pin_tip_points())
-    key = {"surface": dataclasses.asdict(surface), "pin_bases": _pin_bases_digest(surface), "poisson": poisson,
-           "held_deg": held_deg, "code": _SOURCE_DIGEST}
-    arrays = cached_arrays("compliance", key, lambda: _sealed_gel(surface, poisson, held_deg),
-                           shapes={"nodes": (n, 3, n, 3), "pins": (n, 3, pins, 3)}, refresh=refresh)
+    key = {
+        "surface": dataclasses.asdict(surface),
+        "pin_bases": _pin_bases_digest(surface),
+        "poisson": poisson,
+        "held_deg": held_deg,
+        "code": _SOURCE_DIGEST,
+    }
+    arrays = cached_arrays(
+        "compliance",
+        key,
+        lambda: _sealed_gel(surface, poisson, held_deg),
+        shapes={"nodes": (n, 3, n, 3), "pins": (n, 3, pins, 3)},
+        refresh=refresh,
+    )
     return arrays["nodes"], arrays["pins"]
 
 
@@ -454,23 +505,30 @@ def _bulk_ratio(poisson: float) -> float:
 
 def _gel_volume(surface: CapSurface) -> float:
     """m³: the gel, a hemisphere on the rigid base."""
-    return 2.0 / 3.0 * math.pi * surface.geometry.skin_inner_radius ** 3
+    return 2.0 / 3.0 * math.pi * surface.geometry.skin_inner_radius**3
 
 
 def _sealed_gel(surface: CapSurface, poisson: float, held_deg: float) -> dict[str, np.ndarray]:
     nodes, pins = half_space_columns(surface, np.arange(surface.count), poisson, 1.0)
     n = 3 * surface.count
-    compliance, pin_compliance = nodes.reshape(n, n), pins.reshape(n, -1)          # views, [source, point]
-    h, pins_h, volume_compliance = _pressure_response(compliance, pin_compliance,
-                                                      (surface.area * surface.normals).ravel())
+    compliance, pin_compliance = nodes.reshape(n, n), pins.reshape(n, -1)  # views, [source, point]
+    h, pins_h, volume_compliance = _pressure_response(
+        compliance, pin_compliance, (surface.area * surface.normals).ravel()
+    )
     band_h, band_pins_h, band_volume = _band_pressure(surface, poisson, held_deg)
-    _keep_gel_volume(compliance, pin_compliance, h + band_h.ravel(), pins_h + band_pins_h.ravel(),
-                     volume_compliance + band_volume + _gel_volume(surface) / _bulk_ratio(poisson))
+    _keep_gel_volume(
+        compliance,
+        pin_compliance,
+        h + band_h.ravel(),
+        pins_h + band_pins_h.ravel(),
+        volume_compliance + band_volume + _gel_volume(surface) / _bulk_ratio(poisson),
+    )
     return {"nodes": nodes, "pins": pins}
 
 
-def _pressure_response(compliance: np.ndarray, pin_compliance: np.ndarray,
-                       forces: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+def _pressure_response(
+    compliance: np.ndarray, pin_compliance: np.ndarray, forces: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, float]:
     """What a unit gel pressure (1 Pa) moves: the nodes h ((3N,) m, symmetrised: C is
     symmetric to 0.06 %, module doc), the pin tips ((381,) m) and the volume fᵀh (m³),
     for the compliances [source, point] ((3N, 3N) and (3N, 381), m/N) and the pressure's
@@ -479,8 +537,9 @@ def _pressure_response(compliance: np.ndarray, pin_compliance: np.ndarray,
     return h, pin_compliance.T @ forces, float(forces @ h)
 
 
-def _keep_gel_volume(compliance: np.ndarray, pin_compliance: np.ndarray, h: np.ndarray, pins_h: np.ndarray,
-                     volume_compliance: float) -> None:
+def _keep_gel_volume(
+    compliance: np.ndarray, pin_compliance: np.ndarray, h: np.ndarray, pins_h: np.ndarray, volume_compliance: float
+) -> None:
     """The sealed gel's constraint, in place: C − h hᵀ / c and P − h p_hᵀ / c for the
     compliances [source, point] (m/N), the nodes' and pins' displacement per Pa of gel
     pressure (h, p_h, m) and the volume compliance c = fᵀh + V/K (m³ per Pa; module doc)."""
@@ -498,19 +557,32 @@ def _band_pressure(surface: CapSurface, poisson: float, held_deg: float) -> tupl
     radius = math.sqrt(surface.area / math.pi)
     band_forces = surface.area * frames[:, 0]
     cap_forces = surface.area * surface.normals
-    cap_from_band = disc_averaged_kernel(surface.points, points, frames, radius, poisson, 1.0)   # [cap, a, band, b]
+    cap_from_band = disc_averaged_kernel(surface.points, points, frames, radius, poisson, 1.0)  # [cap, a, band, b]
     band_from_cap = disc_averaged_kernel(points, surface.points, surface.frames, radius, poisson, 1.0)
-    h = 0.5 * (np.einsum("iajb,jb->ia", cap_from_band, band_forces) + np.einsum("jbia,jb->ia", band_from_cap, band_forces))
+    h = 0.5 * (
+        np.einsum("iajb,jb->ia", cap_from_band, band_forces) + np.einsum("jbia,jb->ia", band_from_cap, band_forces)
+    )
     band = disc_averaged_kernel(points, points, frames, radius, poisson, 1.0)
-    band[np.arange(len(points)), :, np.arange(len(points)), :] = self_compliance(frames[:, 0], surface.area, poisson, 1.0)
+    band[np.arange(len(points)), :, np.arange(len(points)), :] = self_compliance(
+        frames[:, 0], surface.area, poisson, 1.0
+    )
     band_on_band = float(np.einsum("ia,iajb,jb->", band_forces, band, band_forces))
-    pins_h = np.einsum("paqb,qb->pa", post_tip_kernel(surface.geometry, points, frames, radius, poisson, 1.0),
-                       band_forces)
+    pins_h = np.einsum(
+        "paqb,qb->pa", post_tip_kernel(surface.geometry, points, frames, radius, poisson, 1.0), band_forces
+    )
     return h, pins_h, 2.0 * float(np.sum(cap_forces * h)) + band_on_band
 
 
-def skinned(surface: CapSurface, poisson: float, shear_modulus: float, membrane_young: float, bending: bool = False,
-            enclosed: bool = True, held_deg: float = 90.0, refresh: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def skinned(
+    surface: CapSurface,
+    poisson: float,
+    shear_modulus: float,
+    membrane_young: float,
+    bending: bool = False,
+    enclosed: bool = True,
+    held_deg: float = 90.0,
+    refresh: bool = False,
+) -> tuple[np.ndarray, np.ndarray]:
     """The dome with its skin as a membrane (Young's modulus `membrane_young`, Pa; with
     `bending`, a thin shell: `bending_stiffness` too) over the gel (shear modulus G, Pa;
     sealed where `enclosed`), in `sealed_gel`'s layout ([source, force axis, point,
@@ -521,35 +593,55 @@ def skinned(surface: CapSurface, poisson: float, shear_modulus: float, membrane_
     Computed once per surface, materials and ν and kept in the cache directory, as
     `sealed_gel`."""
     n, pins = surface.count, len(surface.geometry.pin_tip_points())
-    key = {"surface": dataclasses.asdict(surface), "pin_bases": _pin_bases_digest(surface), "poisson": poisson,
-           "shear_modulus": shear_modulus, "membrane_young": membrane_young, "bending": bending,
-           "enclosed": enclosed, "held_deg": held_deg, "code": _SOURCE_DIGEST}
+    key = {
+        "surface": dataclasses.asdict(surface),
+        "pin_bases": _pin_bases_digest(surface),
+        "poisson": poisson,
+        "shear_modulus": shear_modulus,
+        "membrane_young": membrane_young,
+        "bending": bending,
+        "enclosed": enclosed,
+        "held_deg": held_deg,
+        "code": _SOURCE_DIGEST,
+    }
     arrays = cached_arrays(
-        "compliance", key,
+        "compliance",
+        key,
         lambda: _skinned(surface, poisson, shear_modulus, membrane_young, bending, enclosed, held_deg),
-        shapes={"nodes": (n, 3, n, 3), "pins": (n, 3, pins, 3)}, refresh=refresh)
+        shapes={"nodes": (n, 3, n, 3), "pins": (n, 3, pins, 3)},
+        refresh=refresh,
+    )
     return arrays["nodes"], arrays["pins"]
 
 
-def _skinned(surface: CapSurface, poisson: float, shear_modulus: float, membrane_young: float, bending: bool,
-             enclosed: bool, held_deg: float) -> dict[str, np.ndarray]:
+def _skinned(
+    surface: CapSurface,
+    poisson: float,
+    shear_modulus: float,
+    membrane_young: float,
+    bending: bool,
+    enclosed: bool,
+    held_deg: float,
+) -> dict[str, np.ndarray]:
     sheet = surface.skin_to(held_deg)
     count, radius = len(sheet.points), math.sqrt(surface.area / math.pi)
     gel = disc_averaged_kernel(sheet.points, sheet.points, sheet.frames, radius, poisson, shear_modulus)
-    gel[np.arange(count), :, np.arange(count), :] = self_compliance(sheet.normals, surface.area, poisson,
-                                                                    shear_modulus)
-    gel = gel.reshape(3 * count, 3 * count)                         # displacement per force
-    pins = post_tip_kernel(surface.geometry, sheet.points, sheet.frames, radius, poisson,
-                           shear_modulus).reshape(-1, 3 * count)
+    gel[np.arange(count), :, np.arange(count), :] = self_compliance(sheet.normals, surface.area, poisson, shear_modulus)
+    gel = gel.reshape(3 * count, 3 * count)  # displacement per force
+    pins = post_tip_kernel(surface.geometry, sheet.points, sheet.frames, radius, poisson, shear_modulus).reshape(
+        -1, 3 * count
+    )
     if enclosed:  # the gel's pressure on the whole free skin, as `_sealed_gel`, here without condensing
         h, pins_h, volume_compliance = _pressure_response(gel.T, pins.T, (surface.area * sheet.normals).ravel())
-        _keep_gel_volume(gel.T, pins.T, h, pins_h,
-                         volume_compliance + _gel_volume(surface) / (_bulk_ratio(poisson) * shear_modulus))
+        _keep_gel_volume(
+            gel.T, pins.T, h, pins_h, volume_compliance + _gel_volume(surface) / (_bulk_ratio(poisson) * shear_modulus)
+        )
     return skin_on_gel(surface, sheet, gel, pins, membrane_young, bending)
 
 
-def skin_on_gel(surface: CapSurface, sheet: SkinSheet, gel: np.ndarray, pins: np.ndarray, membrane_young: float,
-                bending: bool) -> dict[str, np.ndarray]:
+def skin_on_gel(
+    surface: CapSurface, sheet: SkinSheet, gel: np.ndarray, pins: np.ndarray, membrane_young: float, bending: bool
+) -> dict[str, np.ndarray]:
     """The cap's columns, in `sealed_gel`'s layout, of the skin (a membrane of Young's
     modulus `membrane_young`, Pa; with `bending`, a thin shell) over a gel whose
     compliance on the sheet's nodes is `gel` ((3K, 3K) m/N, tool frame, [node, axis]) and
@@ -568,8 +660,10 @@ def skin_on_gel(surface: CapSurface, sheet: SkinSheet, gel: np.ndarray, pins: np
     nodes = displacement[:cap]
     nodes = 0.5 * (nodes + nodes.T)
     pin_tips = pins[:, :cap] - (skin.T @ pins.T).T @ displacement
-    return {"nodes": np.ascontiguousarray(nodes.T).reshape(surface.count, 3, surface.count, 3),
-            "pins": np.ascontiguousarray(pin_tips.T).reshape(surface.count, 3, -1, 3)}
+    return {
+        "nodes": np.ascontiguousarray(nodes.T).reshape(surface.count, 3, surface.count, 3),
+        "pins": np.ascontiguousarray(pin_tips.T).reshape(surface.count, 3, -1, 3),
+    }
 
 
 class DomeCompliance:
@@ -584,16 +678,28 @@ class DomeCompliance:
     the dome.
     """
 
-    def __init__(self, surface: CapSurface, young: float, poisson: float, enclosed: bool = True,
-                 membrane_young: float = 0.0, skin_bending: bool = False, skin_held_deg: float = 90.0) -> None:
+    def __init__(
+        self,
+        surface: CapSurface,
+        young: float,
+        poisson: float,
+        enclosed: bool = True,
+        membrane_young: float = 0.0,
+        skin_bending: bool = False,
+        skin_held_deg: float = 90.0,
+    ) -> None:
         if not (young > 0 and 0.0 <= poisson <= 0.5 and membrane_young >= 0):
-            raise ValueError(f"dome material: need young > 0 Pa, 0 <= poisson <= 0.5 and membrane_young >= 0 Pa, "
-                             f"got {young}, {poisson}, {membrane_young}")
+            raise ValueError(
+                f"dome material: need young > 0 Pa, 0 <= poisson <= 0.5 and membrane_young >= 0 Pa, "
+                f"got {young}, {poisson}, {membrane_young}"
+            )
         if skin_bending and not membrane_young:
             raise ValueError("dome material: skin_bending needs the skin membrane (membrane_young > 0 Pa)")
         if not surface.extent_deg <= skin_held_deg <= 90.0:
-            raise ValueError(f"the base holds the skin between the cap's rim ({surface.extent_deg:g}°) and the "
-                             f"equator (90°), got {skin_held_deg}°")
+            raise ValueError(
+                f"the base holds the skin between the cap's rim ({surface.extent_deg:g}°) and the "
+                f"equator (90°), got {skin_held_deg}°"
+            )
         self.surface = surface
         self.pin_tips = surface.geometry.pin_tip_points()
         self.young, self.poisson, self.enclosed, self.membrane_young = young, poisson, enclosed, membrane_young
@@ -601,7 +707,7 @@ class DomeCompliance:
         self.shear_modulus = young / (2.0 * (1.0 + poisson))
         n = surface.count
         # stored by source node (column), so an untouched column's pages are never mapped
-        self._surface = np.zeros((n, 3, n, 3))   # [source j, force axis, node i, displacement axis]
+        self._surface = np.zeros((n, 3, n, 3))  # [source j, force axis, node i, displacement axis]
         self._pins = np.zeros((n, 3, len(self.pin_tips), 3))
         self._filled = np.zeros(n, bool)
 
@@ -615,8 +721,9 @@ class DomeCompliance:
             return
         todo = nodes[~self._filled[nodes]]
         if len(todo):
-            self._surface[todo], self._pins[todo] = half_space_columns(self.surface, todo, self.poisson,
-                                                                       self.shear_modulus)
+            self._surface[todo], self._pins[todo] = half_space_columns(
+                self.surface, todo, self.poisson, self.shear_modulus
+            )
             self._filled[todo] = True
 
     def one_off(self, refresh: bool = False) -> tuple[np.ndarray, np.ndarray]:
@@ -625,8 +732,16 @@ class DomeCompliance:
         stored (always where `refresh`: what `twin bench physics` times); the open gel's
         without a skin, computed (`fill` computes those only as contacts reach them)."""
         if self.membrane_young:
-            return skinned(self.surface, self.poisson, self.shear_modulus, self.membrane_young, self.skin_bending,
-                           self.enclosed, self.skin_held_deg, refresh=refresh)
+            return skinned(
+                self.surface,
+                self.poisson,
+                self.shear_modulus,
+                self.membrane_young,
+                self.skin_bending,
+                self.enclosed,
+                self.skin_held_deg,
+                refresh=refresh,
+            )
         if self.enclosed:
             nodes, pins = sealed_gel(self.surface, self.poisson, self.skin_held_deg, refresh=refresh)
             return nodes / self.shear_modulus, pins / self.shear_modulus
@@ -691,10 +806,12 @@ def _rotated_block(surface: np.ndarray, nodes: np.ndarray, frames: np.ndarray) -
             block = surface[nodes[j], :, nodes[i], :]  # [force axis l, displacement axis k]
             for a in range(3):
                 for l in range(3):
-                    turned[a, l] = (frames[i, a, 0] * block[l, 0] + frames[i, a, 1] * block[l, 1]
-                                    + frames[i, a, 2] * block[l, 2])
+                    turned[a, l] = (
+                        frames[i, a, 0] * block[l, 0] + frames[i, a, 1] * block[l, 1] + frames[i, a, 2] * block[l, 2]
+                    )
             for a in range(3):
                 for b in range(3):
-                    out[3 * i + a, 3 * j + b] = (turned[a, 0] * frames[j, b, 0] + turned[a, 1] * frames[j, b, 1]
-                                                 + turned[a, 2] * frames[j, b, 2])
+                    out[3 * i + a, 3 * j + b] = (
+                        turned[a, 0] * frames[j, b, 0] + turned[a, 1] * frames[j, b, 1] + turned[a, 2] * frames[j, b, 2]
+                    )
     return out

@@ -34,6 +34,7 @@ accelerated projected gradient with adaptive restart (Nesterov; O'Donoghue & Can
 2015). Residuals are in metres. Nothing passes silently: a problem that does not
 converge raises `ContactNotConverged`.
 """
+
 from __future__ import annotations
 
 import math
@@ -44,7 +45,6 @@ import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 
 from twin.world.dome.compiled import compiled
-
 
 #: Newton iterations of one frictional increment before it counts as not converged
 NEWTON_ITERATIONS = 100
@@ -96,9 +96,15 @@ def largest_eigenvalue(matrix: np.ndarray, iterations: int = 40) -> float:
     return 1.02 * value
 
 
-def projected_gradient(matrix: np.ndarray, linear: np.ndarray, start: np.ndarray,
-                       project: Callable[[np.ndarray], np.ndarray], tolerance: float,
-                       max_iterations: int, lipschitz: float | None = None) -> tuple[np.ndarray, int, float]:
+def projected_gradient(
+    matrix: np.ndarray,
+    linear: np.ndarray,
+    start: np.ndarray,
+    project: Callable[[np.ndarray], np.ndarray],
+    tolerance: float,
+    max_iterations: int,
+    lipschitz: float | None = None,
+) -> tuple[np.ndarray, int, float]:
     """Minimise ½ xᵀ A x + bᵀ x over a convex set (its projection given).
 
     Returns (x, iterations, residual) where the residual is the infinity norm of the
@@ -126,12 +132,14 @@ def projected_gradient(matrix: np.ndarray, linear: np.ndarray, start: np.ndarray
             y = x_next + ((momentum - 1.0) / momentum_next) * (x_next - x)
             momentum = momentum_next
         x = x_next
-    raise ContactNotConverged(f"projected gradient: residual {residual:.3g} m after {max_iterations} iterations "
-                              f"(tolerance {tolerance:.3g} m)")
+    raise ContactNotConverged(
+        f"projected gradient: residual {residual:.3g} m after {max_iterations} iterations (tolerance {tolerance:.3g} m)"
+    )
 
 
-def solve_normal(matrix: np.ndarray, linear: np.ndarray, start: np.ndarray, tolerance: float,
-                 max_iterations: int) -> tuple[np.ndarray, int, float]:
+def solve_normal(
+    matrix: np.ndarray, linear: np.ndarray, start: np.ndarray, tolerance: float, max_iterations: int
+) -> tuple[np.ndarray, int, float]:
     """The normal problem min ½ pᵀ D p + cᵀ p over p ≥ 0 by active sets (Kalker's NORM):
     solve D_AA p_A = −c_A on the nodes A in contact, drop those that pull (p < 0), add
     those that penetrate (gradient h = D p + c < −tolerance), until neither happens —
@@ -181,9 +189,20 @@ def project_discs(q: np.ndarray, radius: np.ndarray) -> np.ndarray:
 
 
 @compiled
-def _alart_curnier(matrix: np.ndarray, offset: np.ndarray, friction: float, f: np.ndarray, r_n: np.ndarray,
-                   r_t: np.ndarray, phi: np.ndarray, contact: np.ndarray, slip: np.ndarray, z: np.ndarray,
-                   size: np.ndarray, radius: np.ndarray) -> None:
+def _alart_curnier(
+    matrix: np.ndarray,
+    offset: np.ndarray,
+    friction: float,
+    f: np.ndarray,
+    r_n: np.ndarray,
+    r_t: np.ndarray,
+    phi: np.ndarray,
+    contact: np.ndarray,
+    slip: np.ndarray,
+    z: np.ndarray,
+    size: np.ndarray,
+    radius: np.ndarray,
+) -> None:
     """Alart & Curnier's functions at f, in place: phi (3m,) = Φ/r (m) per node (n, t1,
     t2); contact (m,): p − r h > 0; slip (m,): the tangential predictor z (m, 2) = q − r v
     lies outside the friction disc, whose radius (m,) is μ·max(0, p − r h); size (m,) |z|."""
@@ -206,20 +225,44 @@ def _alart_curnier(matrix: np.ndarray, offset: np.ndarray, friction: float, f: n
 
 
 @compiled
-def _alart_curnier_residual(matrix: np.ndarray, offset: np.ndarray, friction: float, f: np.ndarray,
-                            r_n: np.ndarray, r_t: np.ndarray) -> np.ndarray:
+def _alart_curnier_residual(
+    matrix: np.ndarray, offset: np.ndarray, friction: float, f: np.ndarray, r_n: np.ndarray, r_t: np.ndarray
+) -> np.ndarray:
     """(3m,) m: Φ/r at f (`_alart_curnier`)."""
     m = len(r_n)
     phi = np.empty(3 * m)
-    _alart_curnier(matrix, offset, friction, f, r_n, r_t, phi, np.zeros(m, np.bool_), np.zeros(m, np.bool_),
-                   np.empty((m, 2)), np.empty(m), np.empty(m))
+    _alart_curnier(
+        matrix,
+        offset,
+        friction,
+        f,
+        r_n,
+        r_t,
+        phi,
+        np.zeros(m, np.bool_),
+        np.zeros(m, np.bool_),
+        np.empty((m, 2)),
+        np.empty(m),
+        np.empty(m),
+    )
     return phi
 
 
 @compiled
-def _newton_step(matrix: np.ndarray, friction: float, f: np.ndarray, phi: np.ndarray, contact: np.ndarray,
-                 slip: np.ndarray, z: np.ndarray, size: np.ndarray, radius: np.ndarray, r_n: np.ndarray,
-                 r_t: np.ndarray, step: np.ndarray) -> bool:
+def _newton_step(
+    matrix: np.ndarray,
+    friction: float,
+    f: np.ndarray,
+    phi: np.ndarray,
+    contact: np.ndarray,
+    slip: np.ndarray,
+    z: np.ndarray,
+    size: np.ndarray,
+    radius: np.ndarray,
+    r_n: np.ndarray,
+    r_t: np.ndarray,
+    step: np.ndarray,
+) -> bool:
     """Newton's step for Φ/r at f, in place (step (3m,)); False where the system is singular.
 
     The full Jacobian's step, solved condensed. Rows out of contact (Φn/r = p/r) and
@@ -300,8 +343,17 @@ def _newton_step(matrix: np.ndarray, friction: float, f: np.ndarray, phi: np.nda
 
 
 @compiled
-def _newton(matrix: np.ndarray, offset: np.ndarray, friction: float, start: np.ndarray, r_n: np.ndarray,
-            r_t: np.ndarray, budget: int, tolerance: float, full_steps: int):
+def _newton(
+    matrix: np.ndarray,
+    offset: np.ndarray,
+    friction: float,
+    start: np.ndarray,
+    r_n: np.ndarray,
+    r_t: np.ndarray,
+    budget: int,
+    tolerance: float,
+    full_steps: int,
+):
     """Semismooth Newton on `_alart_curnier`'s Φ/r from `start` (not changed), with a
     backtracking line search on |Φ|² (where it finds no descent, the full step, up to
     `full_steps` times), for at most `budget` iterations; each step `_newton_step`'s.
@@ -333,8 +385,20 @@ def _newton(matrix: np.ndarray, offset: np.ndarray, friction: float, start: np.n
         length, descent = 1.0, False
         while length >= 1e-3 and not descent:
             trial = f + length * step
-            _alart_curnier(matrix, offset, friction, trial, r_n, r_t, phi_trial, contact_trial, slip_trial, z_trial,
-                           size_trial, radius_trial)
+            _alart_curnier(
+                matrix,
+                offset,
+                friction,
+                trial,
+                r_n,
+                r_t,
+                phi_trial,
+                contact_trial,
+                slip_trial,
+                z_trial,
+                size_trial,
+                radius_trial,
+            )
             descent = phi_trial @ phi_trial <= (1.0 - 1e-4 * length) * merit
             if not descent:
                 length *= 0.5
@@ -345,8 +409,20 @@ def _newton(matrix: np.ndarray, offset: np.ndarray, friction: float, start: np.n
                 break
             forced -= 1
             trial = f + step
-            _alart_curnier(matrix, offset, friction, trial, r_n, r_t, phi_trial, contact_trial, slip_trial, z_trial,
-                           size_trial, radius_trial)
+            _alart_curnier(
+                matrix,
+                offset,
+                friction,
+                trial,
+                r_n,
+                r_t,
+                phi_trial,
+                contact_trial,
+                slip_trial,
+                z_trial,
+                size_trial,
+                radius_trial,
+            )
         f = trial
         phi, phi_trial = phi_trial, phi
         contact, contact_trial = contact_trial, contact
@@ -370,9 +446,17 @@ def unknowns_matrix(compliance: np.ndarray) -> np.ndarray:
     return matrix
 
 
-def solve_increment(matrix: np.ndarray, gap: np.ndarray, previous_tangential: np.ndarray,
-                    object_shift: np.ndarray, friction: float, pressure0: np.ndarray, traction0: np.ndarray,
-                    tolerance: float, max_iterations: int) -> ContactIncrement:
+def solve_increment(
+    matrix: np.ndarray,
+    gap: np.ndarray,
+    previous_tangential: np.ndarray,
+    object_shift: np.ndarray,
+    friction: float,
+    pressure0: np.ndarray,
+    traction0: np.ndarray,
+    tolerance: float,
+    max_iterations: int,
+) -> ContactIncrement:
     """Solve one increment for m candidate nodes, everything in the nodes' local frames
     (normal, t1, t2).
 
@@ -386,19 +470,32 @@ def solve_increment(matrix: np.ndarray, gap: np.ndarray, previous_tangential: np
     m = len(gap)
     n_idx = np.arange(m) * 3
     if friction == 0:
-        p, solves, residual = solve_normal(matrix[np.ix_(n_idx, n_idx)], np.asarray(gap, float),
-                                           np.maximum(np.asarray(pressure0, float), 0.0), tolerance, max_iterations)
+        p, solves, residual = solve_normal(
+            matrix[np.ix_(n_idx, n_idx)],
+            np.asarray(gap, float),
+            np.maximum(np.asarray(pressure0, float), 0.0),
+            tolerance,
+            max_iterations,
+        )
         return ContactIncrement(p, np.zeros((m, 2)), np.column_stack([-p, np.zeros((m, 2))]), solves, residual)
     offset = np.column_stack([gap, -(np.asarray(previous_tangential, float) + np.asarray(object_shift, float))])
     start = np.column_stack([np.maximum(np.asarray(pressure0, float), 0.0), np.asarray(traction0, float)])
-    forces, iterations, residual = solve_coulomb(matrix, offset.ravel(), friction, start.ravel(), tolerance,
-                                                 max_iterations)
+    forces, iterations, residual = solve_coulomb(
+        matrix, offset.ravel(), friction, start.ravel(), tolerance, max_iterations
+    )
     f = forces.reshape(m, 3)
     return ContactIncrement(f[:, 0], f[:, 1:], np.column_stack([-f[:, 0], f[:, 1:]]), iterations, residual)
 
 
-def alternation_pass(matrix: np.ndarray, offset: np.ndarray, friction: float, f: np.ndarray, tolerance: float,
-                     max_iterations: int, lipschitz: float | None = None) -> np.ndarray:
+def alternation_pass(
+    matrix: np.ndarray,
+    offset: np.ndarray,
+    friction: float,
+    f: np.ndarray,
+    tolerance: float,
+    max_iterations: int,
+    lipschitz: float | None = None,
+) -> np.ndarray:
     """One pass of Panagiotopoulos' alternation on `solve_coulomb`'s problem: the normal
     forces for the current tangential ones (exact, `solve_normal`), then the tangential
     forces within μ·p for those (`projected_gradient`; `lipschitz`: the tangential block's
@@ -406,11 +503,23 @@ def alternation_pass(matrix: np.ndarray, offset: np.ndarray, friction: float, f:
     m = len(offset) // 3
     n_idx = np.arange(m) * 3
     t_idx = np.column_stack([n_idx + 1, n_idx + 2]).ravel()
-    p, _, _ = solve_normal(matrix[np.ix_(n_idx, n_idx)], offset[n_idx] + matrix[np.ix_(n_idx, t_idx)] @ f[t_idx],
-                           np.maximum(f[n_idx], 0.0), tolerance, max_iterations)
+    p, _, _ = solve_normal(
+        matrix[np.ix_(n_idx, n_idx)],
+        offset[n_idx] + matrix[np.ix_(n_idx, t_idx)] @ f[t_idx],
+        np.maximum(f[n_idx], 0.0),
+        tolerance,
+        max_iterations,
+    )
     d_tt = matrix[np.ix_(t_idx, t_idx)]
-    q, _, _ = projected_gradient(d_tt, offset[t_idx] + matrix[np.ix_(t_idx, n_idx)] @ p, f[t_idx],
-                                 lambda x: project_discs(x, friction * p), tolerance, max_iterations, lipschitz)
+    q, _, _ = projected_gradient(
+        d_tt,
+        offset[t_idx] + matrix[np.ix_(t_idx, n_idx)] @ p,
+        f[t_idx],
+        lambda x: project_discs(x, friction * p),
+        tolerance,
+        max_iterations,
+        lipschitz,
+    )
     out = np.empty_like(f)
     out[n_idx], out[t_idx] = p, q
     return out
@@ -424,8 +533,9 @@ def own_stiffness(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return 1.0 / diagonal[0::3], 1.0 / (0.5 * (diagonal[1::3] + diagonal[2::3]))
 
 
-def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start: np.ndarray, tolerance: float,
-                  max_iterations: int) -> tuple[np.ndarray, int, float]:
+def solve_coulomb(
+    matrix: np.ndarray, offset: np.ndarray, friction: float, start: np.ndarray, tolerance: float, max_iterations: int
+) -> tuple[np.ndarray, int, float]:
     """Signorini contact with Coulomb friction, normal and tangential solved together.
 
     matrix (3m, 3m) m/N, offset (3m,) m: per node (n, t1, t2), the gap after deformation
@@ -449,8 +559,9 @@ def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start
     def newton(f: np.ndarray, r_n: np.ndarray, r_t: np.ndarray, budget: int) -> tuple[np.ndarray, int, float]:
         """`_newton` from f; returns (f, iterations, residual) at convergence, else the best
         iterate where it stalls or runs out of iterations."""
-        f, iterations, residual, contact = _newton(matrix, offset, friction, np.ascontiguousarray(f, dtype=float),
-                                                   r_n, r_t, budget, tolerance, FULL_STEPS)
+        f, iterations, residual, contact = _newton(
+            matrix, offset, friction, np.ascontiguousarray(f, dtype=float), r_n, r_t, budget, tolerance, FULL_STEPS
+        )
         if residual < tolerance:
             f.reshape(-1, 3)[~contact] = 0.0  # free nodes carry nothing (not round-off)
         return f, iterations, residual
@@ -487,8 +598,11 @@ def solve_coulomb(matrix: np.ndarray, offset: np.ndarray, friction: float, start
             done += iterations
             if attempt_residual < tolerance:
                 return attempt, done + passes, attempt_residual
-    residual = float(np.max(np.abs(_alart_curnier_residual(matrix, offset, friction, f, stiffness_n, stiffness_t)),
-                            initial=0.0))
-    raise ContactNotConverged(f"semismooth Newton stalled after {done} iterations and the normal/tangential "
-                              f"alternation leaves a residual of {residual:.3g} m (its last pass changed "
-                              f"{change:.3g} m) after {ALTERNATION_PASSES} passes (tolerance {tolerance:.3g} m)")
+    residual = float(
+        np.max(np.abs(_alart_curnier_residual(matrix, offset, friction, f, stiffness_n, stiffness_t)), initial=0.0)
+    )
+    raise ContactNotConverged(
+        f"semismooth Newton stalled after {done} iterations and the normal/tangential "
+        f"alternation leaves a residual of {residual:.3g} m (its last pass changed "
+        f"{change:.3g} m) after {ALTERNATION_PASSES} passes (tolerance {tolerance:.3g} m)"
+    )

@@ -32,6 +32,7 @@ penetration after the solve beyond `max_penetration`, contact at the rim of the 
 cap, an indentation beyond what the rays can see, a total force above `max_force`, a pin
 farther than `max_pin_excursion` from rest.
 """
+
 from __future__ import annotations
 
 import math
@@ -152,10 +153,20 @@ class CompliantPhysics:
       lab pose (4×4, m). work2world: only to report poses in errors (lab convention).
     """
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, params: CompliantParams, friction: float,
-                 scenario_name: str, start_tool2world: np.ndarray, stimulus2world: np.ndarray | None = None,
-                 carrier: str = "stimulus", work2world: np.ndarray | None = None,
-                 geometry: TacTipGeometry | None = None, angular_speed_deg_s: float = 45.0) -> None:
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        params: CompliantParams,
+        friction: float,
+        scenario_name: str,
+        start_tool2world: np.ndarray,
+        stimulus2world: np.ndarray | None = None,
+        carrier: str = "stimulus",
+        work2world: np.ndarray | None = None,
+        geometry: TacTipGeometry | None = None,
+        angular_speed_deg_s: float = 45.0,
+    ) -> None:
         self.model, self.data, self.params = model, data, params
         self.friction = float(friction)
         self.scenario_name = scenario_name
@@ -181,7 +192,7 @@ class CompliantPhysics:
         #: candidate_margin + `_reach` (m) from the object; increments within `_reach` of it skip the rays
         self._clear_centre: np.ndarray | None = None
         self._reach = 0.0
-        self.forces = np.zeros((n, 3))        # N on the dome, tool frame
+        self.forces = np.zeros((n, 3))  # N on the dome, tool frame
         #: the increment before: its forces (N, tool frame), candidates and object motion (4×4),
         #: from which a steady motion's next forces are extrapolated (`_warm_start`)
         self._before: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
@@ -192,10 +203,10 @@ class CompliantPhysics:
         self._steps = 0
         self._since_frame = 0
         self.time = 0.0
-        self.step_seconds = 0.0   # wall time in increments (s), for benchmarks
+        self.step_seconds = 0.0  # wall time in increments (s), for benchmarks
         self.solve_seconds = 0.0  # of which in the contact solver (s)
-        self.iterations = 0       # solver iterations, all increments
-        self.skipped = 0          # increments proven out of the object's reach, no rays cast
+        self.iterations = 0  # solver iterations, all increments
+        self.skipped = 0  # increments proven out of the object's reach, no rays cast
         self._commanded = np.asarray(start_tool2world, float)
         self._at = self._commanded  # the pose of the increment being solved (named in errors)
         self._object2tool = self._object_pose(self._commanded)
@@ -229,9 +240,17 @@ class CompliantPhysics:
     def settle(self) -> Frame:
         """The frame at the current pose: every increment ends in equilibrium."""
         force = self.contact_force_tool()
-        frame = Frame(pins_tool=self._pins.copy(), time=self.time, contact_force=float(np.linalg.norm(force)),
-                      contact_force_tool=force, n_steps=self._since_frame, settled=True,
-                      tool2world=self._commanded.copy(), settle_steps=0, last_motion_px=0.0)
+        frame = Frame(
+            pins_tool=self._pins.copy(),
+            time=self.time,
+            contact_force=float(np.linalg.norm(force)),
+            contact_force_tool=force,
+            n_steps=self._since_frame,
+            settled=True,
+            tool2world=self._commanded.copy(),
+            settle_steps=0,
+            last_motion_px=0.0,
+        )
         self._since_frame = 0
         return frame
 
@@ -267,14 +286,26 @@ class CompliantPhysics:
         if not self._collidable.any():  # no `contact` effect: the object has no collision pieces
             return np.full(self.surface.count, np.inf), self.surface.frames
         d = self.data
-        d.qpos[self._qadr: self._qadr + 3] = object2tool[:3, 3]
+        d.qpos[self._qadr : self._qadr + 3] = object2tool[:3, 3]
         # MuJoCo's own conversion into its qpos (w first): scipy's, through matrix_to_quat_wxyz,
         # cost 0.15 ms of each increment's ~2
-        mujoco.mju_mat2Quat(d.qpos[self._qadr + 3: self._qadr + 7], object2tool[:3, :3].ravel())
+        mujoco.mju_mat2Quat(d.qpos[self._qadr + 3 : self._qadr + 7], object2tool[:3, :3].ravel())
         mujoco.mj_kinematics(self.model, d)
         r = self.geometry.dome_outer_radius
-        mujoco.mj_multiRay(self.model, d, self._centre, self._ray_dirs, None, 1, -1, self._ray_geom, self._ray_dist,
-                           self._ray_normal, len(self._ray_dist), 3.0 * r)
+        mujoco.mj_multiRay(
+            self.model,
+            d,
+            self._centre,
+            self._ray_dirs,
+            None,
+            1,
+            -1,
+            self._ray_geom,
+            self._ray_dist,
+            self._ray_normal,
+            len(self._ray_dist),
+            3.0 * r,
+        )
         hit = (self._ray_dist >= 0.0) & self._collidable[self._ray_geom]
         normals = self.surface.normals
         frames = self.surface.frames.copy()
@@ -339,8 +370,9 @@ class CompliantPhysics:
         self._object2tool = object2tool.copy()
         r = self.geometry.dome_outer_radius
         if np.min(gaps) < -0.5 * r:
-            self._fail(f"indentation {-np.min(gaps) * 1e3:.2f} mm: deeper than the dome model reaches "
-                       f"({0.5 * r * 1e3:.0f} mm)")
+            self._fail(
+                f"indentation {-np.min(gaps) * 1e3:.2f} mm: deeper than the dome model reaches ({0.5 * r * 1e3:.0f} mm)"
+            )
         loaded = np.flatnonzero(np.any(self.forces != 0.0, axis=1))
         candidates = np.union1d(np.flatnonzero(gaps < p.candidate_margin), loaded)
         candidates = candidates[np.isfinite(gaps[candidates])]  # a node the object left carries nothing
@@ -364,8 +396,17 @@ class CompliantPhysics:
             shift_t = np.einsum("nij,nj->ni", f[:, 1:], moved[candidates])
             start = np.einsum("nij,nj->ni", f, self._warm_start(candidates, shift))
             try:
-                solution = solve_increment(local, gaps[candidates], previous, shift_t, self.friction,
-                                           -start[:, 0], start[:, 1:], p.tolerance, p.max_iterations)
+                solution = solve_increment(
+                    local,
+                    gaps[candidates],
+                    previous,
+                    shift_t,
+                    self.friction,
+                    -start[:, 0],
+                    start[:, 1:],
+                    p.tolerance,
+                    p.max_iterations,
+                )
             except ContactNotConverged as err:
                 self._fail(f"contact solve did not converge ({len(candidates)} nodes, μ = {self.friction:g}): {err}")
             self.solve_seconds += time.perf_counter() - t1
@@ -435,9 +476,15 @@ class CompliantPhysics:
 
 
 @lru_cache(maxsize=8)
-def dome_compliance(surface: CapSurface, young: float, poisson: float, enclosed: bool,
-                    membrane_young: float = 0.0, skin_bending: bool = False,
-                    skin_held_deg: float = 90.0) -> DomeCompliance:
+def dome_compliance(
+    surface: CapSurface,
+    young: float,
+    poisson: float,
+    enclosed: bool,
+    membrane_young: float = 0.0,
+    skin_bending: bool = False,
+    skin_held_deg: float = 90.0,
+) -> DomeCompliance:
     """The influence matrices for this surface and material, shared within the process
     (the sealed gel's loaded from the cache, or computed, at the first contact). Eight
     are kept (8–218 MB each): `twin bench physics` alternates between five."""

@@ -37,6 +37,7 @@ applies ``configure_options`` (discrete integrator, Newton, elliptic cone, impra
 viscosity, timestep) to the whole spec; ``apply_contact_law`` (called by SensorPhysics)
 gives every contact with the dome the dome's normal contact law.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
@@ -237,15 +238,30 @@ FIDELITY_LEVELS: dict[str, DomeParams] = {
     # coarser: a 3×3×2 grid (10 free nodes instead of 26: ≈ 0.23 ms/step instead of 0.46),
     # 3 mm collision surface, 0.1 px settling; young recalibrated for the stiffer grid
     # (4.2 N at 4 mm). Pins are the smoothest and least accurate.
-    "fast": DomeParams(cellcount=(3, 3, 2), young=2.8e4, surface_spacing=0.003, settle_px=0.1,
-                       free_settle_px=0.01, cycle_after=20, cycle_px=0.3),
+    "fast": DomeParams(
+        cellcount=(3, 3, 2),
+        young=2.8e4,
+        surface_spacing=0.003,
+        settle_px=0.1,
+        free_settle_px=0.01,
+        cycle_after=20,
+        cycle_px=0.3,
+    ),
     "default": DomeParams(),
     # the accuracy reference: a 6×6×3 grid (6.7 mm cells), 1.5 mm collision surface, 10 ms
     # steps (contact time constant 20 ms), settled to 0.02 px over 3 steps; young
     # recalibrated for the softer grid (4.3 N at 4 mm). (An 8×8×4 grid costs 8 ms per step.)
     "reference": DomeParams(
-        cellcount=(6, 6, 3), young=6.5e4, surface_spacing=0.0015, timestep=0.01, settle_px=0.02, settle_steps=3,
-        free_settle_px=0.001, max_settle_steps=1000, cycle_after=200, cycle_px=0.1,
+        cellcount=(6, 6, 3),
+        young=6.5e4,
+        surface_spacing=0.0015,
+        timestep=0.01,
+        settle_px=0.02,
+        settle_steps=3,
+        free_settle_px=0.001,
+        max_settle_steps=1000,
+        cycle_after=200,
+        cycle_px=0.1,
     ),
 }
 
@@ -278,7 +294,7 @@ class TacTipHandles:
         flex = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_FLEX, self.flex_name)
         if flex < 0:
             raise PhysicsError(f"flex {self.flex_name!r} not in the model")
-        nodes = model.flex_nodebodyid[model.flex_nodeadr[flex]: model.flex_nodeadr[flex] + model.flex_nodenum[flex]]
+        nodes = model.flex_nodebodyid[model.flex_nodeadr[flex] : model.flex_nodeadr[flex] + model.flex_nodenum[flex]]
         return replace(
             self,
             mount_body=mount,
@@ -290,7 +306,9 @@ class TacTipHandles:
         )
 
 
-def dome_mesh(geometry: TacTipGeometry, spacing: float, inset: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def dome_mesh(
+    geometry: TacTipGeometry, spacing: float, inset: float = 0.0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Tetrahedral mesh of the solid dome, tool frame (m).
 
     Returns (points (N,3), tets (M,4), pin_vertices (127,)). The points are the 127 pin
@@ -364,7 +382,7 @@ def tactip_mjcf(geometry: TacTipGeometry, params: DomeParams, friction: bool, na
      contype="{BASE_CONTYPE}" conaffinity="{BASE_CONAFFINITY}"/>
    <flexcomp name="{name}flex" type="direct" dim="3" dof="trilinear" cellcount="{cx} {cy} {cz}"
      mass="{params.mass:.9g}" radius="0" rgba="0.9 0.9 0.9 0.5"
-     point="{_fmt(points)}" element="{' '.join(map(str, tets.ravel()))}">
+     point="{_fmt(points)}" element="{" ".join(map(str, tets.ravel()))}">
     <elasticity young="{params.young:.9g}" poisson="{params.poisson:.9g}" damping="{params.damping:.9g}"/>
     <contact {contact} contype="{FLEX_CONTYPE}" conaffinity="{FLEX_CONAFFINITY}" solref="{_fmt(params.solref)}" solimp="{_fmt(params.solimp)}"
       margin="{params.margin:.9g}" selfcollide="none"/>
@@ -395,8 +413,10 @@ def membrane_mjcf(geometry: TacTipGeometry, params: DomeParams, name: str) -> st
     columns = [(ix, iy) for ix in range(cx + 1) for iy in range(cy + 1)]  # vertex k = ix·(cy + 1) + iy
     clamped = [column in pinned for column in columns]
     bodies = [f"{name}dome" if c else f"{name}flex_{ix}_{iy}_{cz}" for (ix, iy), c in zip(columns, clamped)]
-    offsets = [(-half + 2 * half * ix / cx, -half + 2 * half * iy / cy, top_z) if c else (0.0, 0.0, 0.0)
-               for (ix, iy), c in zip(columns, clamped)]
+    offsets = [
+        (-half + 2 * half * ix / cx, -half + 2 * half * iy / cy, top_z) if c else (0.0, 0.0, 0.0)
+        for (ix, iy), c in zip(columns, clamped)
+    ]
     triangles = []
     for ix in range(cx):
         for iy in range(cy):
@@ -404,7 +424,7 @@ def membrane_mjcf(geometry: TacTipGeometry, params: DomeParams, name: str) -> st
             triangles += [t for t in ((a, b, c), (a, c, d), (a, b, d), (b, c, d)) if not all(clamped[k] for k in t)]
     return f"""
  <deformable>
-  <flex name="{name}membrane" dim="2" body="{' '.join(bodies)}" vertex="{_fmt(offsets)}"
+  <flex name="{name}membrane" dim="2" body="{" ".join(bodies)}" vertex="{_fmt(offsets)}"
     element="{_fmt(np.ravel(triangles).astype(int))}" radius="0">
    <contact contype="0" conaffinity="0"/>
    <elasticity young="{params.membrane_young / 2:.9g}" poisson="0.45" thickness="{geometry.skin_thickness:.9g}" elastic2d="stretch"
@@ -420,8 +440,12 @@ def _ghost_columns(params: DomeParams) -> set[tuple[int, int]]:
     if not params.pin_ghost_nodes:
         return set()
     cx, cy, _ = params.cellcount
-    return {(ix, iy) for ix in range(cx + 1) for iy in range(cy + 1)
-            if np.hypot(2 * ix / cx - 1, 2 * iy / cy - 1) > 1 + 1e-9}
+    return {
+        (ix, iy)
+        for ix in range(cx + 1)
+        for iy in range(cy + 1)
+        if np.hypot(2 * ix / cx - 1, 2 * iy / cy - 1) > 1 + 1e-9
+    }
 
 
 def _ghost_pins(params: DomeParams) -> str:
@@ -434,8 +458,7 @@ def _ghost_pins(params: DomeParams) -> str:
     those spurious modes; they only touch the thin flank regions of their cells.
     """
     cx, cy, cz = params.cellcount
-    ids = [(ix * (cy + 1) + iy) * (cz + 1) + iz for ix, iy in sorted(_ghost_columns(params))
-           for iz in range(1, cz + 1)]
+    ids = [(ix * (cy + 1) + iy) * (cz + 1) + iz for ix, iy in sorted(_ghost_columns(params)) for iz in range(1, cz + 1)]
     return f'\n    <pin id="{" ".join(map(str, ids))}"/>' if ids else ""
 
 

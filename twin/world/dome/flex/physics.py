@@ -50,6 +50,7 @@ slide joints, so ``pins_tool = rest + J · (q_nodes − q_nodes_rest)`` with J m
 Deterministic: same model, inputs and call sequence → bit-identical pins (MuJoCo is
 single-threaded here and nothing random is used).
 """
+
 from __future__ import annotations
 
 import math
@@ -173,8 +174,9 @@ class SensorPhysics:
         self._qadr = int(model.jnt_qposadr[jnt])
         self._vadr = int(model.jnt_dofadr[jnt])
         #: dofs of the flex's grid nodes (zeroed by quasi-static settling)
-        self._dome_dofs = np.concatenate([np.arange(model.body_dofadr[b], model.body_dofadr[b] + model.body_dofnum[b])
-                                          for b in handles.node_bodies]).astype(int)
+        self._dome_dofs = np.concatenate(
+            [np.arange(model.body_dofadr[b], model.body_dofadr[b] + model.body_dofnum[b]) for b in handles.node_bodies]
+        ).astype(int)
         self.stimulus2world = np.eye(4) if stimulus2world is None else np.asarray(stimulus2world, float)
         mujoco.mj_kinematics(model, data)
         self._tool2scene = tool2world(model, data, handles)  # fixed pose of the tool frame in the scene
@@ -215,8 +217,13 @@ class SensorPhysics:
         relative = start[:3, :3].T @ target[:3, :3]
         turns = not np.allclose(relative, np.eye(3), rtol=0.0, atol=1e-12)
         rotvec = Rotation.from_matrix(relative).as_rotvec() if turns else np.zeros(3)  # in the start tool frame
-        n = int(max(1, np.ceil(np.linalg.norm(delta_p) / (speed_mm_s * 1e-3 * dt) - 1e-9),
-                    np.ceil(np.linalg.norm(rotvec) / (self.angular_speed * dt) - 1e-9)))
+        n = int(
+            max(
+                1,
+                np.ceil(np.linalg.norm(delta_p) / (speed_mm_s * 1e-3 * dt) - 1e-9),
+                np.ceil(np.linalg.norm(rotvec) / (self.angular_speed * dt) - 1e-9),
+            )
+        )
         duration = n * dt
         v_tool = delta_p / duration  # lab frame, constant
         w_tool = start[:3, :3] @ (rotvec / duration)  # lab frame, constant (rotation axis is fixed)
@@ -303,8 +310,10 @@ class SensorPhysics:
         t0 = time.perf_counter()
         delta = self.skin.penetration(self.model, self.data, self._tool2scene, self.handles.dome_body)
         if self.skin.rim_in_contact(delta):
-            self._fail(f"the contact reaches the rim of the skin layer's {self.skin.extent_deg:g}° cap "
-                       "(DomeParams.skin_extent_deg)")
+            self._fail(
+                f"the contact reaches the rim of the skin layer's {self.skin.extent_deg:g}° cap "
+                "(DomeParams.skin_extent_deg)"
+            )
         try:
             offsets = self.skin.pin_offsets(delta)
         except PhysicsError as err:
@@ -317,8 +326,9 @@ class SensorPhysics:
         qpos, qvel = self._carrier_states(pose[None, :3, :3], pose[None, :3, 3], v_tool, w_tool)
         return qpos[0], qvel[0]
 
-    def _carrier_states(self, rotations: np.ndarray, positions: np.ndarray, v_tool: np.ndarray,
-                        w_tool: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _carrier_states(
+        self, rotations: np.ndarray, positions: np.ndarray, v_tool: np.ndarray, w_tool: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Carrier qpos (n, 7) and qvel (n, 6) for sensor poses (rotations (n,3,3), or (1,3,3)
         for all, positions (n,3) m, lab frame) moving at linear velocity v and angular
         velocity ω (lab frame).
@@ -347,11 +357,11 @@ class SensorPhysics:
         return qpos, np.column_stack([v_scene, w_local])
 
     def _set_carrier(self, state) -> None:
-        self.data.qpos[self._qadr: self._qadr + 7] = state[0]
-        self.data.qvel[self._vadr: self._vadr + 6] = state[1]
+        self.data.qpos[self._qadr : self._qadr + 7] = state[0]
+        self.data.qvel[self._vadr : self._vadr + 6] = state[1]
 
     def _set_carrier_velocity(self, qvel: np.ndarray) -> None:
-        self.data.qvel[self._vadr: self._vadr + 6] = qvel
+        self.data.qvel[self._vadr : self._vadr + 6] = qvel
 
     def _advance(self, still: bool = False) -> None:
         """One mj_step; `still` (sensor at rest): zero the dome's velocities first when
@@ -401,14 +411,16 @@ class SensorPhysics:
             if depth > p.max_penetration:
                 self._fail(f"penetration {depth * 1e3:.3f} mm > {p.max_penetration * 1e3:.3f} mm", where())
             # net contact force on the object = constraint force on the carrier's free joint
-            force = math.hypot(*d.qfrc_constraint[self._vadr: self._vadr + 3])
+            force = math.hypot(*d.qfrc_constraint[self._vadr : self._vadr + 3])
             if force > p.max_force:
                 self._fail(f"contact force {force:.3g} N > {p.max_force:.3g} N", where())
         moved = self._pins - self.rest_pins
         excursion2 = float(np.einsum("ij,ij->i", moved, moved).max())
         if excursion2 > p.max_pin_excursion**2:
-            self._fail(f"a pin moved {math.sqrt(excursion2) * 1e3:.3f} mm from rest "
-                       f"(> {p.max_pin_excursion * 1e3:.3f} mm)", where())
+            self._fail(
+                f"a pin moved {math.sqrt(excursion2) * 1e3:.3f} mm from rest (> {p.max_pin_excursion * 1e3:.3f} mm)",
+                where(),
+            )
 
     def contact_force_world(self) -> np.ndarray:
         """(3,) total force of all contacts on the dome, scene frame (N) (= tool frame if the
@@ -435,8 +447,14 @@ class SensorPhysics:
         return total
 
     def _fail(self, what: str, pose: np.ndarray | None = None) -> None:
-        raise physics_error(self.scenario_name, f"step {self._steps}", self.data.time, self.world2work,
-                            self._commanded if pose is None else pose, what)
+        raise physics_error(
+            self.scenario_name,
+            f"step {self._steps}",
+            self.data.time,
+            self.world2work,
+            self._commanded if pose is None else pose,
+            what,
+        )
 
     @property
     def steps(self) -> int:
@@ -465,15 +483,30 @@ class SensorPhysics:
             self._saved_data = mujoco.MjData(self.model)
         saved_data = self._saved_data
         mujoco.mj_copyData(saved_data, self.model, self.data)
-        saved = (self._steps, self._since_frame, self._pins, self._pins_px, self._warnings.copy(), self.step_seconds,
-                 self.skin_seconds)
-        self.params = p.with_(settle_px=band, free_settle_px=min(p.free_settle_px, band), settle_steps=1,
-                              max_settle_steps=max_steps)
+        saved = (
+            self._steps,
+            self._since_frame,
+            self._pins,
+            self._pins_px,
+            self._warnings.copy(),
+            self.step_seconds,
+            self.skin_seconds,
+        )
+        self.params = p.with_(
+            settle_px=band, free_settle_px=min(p.free_settle_px, band), settle_steps=1, max_settle_steps=max_steps
+        )
         try:
             pins = self.settle().pins_tool
         finally:
             self.params = p
             mujoco.mj_copyData(self.data, self.model, saved_data)
-            (self._steps, self._since_frame, self._pins, self._pins_px, self._warnings, self.step_seconds,
-             self.skin_seconds) = saved
+            (
+                self._steps,
+                self._since_frame,
+                self._pins,
+                self._pins_px,
+                self._warnings,
+                self.step_seconds,
+                self.skin_seconds,
+            ) = saved
         return pins

@@ -35,6 +35,7 @@ and from 7° to 9° with it (docs/paper.md, "How the twin gets there").
 
 Frames and units: tool frame, m (docs/conventions.md).
 """
+
 from __future__ import annotations
 
 from functools import lru_cache
@@ -63,7 +64,9 @@ class SkinLayer:
         inside = normals[:, 2] >= np.cos(np.radians(extent_deg))
         self.nodes = points[inside]
         self.normals = normals[inside]
-        self.rim = np.flatnonzero(self.normals[:, 2] < np.cos(np.radians(extent_deg) - spacing / self.radius))  # outer ring
+        self.rim = np.flatnonzero(
+            self.normals[:, 2] < np.cos(np.radians(extent_deg) - spacing / self.radius)
+        )  # outer ring
         area = spacing**2
         eps2 = area / (4 * np.pi)  # (half the radius of a disc of one node's area)²
         d = self.nodes[:, None, :] - self.nodes[None, :, :]
@@ -84,8 +87,9 @@ class SkinLayer:
         self._geomid = np.zeros(len(self.nodes), np.int32)
         self._dist = np.zeros(len(self.nodes))
 
-    def penetration(self, model: mujoco.MjModel, data: mujoco.MjData, tool2scene: np.ndarray,
-                    exclude_body: int) -> np.ndarray:
+    def penetration(
+        self, model: mujoco.MjModel, data: mujoco.MjData, tool2scene: np.ndarray, exclude_body: int
+    ) -> np.ndarray:
         """(nodes,) radial penetration δ ≥ 0 (m) of the undeformed skin into the scene's geoms.
 
         tool2scene: 4×4 pose of the tool frame in the scene (m); exclude_body: the body
@@ -93,8 +97,20 @@ class SkinLayer:
         """
         centre = tool2scene[:3, :3] @ self.centre_tool + tool2scene[:3, 3]
         dirs = (self.normals @ tool2scene[:3, :3].T).ravel()
-        mujoco.mj_multiRay(model, data, centre, dirs, None, 1, exclude_body, self._geomid, self._dist, None,
-                           len(self.nodes), 2 * self.radius)
+        mujoco.mj_multiRay(
+            model,
+            data,
+            centre,
+            dirs,
+            None,
+            1,
+            exclude_body,
+            self._geomid,
+            self._dist,
+            None,
+            len(self.nodes),
+            2 * self.radius,
+        )
         dist = np.where(self._geomid >= 0, self._dist, np.inf)
         return np.maximum(0.0, self.radius - dist)
 
