@@ -425,3 +425,11 @@ def test_a_write_error_is_the_user_s_when_the_path_is_wrong_and_the_machine_s_wh
     with contextlib.redirect_stderr(err):
         assert guarded(fail) == code
     assert err.getvalue() == start + "\n"
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["run", "--help"], ["bench", "--help"], ["serve-robot", "-h"]])
+def test_help_is_printed_and_exits_0(argv: list[str], capsys) -> None:
+    # argparse ends --help with sys.exit(0): the boundary had taken it for a plug-in's and exited 2
+    assert main(argv) == 0
+    out, err = capsys.readouterr()
+    assert out.startswith("usage: twin") and err == ""

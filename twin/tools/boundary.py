@@ -61,6 +61,20 @@ class OneLineParser(argparse.ArgumentParser):
     def error(self, message: str):
         raise UserError(f"{self.prog}: {message}")
 
+    def exit(self, status: int = 0, message: str | None = None):
+        """--help and --version end here: their exit is the parser's, not a plug-in's sys.exit."""
+        if message:
+            print(message, file=sys.stderr, end="")
+        raise ParserExit(status)
+
+
+class ParserExit(Exception):  # noqa: N818  (an ending, like SystemExit, not an error)
+    """The parser finished the command itself (--help): exit with `status`."""
+
+    def __init__(self, status: int) -> None:
+        super().__init__(status)
+        self.status = status
+
 
 def quoted(value: object) -> str:
     """`value` as a message quotes it: repr, cut to _QUOTE_MAX characters."""
@@ -149,6 +163,8 @@ def guarded(call: Callable[[], int | None]) -> int:
     """Run a command; return its exit code, every ending mapped as the module says."""
     try:
         return int(call() or 0)
+    except ParserExit as done:
+        return done.status
     except Terminated:
         print("stopped by SIGTERM; everything recorded so far is kept", file=sys.stderr)
         return EXIT_SIGTERM
