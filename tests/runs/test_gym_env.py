@@ -3,7 +3,10 @@ that measures progress, and seeds that reach the simulator."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
 import warnings
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -104,3 +107,18 @@ def test_vector_envs_sync_and_async_are_seeded_per_env() -> None:
         steps[mode] = (first, after)
     for a, b in zip(steps["sync"], steps["async"]):
         np.testing.assert_array_equal(a, b)
+
+
+def test_the_vector_example_steps_both_modes() -> None:
+    """docs/examples/vector_steps.py, the docs' example of stepping a vector of envs, runs
+    as a user runs it (a few frames instead of 10,000)."""
+    example = Path(__file__).parents[2] / "docs" / "examples" / "vector_steps.py"
+    for mode in ("sync", "async"):
+        done = subprocess.run(
+            [sys.executable, str(example), "--envs", "2", "--frames", "12", "--mode", mode],
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        assert done.returncode == 0, done.stderr[-2000:]
+        assert f"2 envs ({mode})" in done.stdout and "steps/s" in done.stdout

@@ -2,7 +2,7 @@
 seeded random steps, no learning, 10,000 frames by default; prints the steps per second of
 the vector against one env's, measured in the same run.
 
-    MUJOCO_GL=egl uv run python examples/vector_steps.py --envs 2 --frames 10000
+    MUJOCO_GL=egl .venv/bin/python docs/examples/vector_steps.py --envs 2 --frames 10000
 
 --mode async runs each env in its own process (forkserver: the parent may hold a GL
 context), sync runs them one after another in this one. Envs are seeded per env: reset
