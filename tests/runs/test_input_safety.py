@@ -69,3 +69,10 @@ def test_a_truncated_model_file_is_named_not_a_zip_error(tmp_path: Path) -> None
     path.write_bytes(path.read_bytes()[:5000])
     with pytest.raises(UserError, match="taps.npz: not a perception model file"):
         PerceptionModel.load(path)
+
+
+def test_an_unknown_material_names_the_file_and_the_field(tmp_path: Path) -> None:
+    path = tmp_path / "mat.yaml"
+    path.write_text("name: mat\nobject: {name: rectangle, material: unobtainium}\nprotocol: {kind: taps}\n")
+    with pytest.raises(UserError, match=rf"^{path}: field 'object.material' = 'unobtainium': not a known material"):
+        load_scenario_stimulus(load_scenario(path))

@@ -27,6 +27,7 @@ from twin.world.dome.base import DomeBuilder, DomeParameters, PhysicsSettings
 from twin.world.dome.registry import DOME_MODELS
 from twin.world.scene import SceneSpec, object_and_work_frames
 from twin.world.stimuli import Stimulus, load_stimulus
+from twin.world.stimuli.objects import MATERIALS
 
 
 @dataclass(frozen=True)
@@ -95,9 +96,14 @@ def _params(
     return builder.params(fidelity, _settings(builder, physics, source), material, source)
 
 
-def _stimulus(o: ObjectSpec, path: Path | None, calibration: Calibration | None) -> Stimulus:
-    """The object `o` (`path`: its STL or outline file, resolved), with the calibration's friction."""
+def _stimulus(o: ObjectSpec, path: Path | None, calibration: Calibration | None, source: str) -> Stimulus:
+    """The object `o` (`path`: its STL or outline file, resolved), with the calibration's
+    friction; `source` names the scenario in errors."""
     kwargs = {}
+    if o.material is not None and o.material not in MATERIALS:
+        raise UserError(
+            f"{source}: field 'object.material' = {o.material!r}: not a known material ({', '.join(sorted(MATERIALS))})"
+        )
     if o.material is not None:
         kwargs["material"] = o.material
     if o.friction is not None:
@@ -146,14 +152,14 @@ def load_scenario(path: str | Path) -> Scenario:
 def load_scenario_stimulus(scenario: Scenario) -> Stimulus:
     """The scenario's object (built-in, STL or outline, paths relative to the scenario),
     with the calibration's skin–stimulus friction where it has one."""
-    return _stimulus(scenario.object, _object_file(scenario), scenario.calibration())
+    return _stimulus(scenario.object, _object_file(scenario), scenario.calibration(), scenario.source)
 
 
 def scene_spec(scenario: Scenario, calibration: Calibration | None = None) -> SceneSpec:
     """The physics scene's values for `scenario`; `calibration`: the scenario's (read here
     when not given)."""
     calibration = scenario.calibration() if calibration is None else calibration
-    stimulus = _stimulus(scenario.object, _object_file(scenario), calibration)
+    stimulus = _stimulus(scenario.object, _object_file(scenario), calibration, scenario.source)
     work_pose = None if scenario.work_frame == "object" else Pose.from_array(scenario.work_frame)
     object2world, work2world = object_and_work_frames(
         scenario.placement.position_mm, scenario.placement.yaw_deg, stimulus.thickness_mm, work_pose
