@@ -76,3 +76,12 @@ def test_an_unknown_material_names_the_file_and_the_field(tmp_path: Path) -> Non
     path.write_text("name: mat\nobject: {name: rectangle, material: unobtainium}\nprotocol: {kind: taps}\n")
     with pytest.raises(UserError, match=rf"^{path}: field 'object.material' = 'unobtainium': not a known material"):
         load_scenario_stimulus(load_scenario(path))
+
+
+def test_an_outline_of_too_many_vertices_is_refused_while_it_is_read(tmp_path: Path) -> None:
+    # 200,000 vertices used to run minutes of convex decomposition before a compile error
+    t = np.linspace(0.0, 2 * np.pi, 200_000, endpoint=False)
+    np.savetxt(tmp_path / "big.csv", np.c_[50 * np.cos(t), 50 * np.sin(t)], delimiter=",")
+    (tmp_path / "s.yaml").write_text("name: big\nobject: {outline: big.csv, thickness_mm: 5}\n")
+    with pytest.raises(UserError, match=r"big.csv: more than 10,000 vertices \(line 10001\)"):
+        load_scenario_stimulus(load_scenario(tmp_path / "s.yaml"))

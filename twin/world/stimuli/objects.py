@@ -632,6 +632,9 @@ def _mesh_section(mesh: trimesh.Trimesh, z: float, path: Path) -> Polygon:
 
 
 _SPLIT = re.compile(r"[,;\s]+")
+#: the most vertices an outline may have: 0.1 mm apart along a 1 m contour (the convex
+#: decomposition's cost grows fast with them: 200,000 took minutes before failing to compile)
+MAX_OUTLINE_VERTICES = 10_000
 
 
 def read_outline_csv(path: Path) -> tuple[np.ndarray, list[int]]:
@@ -667,6 +670,11 @@ def read_outline_csv(path: Path) -> tuple[np.ndarray, list[int]]:
             continue  # repeated vertex
         pts.append((values[0], values[1]))
         lines.append(lineno)
+        if len(pts) > MAX_OUTLINE_VERTICES:
+            raise UserError(
+                f"outline {path}: more than {MAX_OUTLINE_VERTICES:,} vertices (line {lineno}); "
+                "resample it (0.1 mm apart is finer than the dome resolves)"
+            )
     if len(pts) > 1 and pts[0] == pts[-1]:
         pts.pop()
         lines.pop()
