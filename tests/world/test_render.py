@@ -10,9 +10,11 @@ import pytest
 
 from tests.golden.frames import GOLDEN_FRAMES
 from twin.core.scenario import load_scenario
+from twin.core.sensor import CameraModel
 from twin.runs.sim_env import SimEnvironment, first_pose, render_scenario_view
 from twin.sensing.tracker import PinTracker
 from twin.world import gl
+from twin.world.render import PinRenderer, pin_sphere_slices
 
 GOLDEN_DIR = Path(__file__).resolve().parents[1] / "golden"
 FAILURES = GOLDEN_DIR / "failures"
@@ -76,3 +78,28 @@ def test_overview_image(tmp_path: Path) -> None:
     out = render_scenario_view(load_scenario(SCENARIO), tmp_path / "scene.png", view="scene")
     image = cv2.imread(str(out))
     assert image is not None and image.shape[0] > 100 and image.std() > 10
+
+
+def test_pin_spheres_are_coarser_only_below_the_default_frame() -> None:
+    """640×480 and larger frames keep today's 16-slice pins (their frames are unchanged);
+    smaller frames get fewer slices, never fewer than 6, fewer the smaller the frame."""
+    shapes = [(96, 96), (128, 128), (160, 120), (120, 160), (320, 240), (640, 480), (1280, 960)]
+    slices = {(w, h): pin_sphere_slices(CameraModel(width=w, height=h)) for w, h in shapes}
+    assert slices[(640, 480)] == slices[(1280, 960)] == 16
+    assert slices[(96, 96)] < slices[(320, 240)] < 16
+    assert slices[(120, 160)] == slices[(160, 120)]  # same short side, same pin size
+    assert min(slices.values()) >= 6
+    ordered = [slices[shape] for shape in sorted(slices, key=min)]
+    assert ordered == sorted(ordered)
+
+
+@pytest.mark.parametrize("shape", [(96, 96), (128, 128), (120, 160)])
+def test_small_frames_with_coarse_pins_track_every_pin(shape: tuple[int, int]) -> None:
+    camera = CameraModel(width=shape[0], height=shape[1])
+    renderer = PinRenderer(camera)
+    try:
+        frame = renderer.render(camera.geometry.pin_tip_points())
+    finally:
+        renderer.close()
+    assert frame.shape == (shape[1], shape[0], 3)
+    assert PinTracker(frame).track(frame).found.sum() == 127

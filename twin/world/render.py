@@ -16,6 +16,29 @@ from twin.core.sensor import N_PINS, CameraModel
 # MuJoCo cameras look along −z with +y up; OpenCV cameras along +z with +y down.
 _OPENCV_TO_MUJOCO_CAMERA_QUAT = "0 1 0 0"
 
+#: Slices round a pin sphere in the default 640×480 frame, and the most any frame gets
+_PIN_SLICES = 16
+
+
+def _pin_apex_radius_px(camera: CameraModel) -> float:
+    """Apparent radius (px) of the pin nearest the camera, the largest in the frame."""
+    return camera.pin_radius_px(camera.geometry.camera_to_apex)
+
+
+def pin_sphere_slices(camera: CameraModel) -> int:
+    """Slices round each pin sphere (stacks are half as many): as few as keep a pin's
+    outline within the distance (px) it strays from a true circle in the default
+    640×480 frame, at most 16. The spheres' triangles are most of a frame's render time
+    whatever its size, so small frames get coarser spheres; 640×480 and larger frames
+    keep 16 and so are unchanged."""
+    radius_px = _pin_apex_radius_px(camera)
+    reference_px = _pin_apex_radius_px(CameraModel())
+    max_stray_px = reference_px * (1 - np.cos(np.pi / _PIN_SLICES)) * (1 + 1e-9)
+    for slices in range(6, _PIN_SLICES, 2):
+        if radius_px * (1 - np.cos(np.pi / slices)) <= max_stray_px:
+            return slices
+    return _PIN_SLICES
+
 
 def _pin_scene_xml(camera: CameraModel, lighting: bool, msaa: int) -> str:
     g = camera.geometry
@@ -41,11 +64,12 @@ def _pin_scene_xml(camera: CameraModel, lighting: bool, msaa: int) -> str:
         f'<body name="pin{i}" mocap="true"><geom type="sphere" size="{g.pin_radius}" material="pin"/></body>'
         for i in range(N_PINS)
     )
+    slices = pin_sphere_slices(camera)
     return f"""
 <mujoco model="tactip_inside_view">
   <visual>
     <global offwidth="{camera.width}" offheight="{camera.height}" fovy="{camera.vertical_fov_deg}"/>
-    <quality offsamples="{msaa}" numslices="16" numstacks="8"/>
+    <quality offsamples="{msaa}" numslices="{slices}" numstacks="{slices // 2}"/>
     <headlight active="0" ambient="0 0 0" diffuse="0 0 0" specular="0 0 0"/>
   </visual>
   <default><geom contype="0" conaffinity="0"/></default>
