@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from twin.tools.bench import bench_pixels, bench_startup, bench_throughput, benchmark_physics
+from twin.tools.bench import bench_observation, bench_pixels, bench_startup, bench_throughput, benchmark_physics
 
 
 @pytest.mark.slow
@@ -81,3 +81,12 @@ def test_pixels_rows_cover_96x96_to_1280x960() -> None:
     for r in rows:
         assert r["render_ms"] > 0 and r["track_ms"] > 0
         assert r["pixels"] == r["pixels_to_640x480"] * 640 * 480
+
+
+@pytest.mark.slow
+def test_observation_rows_compare_the_fast_small_frame_with_the_default() -> None:
+    rows = bench_observation(quick=True)
+    assert [(r["level"], r["resolution"]) for r in rows] == [("fast", "128x128"), ("default", "640x480")]
+    assert rows[0]["frames"] == rows[1]["frames"] > 0  # the same moves in both
+    assert rows[1]["fps_to_default"] == 1.0
+    assert rows[0]["fps"] > 0 and rows[0]["fps_to_default"] > 0

@@ -130,6 +130,61 @@ def bench_pixels(quick: bool = False) -> list[dict]:
     ]
 
 
+#: (fidelity level, width, height) of `twin bench observation`: the fast level's small frame
+#: against the default level's default frame
+OBSERVATION_SETUPS = [("fast", 128, 128), ("default", 640, 480)]
+
+
+def bench_observation(quick: bool = False) -> list[dict]:
+    """Full-observation frames per second (the move into a frame, settling, rendering and
+    tracking: the environment's step) of the fast level at 128×128 against the default
+    level at 640×480, on the multi-directional slide protocol (§III-C), flex dome.
+
+    Both environments are built first; then rounds run the same chunk of moves in each,
+    and `fps_to_default` is the median of the per-round ratios of a frame's time."""
+
+    base = load_scenario(scenario_path("slides_rectangle"))
+    scenario = base.model_copy(
+        update={
+            "effects": ["contact", "friction", "render"],
+            "protocol": base.protocol.model_copy(update={"orientations_deg": [0.0]}),
+        }
+    )
+    moves = chunk_moves(protocol_moves(scenario.protocol))[0]
+    envs = []
+    for level, width, height in OBSERVATION_SETUPS:
+        camera = scenario.sensor.camera.model_copy(update={"width": width, "height": height})
+        setup = scenario.model_copy(
+            update={"fidelity": level, "sensor": scenario.sensor.model_copy(update={"camera": camera})}
+        )
+        envs.append(make_environment(setup, 0))
+    seconds = np.zeros((3 if quick else 7, len(envs)))
+    frames = np.zeros(len(envs), dtype=int)
+    try:
+        for round_ in range(-1, len(seconds)):  # round −1 untimed
+            for i, env in enumerate(envs):
+                t0 = time.perf_counter()
+                frames[i] = sum(1 for _ in chunk_samples(env, moves))
+                if round_ >= 0:
+                    seconds[round_, i] = time.perf_counter() - t0
+    finally:
+        for env in envs:
+            env.close()
+    default = len(envs) - 1
+    return [
+        {
+            "section": "observation",
+            "level": level,
+            "resolution": f"{width}x{height}",
+            "frames": int(frames[i]),
+            "fps": float(np.median(frames[i] / seconds[:, i])),
+            "fps_to_default": float(np.median((seconds[:, default] / frames[default]) / (seconds[:, i] / frames[i]))),
+            "gl": gl.GL_BACKEND,
+        }
+        for i, (level, width, height) in enumerate(OBSERVATION_SETUPS)
+    ]
+
+
 def bench_physics(quick: bool = False) -> list[dict]:
     """ms of physics per settled frame for each fidelity level (contour-like steps)."""
 
@@ -322,6 +377,7 @@ def bench_sweep(
 SECTIONS: dict[str, Callable[..., list[dict]]] = {
     "render": bench_render,
     "pixels": bench_pixels,
+    "observation": bench_observation,
     "physics": bench_physics,
     "perception": bench_perception,
     "throughput": bench_throughput,
