@@ -136,7 +136,7 @@ OBSERVATION_SETUPS = [("fast", 128, 128), ("default", 640, 480)]
 
 
 def bench_observation(quick: bool = False) -> list[dict]:
-    """Full-observation frames per second (the move into a frame, settling, rendering and
+    """Printed by `twin bench pixels` after its own table. Full-observation frames per second (the move into a frame, settling, rendering and
     tracking: the environment's step) of the fast level at 128×128 against the default
     level at 640×480, on the multi-directional slide protocol (§III-C), flex dome.
 
@@ -377,13 +377,15 @@ def bench_sweep(
 SECTIONS: dict[str, Callable[..., list[dict]]] = {
     "render": bench_render,
     "pixels": bench_pixels,
-    "observation": bench_observation,
     "physics": bench_physics,
     "perception": bench_perception,
     "throughput": bench_throughput,
     "startup": bench_startup,
     "sweep": bench_sweep,
 }
+#: Tables a section prints after its own: `twin bench pixels` then shows what small
+#: frames buy a whole observation
+_FOLLOW_UPS: dict[str, dict[str, Callable[..., list[dict]]]] = {"pixels": {"observation": bench_observation}}
 #: Sections that take out/workers/cluster and write and print their own outputs.
 _SELF_REPORTING = {"sweep"}
 
@@ -517,12 +519,13 @@ def run_bench(
                 print(f"{len(failed)} sweep setting(s) failed: {', '.join(failed)}")
                 status = 1
             continue
-        rows = SECTIONS[name](quick)
-        _print_rows(name, rows)
-        if out is not None:
-            out.mkdir(parents=True, exist_ok=True)
-            with open(out / f"bench_{name}.csv", "w", newline="") as fh:
-                writer = csv.DictWriter(fh, fieldnames=list(rows[0].keys()))
-                writer.writeheader()
-                writer.writerows(rows)
+        for table, bench in {name: SECTIONS[name], **_FOLLOW_UPS.get(name, {})}.items():
+            rows = bench(quick)
+            _print_rows(table, rows)
+            if out is not None:
+                out.mkdir(parents=True, exist_ok=True)
+                with open(out / f"bench_{table}.csv", "w", newline="") as fh:
+                    writer = csv.DictWriter(fh, fieldnames=list(rows[0].keys()))
+                    writer.writeheader()
+                    writer.writerows(rows)
     return status

@@ -524,7 +524,7 @@ def build_parser() -> argparse.ArgumentParser:
         "what",
         nargs="?",
         default="all",
-        choices=("all", "render", "pixels", "observation", "physics", "perception", "throughput", "startup", "sweep"),
+        choices=("all", "render", "pixels", "physics", "perception", "throughput", "startup", "sweep"),
         help="one section (default: all; 'sweep' = the fidelity sweep: CSV, Pareto plot, markdown table)",
     )
     p.add_argument("--quick", action="store_true", help="small sections and the quick sweep (< 2 min on 2 cores)")
