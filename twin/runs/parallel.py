@@ -36,12 +36,19 @@ def map_ordered(fn: Callable, jobs: list[tuple], workers: int | None = None, clu
         yield from pool.map_ordered(fn, jobs)
 
 
-def map_streamed(fn: Callable, jobs: list[tuple], workers: int | None = None, cluster: str | None = None) -> Iterator:
+def map_streamed(
+    fn: Callable,
+    jobs: list[tuple],
+    workers: int | None = None,
+    cluster: str | None = None,
+    first_here: Callable[..., Iterator] | None = None,
+) -> Iterator:
     """Yield the items each job sends, in job order, as soon as they are sent (a job runs
     fn(*job, send)), on a pool started for this call alone (WorkerPool.map_streamed).
-    workers, cluster: as map_ordered's."""
-    with WorkerPool(workers if cluster is not None else _local_workers(workers, len(jobs)), cluster) as pool:
-        yield from pool.map_streamed(fn, jobs)
+    workers, cluster, first_here: as WorkerPool.map_streamed's."""
+    local_jobs = len(jobs) - (first_here is not None and cluster is None)
+    with WorkerPool(workers if cluster is not None else _local_workers(workers, local_jobs), cluster) as pool:
+        yield from pool.map_streamed(fn, jobs, first_here)
 
 
 def _local_workers(workers: int | None, n_jobs: int) -> int:
@@ -96,21 +103,40 @@ class WorkerPool:
                     raise
                 yield result
 
-    def map_streamed(self, fn: Callable, jobs: list[tuple]) -> Iterator:
+    def map_streamed(
+        self, fn: Callable, jobs: list[tuple], first_here: Callable[..., Iterator] | None = None
+    ) -> Iterator:
         """Yield what each job sends, job after job in order, as soon as it is sent: a
         job runs fn(*job, send) and calls send(item) for each item (a chunk's samples),
         so the caller gets a job's first item while the job runs, not when it ends.
         SIGINT or SIGTERM: the rest of the jobs the workers were on is yielded, then it
         raises; a failed job: what it sent, then its exception; either stops the local
-        workers (the next call starts new ones)."""
+        workers (the next call starts new ones).
+
+        first_here: the same job as an iterator of the items it would send; given, this
+        process runs the first job with it while the workers start (a thread starts them
+        and hands them the other jobs), so the first item comes without waiting for a
+        worker. An interruption lands once that job is done, as for the workers' jobs."""
         if self.cluster is not None or self.workers <= 1 or len(jobs) <= 1:
             for items in self.map_ordered(_collect, [(fn, job) for job in jobs]):
                 yield from items
             return
-        futures = [self._local_pool().submit(_send_job, fn, index, job) for index, job in enumerate(jobs)]
+        first = 1 if first_here is not None else 0
+        futures: list = [None] * first  # job index → its future (the first job's is this process's)
         waiting: dict[int, list] = {}  # items of later jobs, sent before the earlier jobs ended
+        # made here, before the signals are blocked: making it starts multiprocessing's resource
+        # tracker, which unblocks SIGINT and SIGTERM on the thread that starts it
+        pool = self._local_pool()
         with self._waits_interruptible() as caller_mask:
-            for index, future in enumerate(futures):
+            submitter = _Submitter(pool, fn, jobs, first)  # its thread blocks the signals, as this one
+            try:
+                if first_here is not None:
+                    with _signals_deferred():
+                        yield from first_here(*jobs[0])
+            finally:
+                futures += submitter.futures()
+            for index in range(first, len(jobs)):
+                future = futures[index]
                 pending = waiting.pop(index, [])
                 while True:
                     try:
@@ -240,6 +266,27 @@ def _signals_delivered(mask: set | None) -> Iterator[None]:
         signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
 
 
+@contextlib.contextmanager
+def _signals_deferred() -> Iterator[None]:
+    """Inside, SIGINT and SIGTERM are noted, not handled; on leaving, each noted one is sent
+    again to this thread, for the handlers in place before (with the signals blocked, as
+    in a local map, it lands at the next wait). A blocked mask alone does not hold them
+    off: the handler runs on the main thread whichever thread receives the signal, and
+    threads started by libraries before the block leave it unblocked."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    noted: list[int] = []
+    previous = {s: signal.signal(s, lambda signum, frame: noted.append(signum)) for s in _STOP_SIGNALS}
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, signal.SIG_DFL if handler is None else handler)
+        for s in dict.fromkeys(noted):
+            signal.raise_signal(s)
+
+
 def _finished_in_order(futures: list) -> Iterator:
     """After an interruption: the queued jobs cancelled, the results of those finished or
     running, in order, up to the first that was cancelled or failed (a record is a prefix
@@ -266,6 +313,33 @@ _outbox = None
 
 class _JobEnd:
     """What a streamed job sends after its last item."""
+
+
+class _Submitter:
+    """Starts a pool's local workers and submits jobs[first:] to them (map_streamed's
+    _send_job) on a thread of its own, started at once: starting a worker waits for the
+    forkserver to import the simulator, which this process need not wait for."""
+
+    def __init__(self, pool: ProcessPoolExecutor, fn: Callable, jobs: list[tuple], first: int) -> None:
+        self._submitted: list = []
+        self._error: BaseException | None = None
+
+        def submit() -> None:
+            try:
+                for index in range(first, len(jobs)):
+                    self._submitted.append(pool.submit(_send_job, fn, index, jobs[index]))
+            except BaseException as error:  # noqa: BLE001  (raised on the caller's thread by futures())
+                self._error = error
+
+        self._thread = threading.Thread(target=submit, daemon=True, name="twin-pool-start")
+        self._thread.start()
+
+    def futures(self) -> list:
+        """The submitted jobs' futures, once all are submitted (raises what submitting raised)."""
+        self._thread.join()
+        if self._error is not None:
+            raise self._error
+        return self._submitted
 
 
 def _send_job(fn: Callable, index: int, job: tuple) -> None:

@@ -57,14 +57,19 @@ def run_chunk(scenario: Scenario, seed: int, moves: list[Move], sink=None, skip:
     returned (parallel workers send their chunk back when it is done). The first `skip`
     samples are observed (the replay of a resumed run) but not returned."""
     samples = []
-    for i, sample in enumerate(chunk_samples(worker_environment(scenario, seed), moves)):
-        if i < skip:
-            continue
+    for sample in stream_chunk(scenario, seed, moves, skip):
         if sink is None:
             samples.append(sample)
         else:
             sink(sample)
     return samples
+
+
+def stream_chunk(scenario: Scenario, seed: int, moves: list[Move], skip: int = 0) -> Iterator[Sample]:
+    """run_chunk's samples, each as soon as it is observed (the first `skip` observed, not yielded)."""
+    for i, sample in enumerate(chunk_samples(worker_environment(scenario, seed), moves)):
+        if i >= skip:
+            yield sample
 
 
 def send_chunk(scenario: Scenario, seed: int, moves: list[Move], skip: int, send) -> None:
@@ -164,13 +169,16 @@ def record_protocol(
                 for chunk, skip in jobs:
                     run_chunk(scenario, seed, chunk, sink=record, skip=skip)
             else:  # record each sample as soon as its worker observes it, in protocol order
-                for s in map_streamed(
-                    send_chunk, [(scenario, seed, c, skip) for c, skip in jobs], workers=workers, cluster=cluster
+                for s in map_streamed(  # this process runs the first chunk while the workers start
+                    send_chunk,
+                    [(scenario, seed, c, skip) for c, skip in jobs],
+                    workers=workers,
+                    cluster=cluster,
+                    first_here=stream_chunk,
                 ):
                     record(s)
         finally:
             bar.close()
-            if serial:
-                close_worker_envs()
+            close_worker_envs()
         recorder.meta["wall_time_s"] = time.perf_counter() - wall
     return Path(out)
