@@ -3,12 +3,12 @@
 
 from __future__ import annotations
 
+import importlib
 import json
 from pathlib import Path
 
 from twin.core.errors import UserError
 from twin.core.scenario import Scenario, scenario_from_dict
-from twin.runs.contour_run import run_contour
 from twin.runs.record import jsonable, load_run
 from twin.runs.runner import record_protocol
 
@@ -28,7 +28,9 @@ def run_scenario(
     protocols (twin.runs.parallel); controller: a contour controller object that replaces
     the scenario's `protocol.controller` (twin.control.controllers.Controller)."""
     if scenario.protocol.kind == "contour":
-        return run_contour(scenario, out, seed=seed, progress=progress, controller=controller)
+        return importlib.import_module("twin.runs.contour_run").run_contour(
+            scenario, out, seed=seed, progress=progress, controller=controller
+        )
     return record_protocol(scenario, out, seed=seed, workers=workers, cluster=cluster, progress=progress)
 
 
@@ -62,5 +64,7 @@ def resume_run(
     scenario = scenario_from_dict(recorded, run.meta.get("scenario_file", str(out / "run.json")))
     seed = run.meta["seed"]
     if scenario.protocol.kind == "contour":
-        return run_contour(scenario, out, seed=seed, progress=progress, resume=True)
+        return importlib.import_module("twin.runs.contour_run").run_contour(
+            scenario, out, seed=seed, progress=progress, resume=True
+        )
     return record_protocol(scenario, out, seed=seed, workers=workers, cluster=cluster, progress=progress, resume=True)

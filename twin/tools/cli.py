@@ -8,16 +8,14 @@ Exit codes: 0 success, 1 the run failed (e.g. PhysicsError, HardwareError),
 from __future__ import annotations
 
 import argparse
+import importlib
 import signal
 import sys
 import threading
 import time
 from pathlib import Path
+from types import ModuleType
 
-from hardware.config import load_hardware_config
-from hardware.virtual_controller import serve_robot
-from twin.analysis.calibration_fit.settings import load_settings
-from twin.control.controllers import load_controller
 from twin.core.errors import Terminated, UserError
 from twin.core.scenario import Scenario
 from twin.runs.lab_recording import import_lab_recording, with_taps_from
@@ -25,25 +23,15 @@ from twin.runs.parallel import one_blas_thread
 from twin.runs.run import resume_run, run_scenario
 from twin.runs.sim_env import check_reachable, render_scenario_view
 from twin.runs.spec import load_scenario, load_scenario_stimulus, scene_spec
-from twin.sensing.perception import PerceptionModel
-from twin.tools.bench import run_bench
 from twin.tools.boundary import OneLineParser, bounded_float, bounded_int, guarded, output_file, output_folder
-from twin.tools.calibration_report import calibrate_and_report
-from twin.tools.comparison_report import compare_and_report
-from twin.tools.demo import run_demo
-from twin.tools.edge_figures_report import format_edge_figures
-from twin.tools.evaluation_report import (
-    evaluate_and_report,
-    format_along_edge_drag,
-    format_heldout,
-    format_orientation_signal,
-    format_table,
-)
-from twin.tools.shear_report import write_shear_figure
-from twin.tools.video import write_compare_video, write_run_video
-from twin.tools.view import view_scenario
 from twin.world.dome.registry import DOME_MODELS
 from twin.world.scene import build_scene
+
+
+def _command_module(name: str) -> ModuleType:
+    """A command's implementation, imported by name when that command runs: `twin run` of a
+    tap set does not load the contour stack, the video writer or the robot server."""
+    return importlib.import_module(name)
 
 
 def _check_named_files(scenario: Scenario) -> None:
@@ -53,14 +41,16 @@ def _check_named_files(scenario: Scenario) -> None:
     load_scenario_stimulus(scenario)
     scenario.calibration()
     if scenario.hardware_config is not None:
-        load_hardware_config(scenario.resolve(scenario.hardware_config))
+        _command_module("hardware.config").load_hardware_config(scenario.resolve(scenario.hardware_config))
     if scenario.protocol.kind == "contour":
         if scenario.protocol.model is not None:
             path = scenario.resolve(scenario.protocol.model)
             if not path.is_file():
                 raise UserError(f"{scenario.source}: field 'protocol.model': no such model file {path}")
-            PerceptionModel.load(path)
-        load_controller(scenario.protocol.controller, scenario.protocol, scenario.source_dir)
+            _command_module("twin.sensing.perception").PerceptionModel.load(path)
+        _command_module("twin.control.controllers").load_controller(
+            scenario.protocol.controller, scenario.protocol, scenario.source_dir
+        )
 
 
 def _checked_scenario(path: str) -> Scenario:
@@ -117,7 +107,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         )
         print(f"recorded {run_dir}")
         if args.video:
-            print(f"wrote {write_run_video(run_dir)}")
+            print(f"wrote {_command_module('twin.tools.video').write_run_video(run_dir)}")
         return 0
     out = (
         Path(args.out)
@@ -132,7 +122,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     print(f"recorded {run_dir}")
     if args.video:
         t1 = time.perf_counter()
-        video = write_run_video(run_dir)
+        video = _command_module("twin.tools.video").write_run_video(run_dir)
         video_s = time.perf_counter() - t1
         print(f"wrote {video} in {video_s:.1f} s ({video_s / run_s:.2f}× the run's {run_s:.1f} s)")
     return 0
@@ -164,13 +154,15 @@ def _cmd_import_lab(args: argparse.Namespace) -> int:
 def _cmd_video(args: argparse.Namespace) -> int:
 
     out = output_file(Path(args.out), "twin video --out", ".mp4") if args.out else None
-    print(f"wrote {write_run_video(Path(args.run), out)}")
+    print(f"wrote {_command_module('twin.tools.video').write_run_video(Path(args.run), out)}")
     return 0
 
 
 def _cmd_view(args: argparse.Namespace) -> int:
 
-    shown = view_scenario(_checked_scenario(args.scenario), seed=args.seed, wait=not args.no_wait)
+    shown = _command_module("twin.tools.view").view_scenario(
+        _checked_scenario(args.scenario), seed=args.seed, wait=not args.no_wait
+    )
     print(f"showed {shown} samples")
     return 0
 
@@ -182,34 +174,34 @@ def _warn_unfinished(notes: list[str]) -> None:
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
 
-    result = evaluate_and_report(
+    result = _command_module("twin.tools.evaluation_report").evaluate_and_report(
         Path(args.train), Path(args.test), output_folder(Path(args.out), "twin evaluate --out"), seed=args.seed
     )
     _warn_unfinished(result["unfinished"])
     if "heldout_by_lateral_mm" in result:
-        print(format_heldout(result["heldout_by_lateral_mm"]))
+        print(_command_module("twin.tools.evaluation_report").format_heldout(result["heldout_by_lateral_mm"]))
         for name in result["lateral_rms_mm"]:
             print(
                 f"{name}, all held-out taps: θ RMS {result['orientation_rms_deg'][name]:.2f}°, "
                 f"lateral RMS {result['lateral_rms_mm'][name]:.2f} mm"
             )
         if "edge_figures" in result:
-            print(format_edge_figures([result["edge_figures"]]))
+            print(_command_module("twin.tools.edge_figures_report").format_edge_figures([result["edge_figures"]]))
         print(f"wrote {args.out}/heldout.csv and heldout.json")
         return 0
-    print(format_table(result["table_i_rms_orientation_deg"]))
+    print(_command_module("twin.tools.evaluation_report").format_table(result["table_i_rms_orientation_deg"]))
     for name, v in result["lateral_rms_mm"].items():
         print(f"lateral RMS error, {name}: {v:.2f} mm (paper: 2.15 mm)")
     print(f"variance explained by 3 PCs: {100 * result['variance_explained_3pc']:.1f} % (paper: 88.3 %)")
-    print(format_orientation_signal(result["orientation_signal_px"]))
-    print(format_along_edge_drag(result["along_edge_drag_px"]))
+    print(_command_module("twin.tools.evaluation_report").format_orientation_signal(result["orientation_signal_px"]))
+    print(_command_module("twin.tools.evaluation_report").format_along_edge_drag(result["along_edge_drag_px"]))
     print(f"wrote {args.out}/table_i.csv, table_i.json and the PCA figures")
     return 0
 
 
 def _cmd_serve_robot(args: argparse.Namespace) -> int:
 
-    serve_robot(
+    _command_module("hardware.virtual_controller").serve_robot(
         args.host,
         args.port,
         realtime_factor=args.realtime,
@@ -222,7 +214,7 @@ def _cmd_serve_robot(args: argparse.Namespace) -> int:
 
 def _cmd_compare(args: argparse.Namespace) -> int:
 
-    r = compare_and_report(
+    r = _command_module("twin.tools.comparison_report").compare_and_report(
         Path(args.run_a),
         Path(args.run_b),
         output_folder(Path(args.out), "twin compare --out"),
@@ -256,26 +248,38 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         )
     for tag in ("a", "b"):
         if "orientation_signal_px" in r:
-            print(format_orientation_signal(r["orientation_signal_px"][tag], f"run {tag.upper()}:"))
+            print(
+                _command_module("twin.tools.evaluation_report").format_orientation_signal(
+                    r["orientation_signal_px"][tag], f"run {tag.upper()}:"
+                )
+            )
         if "along_edge_drag_px" in r:
-            print(format_along_edge_drag(r["along_edge_drag_px"][tag], f"run {tag.upper()}: along-edge"))
+            print(
+                _command_module("twin.tools.evaluation_report").format_along_edge_drag(
+                    r["along_edge_drag_px"][tag], f"run {tag.upper()}: along-edge"
+                )
+            )
     if "edge_figures" in r:
         print(
-            format_edge_figures(
+            _command_module("twin.tools.edge_figures_report").format_edge_figures(
                 [r["edge_figures"]["a"], r["edge_figures"]["b"]],
                 [f"A: {r['edge_figures']['a']['name']}", f"B: {r['edge_figures']['b']['name']}"],
             )
         )
     print(f"wrote {args.out}/comparison.json and plots")
     if args.video:
-        print(f"wrote {write_compare_video(Path(args.run_a), Path(args.run_b), Path(args.out) / 'comparison.mp4')}")
+        print(
+            f"wrote {_command_module('twin.tools.video').write_compare_video(Path(args.run_a), Path(args.run_b), Path(args.out) / 'comparison.mp4')}"
+        )
     return 0
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:
 
-    settings = load_settings(Path(args.settings) if args.settings else None)
-    r = calibrate_and_report(
+    settings = _command_module("twin.analysis.calibration_fit.settings").load_settings(
+        Path(args.settings) if args.settings else None
+    )
+    r = _command_module("twin.tools.calibration_report").calibrate_and_report(
         [Path(r) for r in args.runs],
         _checked_scenario(args.scenario),
         output_folder(Path(args.out), "twin calibrate --out"),
@@ -302,7 +306,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
 def _cmd_figure(args: argparse.Namespace) -> int:
 
-    numbers = write_shear_figure(
+    numbers = _command_module("twin.tools.shear_report").write_shear_figure(
         output_file(Path(args.out), "twin figure --out", ".png"),
         fidelity=args.fidelity,
         friction=not args.no_friction,
@@ -316,12 +320,14 @@ def _cmd_figure(args: argparse.Namespace) -> int:
 
 def _cmd_demo(args: argparse.Namespace) -> int:
 
-    return run_demo(output_folder(Path(args.out), "twin demo --out"), seed=args.seed, video=args.video)
+    return _command_module("twin.tools.demo").run_demo(
+        output_folder(Path(args.out), "twin demo --out"), seed=args.seed, video=args.video
+    )
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
 
-    return run_bench(
+    return _command_module("twin.tools.bench").run_bench(
         args.what,
         quick=args.quick,
         out=output_folder(Path(args.out), "twin bench --out") if args.out else None,
