@@ -213,11 +213,21 @@ def _timed_chunk(scenario, seed: int, moves) -> tuple[int, float, float]:
     return len(samples), time.perf_counter() - t1, startup
 
 
-def _start_workers(pool: WorkerPool) -> float:
-    """Seconds for `pool`'s local workers to answer a first job each (forkserver, the
-    simulator's imports, one process per worker)."""
+def _pid_after(seconds: float) -> int:
+    """A warm-up job: this worker's pid, after holding it `seconds` (s)."""
+    time.sleep(seconds)
+    return os.getpid()
+
+
+def _start_workers(pool: WorkerPool, hold_s: float = 0.05) -> float:
+    """Seconds until every one of `pool`'s local workers has answered a job (forkserver, the
+    simulator's imports, one process per worker). Rounds of short jobs go out until as many
+    processes as workers have answered: the first worker up would otherwise answer them all,
+    and its siblings' start-up would be timed as if it were their work."""
     t0 = time.perf_counter()
-    list(pool.map_ordered(os.getpid, [()] * pool.workers))
+    answered: set[int] = set()
+    while len(answered) < pool.workers:
+        answered.update(pool.map_ordered(_pid_after, [(hold_s,)] * pool.workers))
     return time.perf_counter() - t0
 
 
