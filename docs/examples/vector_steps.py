@@ -18,6 +18,7 @@ import gymnasium as gym
 import numpy as np
 
 import twin
+from twin.runs.parallel import one_blas_thread
 
 
 def steps_per_second(envs: gym.vector.VectorEnv, frames: int, seed: int) -> float:
@@ -44,6 +45,9 @@ def main() -> None:
     parser.add_argument("--scenario", default="contour_rectangle", help="a shipped contour scenario or a file")
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
+    # one BLAS thread here and in the env processes (they inherit it): a second one only
+    # spin-waits beside the physics and takes the other env's core
+    one_blas_thread()
 
     def make(n: int, mode: str) -> gym.vector.VectorEnv:
         kwargs = {"context": "forkserver"} if mode == "async" else {}
