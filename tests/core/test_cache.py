@@ -82,7 +82,7 @@ def test_an_unwritable_cache_only_warns(tmp_path, monkeypatch):
     with pytest.warns(UserWarning, match="could not store"):
         arrays = cached_arrays("test", {"x": 1}, Computation(), SHAPES)
     assert arrays["b"].shape == (5,)
-    assert not list(tmp_path.glob("**/*.partial.npz"))
+    assert not list(tmp_path.glob("**/*.partial.npz")) and not list(tmp_path.glob("**/*.tmp"))
 
 
 def test_refresh_computes_and_stores_even_a_present_entry(cache):

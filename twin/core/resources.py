@@ -21,6 +21,7 @@ import contextlib
 import contextvars
 import functools
 import hashlib
+import io
 import json
 import os
 import warnings
@@ -31,6 +32,8 @@ from pathlib import Path
 
 import numpy as np
 import platformdirs
+
+from twin.core.files import replace_file
 
 PACKAGE = "tactip-twin"
 CACHE_ENV = "TWIN_CACHE"
@@ -163,14 +166,12 @@ def cached_arrays(
                 place.unlink()  # damaged: replaced by the entry computed now
     arrays = compute()
     if sum(a.nbytes for a in arrays.values()) <= max_bytes:
-        partial = path.with_name(f"{path.stem}.{os.getpid()}.partial.npz")
+        archive = io.BytesIO()
+        np.savez(archive, **arrays)
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
-            np.savez(partial, **arrays)
-            os.replace(partial, path)
+            replace_file(path, archive.getvalue())
         except OSError as err:
-            with contextlib.suppress(OSError):
-                partial.unlink(missing_ok=True)
             warnings.warn(f"{path}: could not store the cache entry ({err})", stacklevel=2)
         else:
             _evict_least_recently_used(path.parent, path, limit)
@@ -199,8 +200,6 @@ def _evict_least_recently_used(folder: Path, keep: Path, limit_bytes: int) -> No
     Another process may delete the same file first: that is not an error."""
     entries = []
     for entry in folder.glob("*.npz"):
-        if entry.name.endswith(".partial.npz"):
-            continue
         with contextlib.suppress(OSError):
             info = entry.stat()
             entries.append((info.st_mtime, info.st_size, entry))
