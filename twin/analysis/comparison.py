@@ -162,9 +162,7 @@ def compare_runs(
         in_contact = [(i, j) for i, j in pair_samples(a, b) if not a.samples[i]["labels"].get("no_contact")]
         if kind != kind_b or not in_contact or a.resolution != b.resolution:
             result.update(pairing=None, n_pairs=0, n_a=len(a.samples), n_b=len(b.samples))
-            out.mkdir(parents=True, exist_ok=True)
-            (out / "comparison.json").write_text(json.dumps(jsonable(result), indent=1, default=float))
-            return result
+            return _written(result, out)
     pairs, result["pairing"] = paired_runs(a, b)
     ia, ib, diff = pin_differences(a, b, pairs)
     disp_a, disp_b = displacements(a)[ia], displacements(b)[ib]
@@ -193,6 +191,11 @@ def compare_runs(
     result["ssim"] = (
         {"mean": float(np.mean(ssims)), "min": float(np.min(ssims)), "frames": len(ssims)} if ssims else None
     )
+    return _written(result, out)
+
+
+def _written(result: dict, out: Path) -> dict:
+    """`result`, after writing it to out/comparison.json."""
     out.mkdir(parents=True, exist_ok=True)
     (out / "comparison.json").write_text(json.dumps(jsonable(result), indent=1, default=float))
     return result
