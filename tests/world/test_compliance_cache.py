@@ -135,3 +135,40 @@ def test_the_compiled_products_are_the_matrix_products():
     )
     pins = sum(np.einsum("a,aib->ib", forces[k], dome._pins[node]) for k, node in enumerate(nodes))
     assert np.allclose(dome.pin_displacement(nodes, forces), pins, rtol=0.0, atol=1e-12 * np.abs(pins).max())
+
+
+@pytest.mark.parametrize("membrane_young", [0.0, 6e5])
+def test_the_pin_lever_scales_the_tips_swing_about_their_bases(cache, membrane_young):
+    """A pin's tip moves with its base plus the lever L times the skin's turn
+    (post_tips): linear in L, so a 4 mm lever swings the tips twice as far from where a
+    0 mm lever (the bases) puts them as the pins' own 2 mm length, which is the default."""
+    nodes, forces = np.array([0, 3, 11]), np.array([[0.0, 0.0, -0.5], [0.1, 0.0, -0.3], [0.0, -0.1, -0.4]])
+
+    def tips(lever: float | None) -> np.ndarray:
+        return DomeCompliance(
+            SURFACE, 5.3e4, 0.5, enclosed=False, membrane_young=membrane_young, pin_lever=lever
+        ).pin_displacement(nodes, forces)
+
+    bases, default = tips(0.0), tips(None)
+    swing = default - bases
+    assert np.abs(swing).max() > 0.05 * np.abs(bases).max()
+    assert np.allclose(tips(TacTipGeometry().pin_length), default, rtol=0, atol=1e-12)
+    assert np.allclose(tips(0.004) - bases, 2.0 * swing, rtol=0, atol=1e-6 * np.abs(swing).max())
+    with pytest.raises(ValueError, match="pin_lever"):
+        DomeCompliance(SURFACE, 5.3e4, 0.5, pin_lever=-0.001)
+
+
+def test_pretension_stiffens_the_skin_and_needs_the_membrane(cache):
+    """The skin's pretension (tension_stiffness) only adds stiffness where the skin is
+    held: a press on the apex sinks less the more the skin is stretched, and a pretension
+    without the membrane that carries it is refused."""
+    nodes, forces = np.array([0]), np.array([[0.0, 0.0, -0.5]])
+    sink = [
+        -DomeCompliance(
+            SURFACE, 1.33e4, 0.5, membrane_young=6e5, skin_held_deg=65.0, skin_tension=t
+        ).surface_displacement(nodes, forces)[0, 2]
+        for t in (0.0, 50.0, 200.0)
+    ]
+    assert sink[0] > sink[1] > sink[2] > 0
+    with pytest.raises(ValueError, match="skin_tension"):
+        DomeCompliance(SURFACE, 5.3e4, 0.5, skin_tension=10.0)

@@ -228,6 +228,27 @@ def test_skin_bending_takes_the_membrane_from_the_calibration():
         dome_params(without)
 
 
+def test_pretension_and_pin_lever_are_scenario_settings_in_their_units():
+    """`physics: {skin_tension_n_m, pin_lever_mm}` set the skin's pretension (N/m) and the
+    pins' lever (mm → m); a pretension without the skin membrane is refused, naming the
+    field, and a value out of bounds names its field too."""
+    from twin.core.errors import UserError
+    from twin.runs.spec import dome_params
+
+    spec = {"name": "tensioned", "object": {"name": "rectangle"}, "dome": "compliant"}
+    params = dome_params(
+        scenario_from_dict(
+            {**spec, "physics": {"membrane_young_mpa": 0.6, "skin_tension_n_m": 50.0, "pin_lever_mm": 4.0}}
+        )
+    )
+    assert params.skin_tension == 50.0 and params.pin_lever == pytest.approx(4e-3)
+    assert params.material[-2:] == (50.0, pytest.approx(4e-3))
+    with pytest.raises(UserError, match=r"physics\.skin_tension_n_m.*membrane_young_mpa"):
+        dome_params(scenario_from_dict({**spec, "physics": {"skin_tension_n_m": 50.0}}))
+    with pytest.raises(UserError, match="pin_lever_mm"):
+        dome_params(scenario_from_dict({**spec, "physics": {"pin_lever_mm": 9.0}}))
+
+
 @pytest.mark.parametrize("level", ["default", MEMBRANE, SHELL, SHELL_HELD_65])
 def test_each_skin_is_calibrated_to_the_same_edge_press_force(level):
     """The compliant dome's moduli were calibrated (assets/tactip/README.md) so that a

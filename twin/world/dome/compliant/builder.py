@@ -54,6 +54,22 @@ class CompliantSettings(PhysicsSettings):
     skin_held_deg: float | None = bounded(
         *DOME_MATERIAL["skin_held_deg"][1:3], "deg", DOME_MATERIAL["skin_held_deg"][3] + "; default 90", None
     )
+    skin_tension_n_m: float | None = bounded(
+        0,
+        200,
+        "N/m",
+        "the skin's pretension over the sealed gel (twin.world.dome.compliant.compliance."
+        "tension_stiffness; default 0; needs membrane_young_mpa > 0 here or in the calibration's dome_material)",
+        None,
+    )
+    pin_lever_mm: float | None = bounded(
+        0,
+        8,
+        "mm",
+        "the lever the skin's turn swings a pin tip by (twin.world.dome.compliant.compliance.post_tips; "
+        "default the pins' 2 mm length)",
+        None,
+    )
 
     def changes(self) -> dict[str, Any]:
         """The settings given, as CompliantParams fields (SI)."""
@@ -65,6 +81,8 @@ class CompliantSettings(PhysicsSettings):
             "membrane_young": None if self.membrane_young_mpa is None else self.membrane_young_mpa * 1e6,
             "step_length": None if self.increment_mm is None else self.increment_mm * 1e-3,
             "skin_held_deg": self.skin_held_deg,
+            "skin_tension": self.skin_tension_n_m,
+            "pin_lever": None if self.pin_lever_mm is None else self.pin_lever_mm * 1e-3,
         }
         return {k: v for k, v in changes.items() if v is not None}
 
@@ -91,6 +109,11 @@ class CompliantBuilder:
             raise UserError(
                 f"{source}: physics.skin_bending: true needs the skin membrane, membrane_young_mpa > 0 in "
                 f"`physics` or in the calibration's dome_material (neither sets it)"
+            )
+        if params.skin_tension and not params.membrane_young:
+            raise UserError(
+                f"{source}: physics.skin_tension_n_m = {params.skin_tension:g} needs the skin membrane, "
+                f"membrane_young_mpa > 0 in `physics` or in the calibration's dome_material (neither sets it)"
             )
         return params
 

@@ -53,7 +53,12 @@ a 65° and a 75° cap on a press and slide across an edge, against 0.001 px now.
 couples normal and tangential motion (stretching a curved membrane moves it normally),
 which twin.world.dome.compliant.contact solves jointly. With `skin_bending` the skin is a thin
 shell: its bending stiffness (`bending_stiffness`, D = E t³ / 12(1 − ν²), the same E and
-t) is added to the membrane's.
+t) is added to the membrane's. With `skin_tension` T (N/m) the skin is stretched over the
+gel before any contact, the gel's pressure 2T/R (Laplace) holding it: a normal
+displacement w then costs ½ T ∫ (|∇w|² − 2w²/R²) dA (`tension_stiffness`; the spherical
+harmonic of degree l costs T (l(l+1) − 2)/R² per unit area, rigid translations nothing,
+tested). The pins are levers on the skin (`post_tips`): the geometry's pin length is the
+lever its turn swings the tip by, which `DomeCompliance(pin_lever=…)` replaces.
 
 Everything in the tool frame (m): apex at the origin, +z out of the tip.
 """
@@ -319,7 +324,8 @@ def post_tips(
     sources, given the gel's displacement at any points (`gel_at(points)`: (P, 3, Ns, 3)
     m/N).
 
-    A pin is a rigid post of length L standing on the skin's inner surface along the
+    A pin is a rigid post of length L (the geometry's pin_length: the lever, which
+    `DomeCompliance(pin_lever=…)` sets) standing on the skin's inner surface along the
     inward normal. Its base moves with the gel there (u_b), and it turns with the skin:
     the skin's outward normal turns by u_t/R − ∇u_n (a tangential displacement on the
     sphere of radius R, and the slope of the normal displacement), so the post's axis
@@ -420,10 +426,33 @@ def bending_stiffness(sheet: SkinSheet, young: float, poisson: float, thickness:
     with the cotangent Laplacian and lumped (barycentric) areas on the sheet's
     `triangles`; the held nodes, whose Laplacian is one-sided, carry no energy of their
     own (the membrane's springs hold them)."""
-    triangles = sheet.triangles
-    x = sheet.points
+    laplacian, area = _cotangent_laplacian(sheet)
+    free = ~sheet.held
+    operator = (2.0 / sheet.radius**2 * np.diag(area) - laplacian)[free]  # rows ≈ A_i (Δ + 2/R²) w at node i
+    rigidity = young * thickness**3 / (12.0 * (1.0 - poisson**2))
+    return _on_normals(sheet, rigidity * operator.T @ (operator / area[free, None]))
+
+
+def tension_stiffness(sheet: SkinSheet, tension: float) -> np.ndarray:
+    """(3K, 3K) N/m: what the skin's pretension T (N/m, the same both ways) adds for the
+    nodes' normal displacement w: the energy ½ T ∫ (|∇w|² − 2 w²/R²) dA on the sphere of
+    radius R (the geometric stiffness of a membrane stretched over the gel, whose
+    pressure 2T/R holds it; the second term is that pressure following the skin). A
+    spherical harmonic of degree l costs T (l(l+1) − 2)/R² per unit area: rigid
+    translations (l = 1) nothing, short wavelengths T k². Discretised with the cotangent
+    Laplacian and lumped areas on the sheet's `triangles` (the held nodes included: w is
+    held there, so the Laplacian is the held skin's)."""
+    laplacian, area = _cotangent_laplacian(sheet)
+    return _on_normals(sheet, tension * (laplacian - 2.0 / sheet.radius**2 * np.diag(area)))
+
+
+def _cotangent_laplacian(sheet: SkinSheet) -> tuple[np.ndarray, np.ndarray]:
+    """The sheet's cotangent Laplacian S ((K, K) 1/m⁰, positive semi-definite: wᵀ S w =
+    ∫ |∇w|² dA for w linear on each triangle) and its nodes' lumped (barycentric) areas
+    ((K,) m²)."""
+    triangles, x = sheet.triangles, sheet.points
     n = len(x)
-    laplacian = np.zeros((n, n))  # positive semi-definite: wᵀ S w = ∫ |∇w|²
+    laplacian = np.zeros((n, n))
     area = np.zeros(n)
     for k in range(3):
         i, j, o = triangles[:, k], triangles[:, (k + 1) % 3], triangles[:, (k + 2) % 3]
@@ -434,11 +463,12 @@ def bending_stiffness(sheet: SkinSheet, young: float, poisson: float, thickness:
         np.add.at(laplacian, (i, i), half_cot)
         np.add.at(laplacian, (j, j), half_cot)
         np.add.at(area, i, np.linalg.norm(np.cross(x[j] - x[i], x[o] - x[i]), axis=1) / 6.0)
-    free = ~sheet.held
-    operator = (2.0 / sheet.radius**2 * np.diag(area) - laplacian)[free]  # rows ≈ A_i (Δ + 2/R²) w at node i
-    rigidity = young * thickness**3 / (12.0 * (1.0 - poisson**2))
-    normal_stiffness = rigidity * operator.T @ (operator / area[free, None])
-    normals = sheet.normals
+    return laplacian, area
+
+
+def _on_normals(sheet: SkinSheet, normal_stiffness: np.ndarray) -> np.ndarray:
+    """(3K, 3K): a stiffness (K, K) for the nodes' normal displacements, on their (x, y, z)."""
+    normals, n = sheet.normals, len(sheet.points)
     return np.einsum("ia,ij,jb->iajb", normals, normal_stiffness, normals).reshape(3 * n, 3 * n)
 
 
@@ -582,9 +612,11 @@ def skinned(
     enclosed: bool = True,
     held_deg: float = 90.0,
     refresh: bool = False,
+    tension: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The dome with its skin as a membrane (Young's modulus `membrane_young`, Pa; with
-    `bending`, a thin shell: `bending_stiffness` too) over the gel (shear modulus G, Pa;
+    `bending`, a thin shell: `bending_stiffness` too; stretched by `tension`, N/m:
+    `tension_stiffness`) over the gel (shear modulus G, Pa;
     sealed where `enclosed`), in `sealed_gel`'s layout ([source, force axis, point,
     displacement axis], m/N): the cap's columns, the nodes' and the pin tips'. The skin
     and the gel under it are modelled down to `held_deg` from the apex, where the base
@@ -602,12 +634,13 @@ def skinned(
         "bending": bending,
         "enclosed": enclosed,
         "held_deg": held_deg,
+        "tension": tension,
         "code": _SOURCE_DIGEST,
     }
     arrays = cached_arrays(
         "compliance",
         key,
-        lambda: _skinned(surface, poisson, shear_modulus, membrane_young, bending, enclosed, held_deg),
+        lambda: _skinned(surface, poisson, shear_modulus, membrane_young, bending, enclosed, held_deg, tension),
         shapes={"nodes": (n, 3, n, 3), "pins": (n, 3, pins, 3)},
         refresh=refresh,
     )
@@ -622,6 +655,7 @@ def _skinned(
     bending: bool,
     enclosed: bool,
     held_deg: float,
+    tension: float,
 ) -> dict[str, np.ndarray]:
     sheet = surface.skin_to(held_deg)
     count, radius = len(sheet.points), math.sqrt(surface.area / math.pi)
@@ -636,14 +670,21 @@ def _skinned(
         _keep_gel_volume(
             gel.T, pins.T, h, pins_h, volume_compliance + _gel_volume(surface) / (_bulk_ratio(poisson) * shear_modulus)
         )
-    return skin_on_gel(surface, sheet, gel, pins, membrane_young, bending)
+    return skin_on_gel(surface, sheet, gel, pins, membrane_young, bending, tension)
 
 
 def skin_on_gel(
-    surface: CapSurface, sheet: SkinSheet, gel: np.ndarray, pins: np.ndarray, membrane_young: float, bending: bool
+    surface: CapSurface,
+    sheet: SkinSheet,
+    gel: np.ndarray,
+    pins: np.ndarray,
+    membrane_young: float,
+    bending: bool,
+    tension: float = 0.0,
 ) -> dict[str, np.ndarray]:
     """The cap's columns, in `sealed_gel`'s layout, of the skin (a membrane of Young's
-    modulus `membrane_young`, Pa; with `bending`, a thin shell) over a gel whose
+    modulus `membrane_young`, Pa; with `bending`, a thin shell; pretensioned by `tension`,
+    N/m) over a gel whose
     compliance on the sheet's nodes is `gel` ((3K, 3K) m/N, tool frame, [node, axis]) and
     whose pin tips move by `pins` ((381, 3K) m/N) (`skinned`; with no skin, the gel's own
     columns). The skin's stiffness K and the gel's compliance C act in series with the
@@ -654,6 +695,8 @@ def skin_on_gel(
     skin = membrane_stiffness(sheet, membrane_young, 0.5, thickness)
     if bending:
         skin += bending_stiffness(sheet, membrane_young, 0.5, thickness)
+    if tension:
+        skin += tension_stiffness(sheet, tension)
     skin = sparse.csr_matrix(skin)
     cap = 3 * surface.count
     displacement = np.linalg.solve(np.eye(3 * count) + (skin.T @ gel.T).T, gel[:, :cap])  # u per cap force
@@ -675,7 +718,11 @@ class DomeCompliance:
     (≈ 0.1 ms): the open half-space computes a node's the first time a contact touches it;
     the sealed gel (`enclosed`) and the skin membrane need them all, loaded or computed at
     the first contact (`sealed_gel`, cached on disk; `skinned`) and kept for the life of
-    the dome.
+    the dome. The material: the gel's `young` (Pa) and `poisson`; the skin's membrane
+    `membrane_young` (Pa, 0 = none), `skin_bending`, where the base holds it
+    (`skin_held_deg`, deg from the apex) and its pretension `skin_tension` (N/m; needs the
+    membrane); `pin_lever` (m): the lever the skin's turn swings a pin tip by (None: the
+    geometry's pin length).
     """
 
     def __init__(
@@ -687,6 +734,8 @@ class DomeCompliance:
         membrane_young: float = 0.0,
         skin_bending: bool = False,
         skin_held_deg: float = 90.0,
+        skin_tension: float = 0.0,
+        pin_lever: float | None = None,
     ) -> None:
         if not (young > 0 and 0.0 <= poisson <= 0.5 and membrane_young >= 0):
             raise ValueError(
@@ -695,6 +744,15 @@ class DomeCompliance:
             )
         if skin_bending and not membrane_young:
             raise ValueError("dome material: skin_bending needs the skin membrane (membrane_young > 0 Pa)")
+        if skin_tension < 0 or (skin_tension and not membrane_young):
+            raise ValueError(
+                f"dome material: skin_tension needs the skin membrane (membrane_young > 0 Pa) and "
+                f"≥ 0 N/m, got {skin_tension} N/m over {membrane_young} Pa"
+            )
+        if pin_lever is not None and not 0.0 <= pin_lever < surface.geometry.skin_inner_radius:
+            raise ValueError(f"pin lever: need 0 <= pin_lever < the skin's inner radius, got {pin_lever} m")
+        if pin_lever is not None:  # the lever is the post's length in post_tips; the surface's key carries it
+            surface = dataclasses.replace(surface, geometry=dataclasses.replace(surface.geometry, pin_length=pin_lever))
         if not surface.extent_deg <= skin_held_deg <= 90.0:
             raise ValueError(
                 f"the base holds the skin between the cap's rim ({surface.extent_deg:g}°) and the "
@@ -703,7 +761,7 @@ class DomeCompliance:
         self.surface = surface
         self.pin_tips = surface.geometry.pin_tip_points()
         self.young, self.poisson, self.enclosed, self.membrane_young = young, poisson, enclosed, membrane_young
-        self.skin_bending, self.skin_held_deg = skin_bending, skin_held_deg
+        self.skin_bending, self.skin_held_deg, self.skin_tension = skin_bending, skin_held_deg, skin_tension
         self.shear_modulus = young / (2.0 * (1.0 + poisson))
         n = surface.count
         # stored by source node (column), so an untouched column's pages are never mapped
@@ -741,6 +799,7 @@ class DomeCompliance:
                 self.enclosed,
                 self.skin_held_deg,
                 refresh=refresh,
+                tension=self.skin_tension,
             )
         if self.enclosed:
             nodes, pins = sealed_gel(self.surface, self.poisson, self.skin_held_deg, refresh=refresh)

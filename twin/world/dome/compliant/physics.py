@@ -90,6 +90,13 @@ class CompliantParams:
       gel's pressure go on from the cap's rim (extent_deg) down to it. The geometry's dome
       meets its base at the equator (90, the default); a sensor whose skin is bonded
       higher up holds it there.
+    skin_tension (N/m): the skin's pretension over the sealed gel (the gel's pressure
+      2T/R holds it; twin.world.dome.compliant.compliance.tension_stiffness): it resists
+      the skin's short wavelengths more than its long ones. 0 (the default) = none; needs
+      membrane_young.
+    pin_lever (m): the lever the skin's turn swings a pin tip by (twin.world.dome.
+      compliant.compliance.post_tips); None (the default) = the geometry's pin length,
+      2 mm. Longer: the pins amplify the skin's slope more against its displacement.
     """
 
     #: the largest Poisson's ratio (–) the model takes (the incompressible gel's ν = 0.5 is the model's own)
@@ -111,15 +118,26 @@ class CompliantParams:
     membrane_young: float = 0.0
     skin_bending: bool = False
     skin_held_deg: float = 90.0
+    skin_tension: float = 0.0
+    pin_lever: float | None = None
 
     def with_(self, **changes) -> CompliantParams:
         return replace(self, **changes)
 
     @property
-    def material(self) -> tuple[float, float, bool, float, bool, float]:
+    def material(self) -> tuple[float, float, bool, float, bool, float, float, float | None]:
         """`DomeCompliance`'s arguments after the surface: young, poisson, enclosed,
-        membrane_young, skin_bending, skin_held_deg."""
-        return (self.young, self.poisson, self.enclosed, self.membrane_young, self.skin_bending, self.skin_held_deg)
+        membrane_young, skin_bending, skin_held_deg, skin_tension, pin_lever."""
+        return (
+            self.young,
+            self.poisson,
+            self.enclosed,
+            self.membrane_young,
+            self.skin_bending,
+            self.skin_held_deg,
+            self.skin_tension,
+            self.pin_lever,
+        )
 
 
 #: Fidelity levels of the compliant dome (scenario `fidelity` with `dome: compliant`).
@@ -484,8 +502,12 @@ def dome_compliance(
     membrane_young: float = 0.0,
     skin_bending: bool = False,
     skin_held_deg: float = 90.0,
+    skin_tension: float = 0.0,
+    pin_lever: float | None = None,
 ) -> DomeCompliance:
     """The influence matrices for this surface and material, shared within the process
     (the sealed gel's loaded from the cache, or computed, at the first contact). Eight
     are kept (8–218 MB each): `twin bench physics` alternates between five."""
-    return DomeCompliance(surface, young, poisson, enclosed, membrane_young, skin_bending, skin_held_deg)
+    return DomeCompliance(
+        surface, young, poisson, enclosed, membrane_young, skin_bending, skin_held_deg, skin_tension, pin_lever
+    )
