@@ -41,3 +41,24 @@ def test_compare_two_fidelity_levels(tmp_path, capsys) -> None:
         signal = result["orientation_signal_px"][tag]["3.0"]
         assert signal["2.0"] > 2.0 * signal["9.9"], signal
     assert main(["compare", str(a), str(tmp_path / "nope"), "--out", str(tmp_path / "x")]) == 2
+
+
+def test_targets_pair_across_a_rounding_boundary(tmp_path) -> None:
+    """A record keeps 7 significant digits: its 41.3795° and the replayed 41.37949958° pair
+    (rounded to 1e-3 they read 41.380 and 41.379); a target 2e-3 away does not, and each
+    target pairs once, in order."""
+    from twin.analysis.comparison import pair_samples
+    from twin.runs.record import Run
+
+    recorded = Run(tmp_path, {}, [{"target": [64.59777, 0, 3.063105, 0, 0, 41.3795]}, {"target": [1, 2, 3, 0, 0, 5]}])
+    replayed = Run(
+        tmp_path,
+        {},
+        [
+            {"target": [1, 2, 3, 0, 0, 5.002]},
+            {"target": [64.59777022, 0, 3.0631052, 0, 0, 41.37949958]},
+            {"target": [64.59777022, 0, 3.0631052, 0, 0, 41.37949958]},
+        ],
+    )
+    assert pair_samples(recorded, replayed) == [(0, 1)]
+    assert pair_samples(replayed, recorded) == [(1, 0)]

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from scipy.spatial import cKDTree
 from skimage.metrics import structural_similarity
 
 from twin.analysis.edge_imprint import edge_figures
@@ -18,19 +19,26 @@ from twin.core.errors import UserError
 from twin.runs.record import Run, jsonable, load_run
 from twin.sensing.perception import PerceptionModel, angle_error_deg
 
-POSE_DECIMALS = 3  # targets are paired when equal to 1e-3 mm / deg
+POSE_TOLERANCE = 1e-3  # targets are paired when equal to within 1e-3 mm / deg in every coordinate
 
 
 def pair_samples(a: Run, b: Run) -> list[tuple[int, int]]:
-    """Index pairs (i in a, j in b) with the same target pose; each target used once, in order."""
-    index: dict[tuple, list[int]] = {}
-    for j, s in enumerate(b.samples):
-        index.setdefault(tuple(np.round(s["target"], POSE_DECIMALS)), []).append(j)
+    """Index pairs (i in a, j in b) with the same target pose (within POSE_TOLERANCE in every
+    coordinate); each target used once, in order. A tolerance, not rounding: a record's
+    targets are written to 7 significant digits, and rounding a replayed 41.37949958° and
+    its record's 41.3795° to 1e-3 gave 41.379 against 41.380."""
+    targets_b = np.array([s["target"] for s in b.samples], float).reshape(-1, 6)
+    if not len(targets_b):
+        return []
+    tree = cKDTree(targets_b)
+    used = np.zeros(len(targets_b), bool)
     pairs = []
     for i, s in enumerate(a.samples):
-        bucket = index.get(tuple(np.round(s["target"], POSE_DECIMALS)))
-        if bucket:
-            pairs.append((i, bucket.pop(0)))
+        for j in sorted(tree.query_ball_point(np.asarray(s["target"], float), POSE_TOLERANCE, p=np.inf)):
+            if not used[j]:
+                used[j] = True
+                pairs.append((i, j))
+                break
     return pairs
 
 
