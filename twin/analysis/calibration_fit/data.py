@@ -69,7 +69,11 @@ def load_data(run_dirs: list[Path], scenario: Scenario, weights: Weights) -> Dat
                     f"{path}: sample {i} has no pins (field 'pins_px' is null; frame "
                     f"{s.get('frame')!r}): records without frames or pins cannot be fitted"
                 )
-        pins.append(run.pins_px)
+        recorded_pins = run.pins_px
+        for i, s in enumerate(run.samples):  # a pin the tracker did not find holds its guess: not fitted
+            if s.get("found") is not None:
+                recorded_pins[i, ~np.asarray(s["found"], bool)] = np.nan
+        pins.append(recorded_pins)
         group.extend(_group(recorded, s) for s in run.samples)
         run_index.extend([r] * len(run.samples))
         chunks.extend((r, c) for c in replay_chunks(run, recorded))
