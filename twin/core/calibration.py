@@ -65,12 +65,14 @@ class CameraCalibration(StrictModel):
     width: int = bounded(64, 4096, "px", "the resolution the pixel values refer to", 640)
     height: int = bounded(48, 4096, "px", "image height", 480)
     focal_px: float | None = Field(
-        default=None, gt=50.0, le=20000.0, description="focal length (px; (50, 20000]); None = from the field of view"
+        default=None, gt=10.0, le=20000.0, description="focal length (px; (10, 20000]); None = from the field of view"
     )
     principal_point_px: bounded_list(0.0, 4096.0, "px", length=2) | None = None
     distortion: Distortion = Distortion()
-    offset_mm: bounded_list(-5.0, 5.0, "mm", length=3) = [0.0, 0.0, 0.0]
-    rotation_deg: bounded_list(-10.0, 10.0, "deg", length=3) = [0.0, 0.0, 0.0]
+    # a real TacTip's camera may sit much nearer the dome than the model's (the DigiTac set's
+    # 127-pin TacTip: about 26 mm) and be turned on its axis by any angle (its pin grid: about 30°)
+    offset_mm: bounded_list(-30.0, 30.0, "mm", length=3) = [0.0, 0.0, 0.0]
+    rotation_deg: bounded_list(-180.0, 180.0, "deg", length=3) = [0.0, 0.0, 0.0]
 
 
 #: the largest rest-pin offset a calibration holds (px): beyond it the camera or rest layout is wrong, not the pins

@@ -45,6 +45,33 @@ def report_markdown(r: dict) -> str:
         lines.append(f"| {g} frames | {_fmt(r['before']['groups'].get(g))} | {_fmt(v)} |")
     for run, v in r["after"]["runs"].items():
         lines.append(f"| run {run} | {_fmt(r['before']['runs'].get(run))} | {_fmt(v)} |")
+    held = r.get("held_out")
+    if held:
+        lines.append(
+            f"| held out, overall ({held['samples']} samples, not fitted) | {_fmt(held['before']['overall'])} | "
+            f"{_fmt(held['after']['overall'])} |"
+        )
+        for g, v in held["after"]["groups"].items():
+            lines.append(f"| held out, {g} frames | {_fmt(held['before']['groups'].get(g))} | {_fmt(v)} |")
+    rest = r.get("camera_from_rest")
+    if rest:
+        alone = rest["pin_rms_px"]
+        lines.append(
+            f"| camera start alone (the twin's physics, rest layout fitted), overall | – | {_fmt(alone['overall'])} |"
+        )
+        for g, v in alone["groups"].items():
+            lines.append(f"| camera start alone, {g} frames | – | {_fmt(v)} |")
+        lines += [
+            "",
+            f"Camera start from the no-contact frames (the pin lattice projected, no rest offsets; pin RMS "
+            f"{rest['rms_px']:.3f} px on them):",
+            "",
+            "| parameter | twin | from the no-contact frames | ± std (Gauss–Newton) |",
+            "|---|---|---|---|",
+        ]
+        for name, v in rest["values"].items():
+            flag = " (**at a bound**: widen it)" if name in rest["at_bound"] else ""
+            lines.append(f"| {name} | {rest['twin'][name]:.4g} | {v:.4g}{flag} | {rest['std'][name]:.2g} |")
     lines += [
         "",
         "| parameter | default | fitted | ± std | resolution | VIF | bounds | identifiable |",
@@ -133,11 +160,14 @@ def calibrate_and_report(
     workers: int | None = None,
     cluster: str | None = None,
     progress: bool = True,
+    held_out: list[Path] | None = None,
 ) -> dict:
     """`twin calibrate`: the fit (twin.analysis.calibration_fit.fit.calibrate, its files in
     `out`), then its report; raises CalibrationNotConverged after writing both when the
     stop rule was not met (DIR/best_calibration.yaml holds the best point)."""
-    result = calibrate(run_dirs, scenario, out, settings, workers=workers, cluster=cluster, progress=progress)
+    result = calibrate(
+        run_dirs, scenario, out, settings, workers=workers, cluster=cluster, progress=progress, held_out=held_out
+    )
     write_report(result, out)
     if result["status"] != "converged":
         raise CalibrationNotConverged(

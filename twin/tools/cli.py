@@ -287,9 +287,17 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         workers=args.workers,
         cluster=args.cluster,
         progress=not args.quiet,
+        held_out=[Path(r) for r in args.held_out or []],
     )
     _warn_unfinished(r["unfinished"])
     print(f"{r['status']} ({r['stop_reason']}); pin RMS {r['before']['overall']:.3f} -> {r['after']['overall']:.3f} px")
+    if r["held_out"]:
+        h = r["held_out"]
+        print(
+            f"  held out ({h['samples']} samples, not fitted): {h['before']['overall']:.3f} -> {h['after']['overall']:.3f} px"
+        )
+    for name, v in (r["camera_from_rest"] or {}).get("values", {}).items():
+        print(f"  {name} from the no-contact frames = {v:.5g} ± {r['camera_from_rest']['std'][name]:.2g}")
     for name, u in r["uncertainty"]["parameters"].items():
         flag = (
             ""
@@ -506,6 +514,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--workers", type=WORKERS, default=None, help="local processes (default: all cores)")
     p.add_argument("--cluster", default=None, help="Ray address ('local' starts one); needs the ray extra")
+    p.add_argument(
+        "--held-out",
+        nargs="+",
+        default=None,
+        metavar="RUN",
+        help="runs not fitted, only predicted before and after (pin RMS with the fit's rest layout)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_calibrate)
 

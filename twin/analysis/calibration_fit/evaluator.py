@@ -42,6 +42,8 @@ class Evaluator:
         self.row_sample = np.repeat(np.nonzero(self.valid)[0], 2)
         self.rest = data.group == GROUPS.index("rest")
         self.fit_rest = space.settings.rest_pins and bool(self.rest.any())
+        #: rest offsets (127, 2) px to use instead of the closed form (held-out runs: the fit's layout)
+        self.fixed_offsets: np.ndarray | None = None
 
     def simulate(self, candidates: list[dict[str, float]]) -> list[np.ndarray]:
         """Pin tips (N, 127, 3) m for each physics candidate, in recorded-sample order (a
@@ -85,7 +87,9 @@ class Evaluator:
         camera = self.space.calibration(values).camera_model(self.space.scenario.camera_model().nominal())
         proj = camera.project_tool_points(tips.reshape(-1, 3)).reshape(tips.shape[0], N_PINS, 2)
         offsets = np.zeros((N_PINS, 2))
-        if self.fit_rest:
+        if self.fixed_offsets is not None:
+            offsets = self.fixed_offsets
+        elif self.fit_rest:
             w = (self.data.weights[self.rest][:, None] * self.valid[self.rest])[..., None]
             diff = np.nan_to_num(self.data.pins[self.rest] - proj[self.rest])
             offsets = (w * diff).sum(axis=0) / np.maximum(w.sum(axis=0), 1e-12)
@@ -114,6 +118,47 @@ class Evaluator:
         x0 = np.clip(self.space.to_unit(names, start), 0.0, 1.0)
         sol = least_squares(fun, x0, bounds=(0.0, 1.0), x_scale="jac", diff_step=1e-6, xtol=1e-10, ftol=1e-10)
         return {**physics, **self.space.from_unit(names, sol.x)}
+
+    def solve_rest_camera(self, tips: np.ndarray, names: list[str], values: dict[str, float]) -> dict:
+        """The camera parameters `names` fitted to the no-contact frames' pins as the pin lattice
+        projected, without rest offsets (least squares within their bounds, from `values`):
+        a start for a camera unlike the twin's, which the rest offsets (≤ 50 px) cannot absorb.
+        The parameters' priors (settings prior_std, about `values`) apply: a dome's pins at rest
+        are met nearly as well by a near camera as by a far one with a strong radial
+        distortion, and a prior on the distortion settles it. Returns {"values", "std" (Gauss–Newton, s² from the fit), "rms_px" (Euclidean per pin)}."""
+        pins, valid = self.data.pins[self.rest], self.valid[self.rest]
+        w = np.sqrt(self.data.weights[self.rest])[:, None, None] / self.space.settings.noise_px
+        space = self.space
+        bounds = {n: space.settings.parameters[n] for n in names}
+        lower = np.array([bounds[n].lower for n in names])
+        span = np.array([bounds[n].upper - bounds[n].lower for n in names])
+
+        def unpack(unit: np.ndarray) -> dict[str, float]:
+            return {**values, **{n: float(lo + u * r) for n, lo, u, r in zip(names, lower, unit, span)}}
+
+        def diff(unit: np.ndarray) -> np.ndarray:
+            camera = space.calibration(unpack(unit)).camera_model(space.scenario.camera_model().nominal())
+            return pins - camera.project_tool_points(tips[self.rest].reshape(-1, 3)).reshape(pins.shape)
+
+        priors = [(i, n, space.settings.parameters[n].prior_std) for i, n in enumerate(names)]
+        priors = [(i, values[n], std) for i, n, std in priors if std]
+
+        def fun(unit: np.ndarray) -> np.ndarray:
+            prior = [(lower[i] + unit[i] * span[i] - v) / std for i, v, std in priors]
+            return np.concatenate([(diff(unit) * w)[valid].ravel(), prior])
+
+        x0 = np.clip((np.array([values[n] for n in names]) - lower) / span, 0.0, 1.0)
+        sol = least_squares(fun, x0, bounds=(0.0, 1.0), x_scale="jac", diff_step=1e-6, xtol=1e-12, ftol=1e-12)
+        r = sol.fun[: sol.fun.size - len(priors)]
+        s2 = float(r @ r) / max(1, r.size - len(names))
+        cov = np.linalg.pinv(sol.jac.T @ sol.jac) * s2
+        fitted = unpack(sol.x)
+        return {
+            "values": {n: fitted[n] for n in names},
+            "std": {n: float(np.sqrt(max(cov[i, i], 0.0)) * span[i]) for i, n in enumerate(names)},
+            "at_bound": [n for n, u in zip(names, sol.x) if min(u, 1.0 - u) < 1e-6],
+            "rms_px": float(np.sqrt(np.mean(np.sum(diff(sol.x)[valid] ** 2, axis=1)))),
+        }
 
     def chi2(self, tips: np.ndarray, values: dict[str, float]) -> float:
         return float(np.sum(self.residuals(tips, values) ** 2))

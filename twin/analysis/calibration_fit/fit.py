@@ -11,6 +11,11 @@ The model of a recorded pin (px) in sample i, pin k:
   material, skin–stimulus friction, TCP offset. Every evaluation re-simulates the runs
   (projected pins, no rendering), in parallel over chunks and candidates.
 * camera(θ_cam): intrinsics, distortion, pose in the tool (twin.core.sensor.CameraModel).
+* camera start: with settings.camera_from_rest, those camera parameters are first fitted to
+  the no-contact frames' pins as the lattice projected (no rest offsets; their priors
+  apply), and the values start the fit (a camera unlike the twin's: another crop, roll or
+  distance, whose layout the ≤ 50 px rest offsets cannot absorb); fitted or not later,
+  they are reported with their Gauss–Newton errors.
 * rest_k: the rest layout's offset from the lattice, in closed form: the weighted mean,
   over the no-contact frames (target z ≤ 0 in the work frame), of recorded minus projected
   pins (the least-squares solution for given θ). Without no-contact frames it stays 0 and
@@ -36,6 +41,10 @@ whole range moves the pins by more than the fit's pin RMS, and its Jacobian colu
 nearly in the span of the others (variance inflation ≤ `max_variance_inflation`); one that
 is not is reported as such, with the reasons, and left at its default in the calibration
 file, not silently fitted (twin.analysis.calibration_fit.uncertainty says why each test).
+
+Held-out runs (`held_out`) are not fitted: their pins are predicted with the twin as the
+scenario has it (before) and with the fitted values and the fit's rest layout (after), and
+the pin RMS of both is reported beside the fitted runs'.
 """
 
 from __future__ import annotations
@@ -66,18 +75,67 @@ def calibrate(
     workers: int | None = None,
     cluster: str | None = None,
     progress: bool = True,
+    held_out: list[Path] | None = None,
 ) -> dict:
-    """Fit the twin to the runs (module docstring); writes DIR/calibration.yaml (converged) or
+    """Fit the twin to the runs (module docstring); `held_out` runs are not fitted, only
+    predicted before and after (the fit's rest layout, not their own); writes DIR/calibration.yaml (converged) or
     DIR/best_calibration.yaml (not: the result's status says so), the report data
     report.json (the returned result), history.jsonl and checkpoint.json. The command
     (twin.tools.calibration_report.calibrate_and_report) adds report.md and residuals.png.
     workers / cluster: as twin.runs.parallel.WorkerPool, one pool for all the simulations."""
     with WorkerPool(workers, cluster) as pool:
-        return _calibrate(run_dirs, scenario, out, settings, pool, progress)
+        return _calibrate(run_dirs, scenario, out, settings, pool, progress, [Path(r) for r in held_out or []])
+
+
+def _camera_from_rest(ev: Evaluator, tips: np.ndarray) -> dict | None:
+    """The camera start from the no-contact frames (settings.camera_from_rest), made the
+    parameters' defaults; None when the settings name none."""
+    names = ev.space.settings.camera_from_rest
+    if not names:
+        return None
+    if not ev.rest.any():
+        raise UserError(
+            "calibration settings: field 'camera_from_rest' needs no-contact frames (target z <= 0) in the runs; "
+            "there are none"
+        )
+    estimate = ev.solve_rest_camera(tips, list(names), ev.space.defaults)
+    estimate["twin"] = {n: ev.space.defaults[n] for n in names}
+    ev.space.defaults.update(estimate["values"])
+    # the pins with this camera, the rest layout fitted and the twin's physics: what the camera alone does
+    alone = ev.rms(tips, dict(ev.space.defaults))
+    estimate["pin_rms_px"] = {"overall": alone["overall"], "groups": alone["groups"]}
+    return estimate
+
+
+def _predicted_elsewhere(
+    runs: list[Path], space: Space, pool: WorkerPool, before: dict, after: dict, offsets: np.ndarray | None
+) -> dict:
+    """Pin RMS on runs the fit did not see, before (the scenario's twin) and after (the
+    fitted values and the fit's rest layout)."""
+    data = load_data(runs, space.scenario, space.settings.weights)
+    ev = Evaluator(space, data, pool)
+    ev.fit_rest = False
+    tips_before, tips_after = ev.simulate([before, after])
+    rms_before = ev.rms(tips_before, before)
+    ev.fixed_offsets = offsets
+    rms_after = ev.rms(tips_after, after)
+    keep = ("overall", "groups", "runs")
+    return {
+        "runs": [str(r) for r in runs],
+        "samples": int(len(data.pins)),
+        "before": {k: rms_before[k] for k in keep},
+        "after": {k: rms_after[k] for k in keep},
+    }
 
 
 def _calibrate(
-    run_dirs: list[Path], scenario: Scenario, out: Path, settings: CalibrationSettings, pool: WorkerPool, progress: bool
+    run_dirs: list[Path],
+    scenario: Scenario,
+    out: Path,
+    settings: CalibrationSettings,
+    pool: WorkerPool,
+    progress: bool,
+    held_out: list[Path],
 ) -> dict:
     wall = time.perf_counter()
     if scenario.backend != "sim":
@@ -92,6 +150,7 @@ def _calibrate(
     ev.fit_rest, fit_rest = False, ev.fit_rest
     before = ev.rms(before_tips, before_values)
     ev.fit_rest = fit_rest
+    rest_camera = _camera_from_rest(ev, before_tips)
     state = optimise(ev, out, search_key(run_dirs, scenario, settings), progress)
     best = state["best"]
     best_tips = ev.simulate([best])[0]
@@ -117,6 +176,11 @@ def _calibrate(
         )
     calibration = space.calibration(final, offsets if ev.fit_rest else None)
     after = ev.rms(final_tips, final)
+    elsewhere = (
+        _predicted_elsewhere(held_out, space, pool, before_values, final, offsets if ev.fit_rest else None)
+        if held_out
+        else None
+    )
     name = "calibration.yaml" if state["converged"] else "best_calibration.yaml"
     write_calibration(calibration, out / name)
     result = {
@@ -138,6 +202,8 @@ def _calibrate(
         ),
         "before": before,
         "after": after,
+        "camera_from_rest": rest_camera,
+        "held_out": elsewhere,
         "uncertainty": errors,
         "generations": state["generation"],
         "best_chi2": state["best_chi2"],

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
 from twin.core.errors import UserError
 from twin.core.resources import asset_path
@@ -86,6 +86,9 @@ class CalibrationSettings(_Strict):
 
     parameters: dict[str, ParameterSetting]
     rest_pins: bool
+    camera_from_rest: list[str] = Field(
+        description="camera parameters whose start is first fitted to the no-contact frames' pins (no rest offsets)"
+    )
     weights: Weights
     noise_px: float = Field(gt=0, le=50)
     identifiable_fraction: float = Field(gt=0, le=10)
@@ -98,6 +101,14 @@ class CalibrationSettings(_Strict):
         if unknown:
             raise ValueError(f"unknown parameters {unknown}; known: {', '.join(PARAMETERS)}")
         return self
+
+    @field_validator("camera_from_rest")
+    @classmethod
+    def _camera_only(cls, names: list[str], info: ValidationInfo) -> list[str]:
+        wrong = [n for n in names if n not in CAMERA or n not in info.data.get("parameters", {})]
+        if wrong:
+            raise ValueError(f"{wrong} are not camera parameters with bounds (camera parameters: {', '.join(CAMERA)})")
+        return names
 
     @property
     def fitted(self) -> list[str]:
