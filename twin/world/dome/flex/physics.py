@@ -74,6 +74,8 @@ from twin.world.dome.flex.grid import (
 )
 from twin.world.dome.flex.skin import SkinLayer, skin_layer
 
+_IDENTITY = np.eye(3)
+
 
 class PinMap:
     """Pin tips (tool frame, m) as an affine function of the flex nodes' joint positions.
@@ -191,11 +193,12 @@ class SensorPhysics:
             self.skin = skin_layer(self.camera.geometry, params.skin_spacing, params.skin_extent_deg)
         self.skin_seconds = 0.0  # wall time spent in the skin layer (s), for benchmarks
         self._saved_data: mujoco.MjData | None = None  # converged_pins' snapshot, allocated once
+        self._quat_memo: dict[bytes, np.ndarray] = {}  # _quats_xyzw's last single rotations
         self._set_carrier(self._carrier_state(self._commanded, np.zeros(3), np.zeros(3)))
         mujoco.mj_forward(model, data)
         self.rest_pins = pin_tips_tool(model, data, handles).copy()
         self._pins = self._read_pins()
-        self._pins_px = self.camera.project_tool_points(self._pins)
+        self._projected: np.ndarray | None = None  # _pins_px, once asked for
         self.step_seconds = 0.0  # wall time spent in physics steps (s), for benchmarks
         self._check(self._commanded)
 
@@ -215,7 +218,7 @@ class SensorPhysics:
         dt = self.model.opt.timestep
         delta_p = target[:3, 3] - start[:3, 3]
         relative = start[:3, :3].T @ target[:3, :3]
-        turns = not np.allclose(relative, np.eye(3), rtol=0.0, atol=1e-12)
+        turns = not bool((np.abs(relative - _IDENTITY) <= 1e-12).all())  # np.allclose(rtol=0) at a tenth the cost
         rotvec = Rotation.from_matrix(relative).as_rotvec() if turns else np.zeros(3)  # in the start tool frame
         n = int(
             max(
@@ -344,7 +347,7 @@ class SensorPhysics:
         n = len(positions)
         r_scene = np.einsum("ij,nkj->nik", t2s_r, rotations)  # lab → scene rotations: T2S·Rᵀ
         c2s_r = r_scene @ c2w_r
-        quat = Rotation.from_matrix(c2s_r).as_quat()  # x, y, z, w
+        quat = self._quats_xyzw(c2s_r)
         r_scene, c2s_r, quat = (np.broadcast_to(a, (n,) + a.shape[1:]) for a in (r_scene, c2s_r, quat))
         c2s_p = np.einsum("nij,nj->ni", r_scene, c2w_p - positions) + t2s_p
         # ω × r of the lab point about the tool origin (np.cross costs ≈ 13 µs: skipped for translations)
@@ -355,6 +358,20 @@ class SensorPhysics:
         w_local = np.einsum("nji,nj->ni", c2s_r, w_scene)
         qpos = np.column_stack([c2s_p, quat[:, 3], quat[:, :3]])
         return qpos, np.column_stack([v_scene, w_local])
+
+    def _quats_xyzw(self, rotations: np.ndarray) -> np.ndarray:
+        """(n, 4) scipy quaternions (x, y, z, w) of (n, 3, 3) rotations. A single rotation's
+        is kept for the next call: a move at one orientation and the settle after it ask
+        for the same one (Rotation.from_matrix costs ≈ 0.2 ms a call)."""
+        if len(rotations) != 1:
+            return Rotation.from_matrix(rotations).as_quat()
+        key = rotations.tobytes()
+        quat = self._quat_memo.get(key)
+        if quat is None:
+            if len(self._quat_memo) >= 4:
+                self._quat_memo.clear()
+            quat = self._quat_memo[key] = Rotation.from_matrix(rotations).as_quat()
+        return quat
 
     def _set_carrier(self, state) -> None:
         self.data.qpos[self._qadr : self._qadr + 7] = state[0]
@@ -388,11 +405,24 @@ class SensorPhysics:
         self._check(None, (rotation, position))
 
     def _read_step(self) -> None:
-        """Count the step and read the pins (m, tool frame) and their images (px)."""
+        """Count the step and read the pins (m, tool frame); their images follow when asked
+        for (`_pins_px`)."""
         self._steps += 1
         self._since_frame += 1
         self._pins = self._read_pins()
-        self._pins_px = self.camera.project_tool_points(self._pins)
+        self._projected = None
+
+    @property
+    def _pins_px(self) -> np.ndarray:
+        """(127, 2) px: the current pins through the camera, projected when first asked for
+        (settling asks after every step, a move only after its last)."""
+        if self._projected is None:
+            self._projected = self.camera.project_tool_points(self._pins)
+        return self._projected
+
+    @_pins_px.setter
+    def _pins_px(self, pins_px: np.ndarray) -> None:
+        self._projected = pins_px
 
     def _check(self, pose: np.ndarray | None, at: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         """Per-step sanity checks (module docstring); `pose` (4×4) or `at` (R, p) names the
