@@ -172,3 +172,19 @@ def test_pretension_stiffens_the_skin_and_needs_the_membrane(cache):
     assert sink[0] > sink[1] > sink[2] > 0
     with pytest.raises(ValueError, match="skin_tension"):
         DomeCompliance(SURFACE, 5.3e4, 0.5, skin_tension=10.0)
+
+
+def test_a_bending_modulus_of_its_own_stiffens_only_the_shell_s_bending(cache):
+    """The shell's bending modulus (`bending_young`) defaults to the membrane's: the same
+    matrices. A stiffer one resists a press on the apex more, and never more than the
+    whole skin made that stiff (membrane and bending); without the shell it is refused."""
+    nodes, forces = np.array([0]), np.array([[0.0, 0.0, -0.5]])
+
+    def sink(membrane: float, bending: float | None) -> float:
+        dome = DomeCompliance(SURFACE, 1.33e4, 0.5, membrane_young=membrane, skin_bending=True, bending_young=bending)
+        return -float(dome.surface_displacement(nodes, forces)[0, 2])
+
+    assert sink(6e5, 6e5) == pytest.approx(sink(6e5, None), rel=1e-12)
+    assert sink(6e5, None) > sink(6e5, 4e6) > sink(4e6, None) > 0
+    with pytest.raises(ValueError, match="bending_young"):
+        DomeCompliance(SURFACE, 5.3e4, 0.5, membrane_young=6e5, bending_young=4e6)

@@ -228,10 +228,11 @@ def test_skin_bending_takes_the_membrane_from_the_calibration():
         dome_params(without)
 
 
-def test_pretension_and_pin_lever_are_scenario_settings_in_their_units():
-    """`physics: {skin_tension_n_m, pin_lever_mm}` set the skin's pretension (N/m) and the
-    pins' lever (mm → m); a pretension without the skin membrane is refused, naming the
-    field, and a value out of bounds names its field too."""
+def test_pretension_lever_and_bending_modulus_are_scenario_settings_in_their_units():
+    """`physics: {skin_tension_n_m, pin_lever_mm, skin_bending_mpa}` set the skin's
+    pretension (N/m), the pins' lever (mm → m) and the shell's bending modulus (MPa → Pa);
+    a pretension without the skin membrane or a bending modulus without the shell is
+    refused, naming the field, and a value out of bounds names its field too."""
     from twin.core.errors import UserError
     from twin.runs.spec import dome_params
 
@@ -242,9 +243,13 @@ def test_pretension_and_pin_lever_are_scenario_settings_in_their_units():
         )
     )
     assert params.skin_tension == 50.0 and params.pin_lever == pytest.approx(4e-3)
-    assert params.material[-2:] == (50.0, pytest.approx(4e-3))
+    assert params.material[-3:] == (50.0, pytest.approx(4e-3), None)
     with pytest.raises(UserError, match=r"physics\.skin_tension_n_m.*membrane_young_mpa"):
         dome_params(scenario_from_dict({**spec, "physics": {"skin_tension_n_m": 50.0}}))
+    shell = {"membrane_young_mpa": 0.6, "skin_bending": True, "skin_bending_mpa": 4.0}
+    assert dome_params(scenario_from_dict({**spec, "physics": shell})).bending_young == pytest.approx(4e6)
+    with pytest.raises(UserError, match=r"physics\.skin_bending_mpa.*skin_bending: true"):
+        dome_params(scenario_from_dict({**spec, "physics": {"membrane_young_mpa": 0.6, "skin_bending_mpa": 4.0}}))
     with pytest.raises(UserError, match="pin_lever_mm"):
         dome_params(scenario_from_dict({**spec, "physics": {"pin_lever_mm": 9.0}}))
 

@@ -54,6 +54,14 @@ class CompliantSettings(PhysicsSettings):
     skin_held_deg: float | None = bounded(
         *DOME_MATERIAL["skin_held_deg"][1:3], "deg", DOME_MATERIAL["skin_held_deg"][3] + "; default 90", None
     )
+    skin_bending_mpa: float | None = bounded(
+        0.01,
+        50,
+        "MPa",
+        "the shell's bending modulus, D = E t³ / 12(1 − ν²) with this E (default membrane_young_mpa; "
+        "needs skin_bending: true)",
+        None,
+    )
     skin_tension_n_m: float | None = bounded(
         0,
         200,
@@ -82,6 +90,7 @@ class CompliantSettings(PhysicsSettings):
             "step_length": None if self.increment_mm is None else self.increment_mm * 1e-3,
             "skin_held_deg": self.skin_held_deg,
             "skin_tension": self.skin_tension_n_m,
+            "bending_young": None if self.skin_bending_mpa is None else self.skin_bending_mpa * 1e6,
             "pin_lever": None if self.pin_lever_mm is None else self.pin_lever_mm * 1e-3,
         }
         return {k: v for k, v in changes.items() if v is not None}
@@ -110,6 +119,8 @@ class CompliantBuilder:
                 f"{source}: physics.skin_bending: true needs the skin membrane, membrane_young_mpa > 0 in "
                 f"`physics` or in the calibration's dome_material (neither sets it)"
             )
+        if params.bending_young is not None and not params.skin_bending:
+            raise UserError(f"{source}: physics.skin_bending_mpa needs physics.skin_bending: true")
         if params.skin_tension and not params.membrane_young:
             raise UserError(
                 f"{source}: physics.skin_tension_n_m = {params.skin_tension:g} needs the skin membrane, "

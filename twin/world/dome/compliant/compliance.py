@@ -53,7 +53,7 @@ a 65° and a 75° cap on a press and slide across an edge, against 0.001 px now.
 couples normal and tangential motion (stretching a curved membrane moves it normally),
 which twin.world.dome.compliant.contact solves jointly. With `skin_bending` the skin is a thin
 shell: its bending stiffness (`bending_stiffness`, D = E t³ / 12(1 − ν²), the same E and
-t) is added to the membrane's. With `skin_tension` T (N/m) the skin is stretched over the
+t, or a bending modulus of its own: `bending_young`) is added to the membrane's. With `skin_tension` T (N/m) the skin is stretched over the
 gel before any contact, the gel's pressure 2T/R (Laplace) holding it: a normal
 displacement w then costs ½ T ∫ (|∇w|² − 2w²/R²) dA (`tension_stiffness`; the spherical
 harmonic of degree l costs T (l(l+1) − 2)/R² per unit area, rigid translations nothing,
@@ -613,10 +613,11 @@ def skinned(
     held_deg: float = 90.0,
     refresh: bool = False,
     tension: float = 0.0,
+    bending_young: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The dome with its skin as a membrane (Young's modulus `membrane_young`, Pa; with
-    `bending`, a thin shell: `bending_stiffness` too; stretched by `tension`, N/m:
-    `tension_stiffness`) over the gel (shear modulus G, Pa;
+    `bending`, a thin shell: `bending_stiffness` too, of modulus `bending_young` (Pa; None:
+    `membrane_young`); stretched by `tension`, N/m: `tension_stiffness`) over the gel (shear modulus G, Pa;
     sealed where `enclosed`), in `sealed_gel`'s layout ([source, force axis, point,
     displacement axis], m/N): the cap's columns, the nodes' and the pin tips'. The skin
     and the gel under it are modelled down to `held_deg` from the apex, where the base
@@ -635,12 +636,15 @@ def skinned(
         "enclosed": enclosed,
         "held_deg": held_deg,
         "tension": tension,
+        "bending_young": bending_young,
         "code": _SOURCE_DIGEST,
     }
     arrays = cached_arrays(
         "compliance",
         key,
-        lambda: _skinned(surface, poisson, shear_modulus, membrane_young, bending, enclosed, held_deg, tension),
+        lambda: _skinned(
+            surface, poisson, shear_modulus, membrane_young, bending, enclosed, held_deg, tension, bending_young
+        ),
         shapes={"nodes": (n, 3, n, 3), "pins": (n, 3, pins, 3)},
         refresh=refresh,
     )
@@ -656,6 +660,7 @@ def _skinned(
     enclosed: bool,
     held_deg: float,
     tension: float,
+    bending_young: float | None,
 ) -> dict[str, np.ndarray]:
     sheet = surface.skin_to(held_deg)
     count, radius = len(sheet.points), math.sqrt(surface.area / math.pi)
@@ -670,7 +675,7 @@ def _skinned(
         _keep_gel_volume(
             gel.T, pins.T, h, pins_h, volume_compliance + _gel_volume(surface) / (_bulk_ratio(poisson) * shear_modulus)
         )
-    return skin_on_gel(surface, sheet, gel, pins, membrane_young, bending, tension)
+    return skin_on_gel(surface, sheet, gel, pins, membrane_young, bending, tension, bending_young)
 
 
 def skin_on_gel(
@@ -681,10 +686,11 @@ def skin_on_gel(
     membrane_young: float,
     bending: bool,
     tension: float = 0.0,
+    bending_young: float | None = None,
 ) -> dict[str, np.ndarray]:
     """The cap's columns, in `sealed_gel`'s layout, of the skin (a membrane of Young's
-    modulus `membrane_young`, Pa; with `bending`, a thin shell; pretensioned by `tension`,
-    N/m) over a gel whose
+    modulus `membrane_young`, Pa; with `bending`, a thin shell, its bending modulus
+    `bending_young` (Pa; None: `membrane_young`); pretensioned by `tension`, N/m) over a gel whose
     compliance on the sheet's nodes is `gel` ((3K, 3K) m/N, tool frame, [node, axis]) and
     whose pin tips move by `pins` ((381, 3K) m/N) (`skinned`; with no skin, the gel's own
     columns). The skin's stiffness K and the gel's compliance C act in series with the
@@ -694,7 +700,7 @@ def skin_on_gel(
     thickness = surface.geometry.skin_thickness
     skin = membrane_stiffness(sheet, membrane_young, 0.5, thickness)
     if bending:
-        skin += bending_stiffness(sheet, membrane_young, 0.5, thickness)
+        skin += bending_stiffness(sheet, membrane_young if bending_young is None else bending_young, 0.5, thickness)
     if tension:
         skin += tension_stiffness(sheet, tension)
     skin = sparse.csr_matrix(skin)
@@ -719,7 +725,8 @@ class DomeCompliance:
     the sealed gel (`enclosed`) and the skin membrane need them all, loaded or computed at
     the first contact (`sealed_gel`, cached on disk; `skinned`) and kept for the life of
     the dome. The material: the gel's `young` (Pa) and `poisson`; the skin's membrane
-    `membrane_young` (Pa, 0 = none), `skin_bending`, where the base holds it
+    `membrane_young` (Pa, 0 = none), `skin_bending` (its bending modulus `bending_young`,
+    Pa; None: `membrane_young`), where the base holds it
     (`skin_held_deg`, deg from the apex) and its pretension `skin_tension` (N/m; needs the
     membrane); `pin_lever` (m): the lever the skin's turn swings a pin tip by (None: the
     geometry's pin length).
@@ -736,6 +743,7 @@ class DomeCompliance:
         skin_held_deg: float = 90.0,
         skin_tension: float = 0.0,
         pin_lever: float | None = None,
+        bending_young: float | None = None,
     ) -> None:
         if not (young > 0 and 0.0 <= poisson <= 0.5 and membrane_young >= 0):
             raise ValueError(
@@ -749,6 +757,8 @@ class DomeCompliance:
                 f"dome material: skin_tension needs the skin membrane (membrane_young > 0 Pa) and "
                 f"≥ 0 N/m, got {skin_tension} N/m over {membrane_young} Pa"
             )
+        if bending_young is not None and not (skin_bending and bending_young > 0):
+            raise ValueError(f"dome material: bending_young needs skin_bending and > 0 Pa, got {bending_young} Pa")
         if pin_lever is not None and not 0.0 <= pin_lever < surface.geometry.skin_inner_radius:
             raise ValueError(f"pin lever: need 0 <= pin_lever < the skin's inner radius, got {pin_lever} m")
         if pin_lever is not None:  # the lever is the post's length in post_tips; the surface's key carries it
@@ -762,6 +772,7 @@ class DomeCompliance:
         self.pin_tips = surface.geometry.pin_tip_points()
         self.young, self.poisson, self.enclosed, self.membrane_young = young, poisson, enclosed, membrane_young
         self.skin_bending, self.skin_held_deg, self.skin_tension = skin_bending, skin_held_deg, skin_tension
+        self.bending_young = bending_young
         self.shear_modulus = young / (2.0 * (1.0 + poisson))
         n = surface.count
         # stored by source node (column), so an untouched column's pages are never mapped
@@ -800,6 +811,7 @@ class DomeCompliance:
                 self.skin_held_deg,
                 refresh=refresh,
                 tension=self.skin_tension,
+                bending_young=self.bending_young,
             )
         if self.enclosed:
             nodes, pins = sealed_gel(self.surface, self.poisson, self.skin_held_deg, refresh=refresh)

@@ -86,6 +86,9 @@ class CompliantParams:
     skin_bending: the skin membrane also resists bending, as a thin shell of the same
       modulus and thickness (twin.world.dome.compliant.compliance.bending_stiffness); needs
       membrane_young. Off by default (assets/tactip/README.md).
+    bending_young (Pa): the shell's bending modulus, D = E t³ / 12(1 − ν²) with this E, for
+      a skin that bends unlike it stretches (a layered skin); None (the default) =
+      membrane_young. Needs skin_bending.
     skin_held_deg: where the base holds the skin, degrees from the apex: the skin and the
       gel's pressure go on from the cap's rim (extent_deg) down to it. The geometry's dome
       meets its base at the equator (90, the default); a sensor whose skin is bonded
@@ -120,14 +123,15 @@ class CompliantParams:
     skin_held_deg: float = 90.0
     skin_tension: float = 0.0
     pin_lever: float | None = None
+    bending_young: float | None = None
 
     def with_(self, **changes) -> CompliantParams:
         return replace(self, **changes)
 
     @property
-    def material(self) -> tuple[float, float, bool, float, bool, float, float, float | None]:
+    def material(self) -> tuple[float, float, bool, float, bool, float, float, float | None, float | None]:
         """`DomeCompliance`'s arguments after the surface: young, poisson, enclosed,
-        membrane_young, skin_bending, skin_held_deg, skin_tension, pin_lever."""
+        membrane_young, skin_bending, skin_held_deg, skin_tension, pin_lever, bending_young."""
         return (
             self.young,
             self.poisson,
@@ -137,6 +141,7 @@ class CompliantParams:
             self.skin_held_deg,
             self.skin_tension,
             self.pin_lever,
+            self.bending_young,
         )
 
 
@@ -504,10 +509,20 @@ def dome_compliance(
     skin_held_deg: float = 90.0,
     skin_tension: float = 0.0,
     pin_lever: float | None = None,
+    bending_young: float | None = None,
 ) -> DomeCompliance:
     """The influence matrices for this surface and material, shared within the process
     (the sealed gel's loaded from the cache, or computed, at the first contact). Eight
     are kept (8–218 MB each): `twin bench physics` alternates between five."""
     return DomeCompliance(
-        surface, young, poisson, enclosed, membrane_young, skin_bending, skin_held_deg, skin_tension, pin_lever
+        surface,
+        young,
+        poisson,
+        enclosed,
+        membrane_young,
+        skin_bending,
+        skin_held_deg,
+        skin_tension,
+        pin_lever,
+        bending_young,
     )
