@@ -125,6 +125,10 @@ def test_the_shipped_settings_fit_a_camera_unlike_the_twins(lab, tmp_path, capsy
     assert cal.camera.rotation_deg[2] == pytest.approx(fitted["camera.rz_deg"]["value"])
     assert np.abs(cal.rest_pin_offsets_px).max() < 3.0  # the camera, not the rest layout, took the turn
     assert "from the no-contact frames" in (out / "report.md").read_text()
+    # the residual plot draws the pins where the recording has them, in its 256×256 frame
+    assert report["frame_px"] == [256, 256] and (out / "residuals.png").is_file()
+    recorded_rest = np.asarray(yaml.safe_load((lab["fit"] / "samples.jsonl").read_text().splitlines()[0])["pins_px"])
+    np.testing.assert_allclose(report["pin_positions_px"], recorded_rest)
 
 
 def test_without_the_camera_start_the_rest_layout_takes_the_turn(lab, tmp_path) -> None:

@@ -118,8 +118,14 @@ def report_markdown(r: dict) -> str:
 def plot_residuals(r: dict, path: Path) -> None:
     """Mean residual vector (recorded − twin, ×20) at every pin's rest position, before and after."""
     matplotlib.use("Agg")
-    cam = CameraModel()
-    rest = cam.project_tool_points(cam.geometry.pin_tip_points())
+    # where the pins are in the runs' frames (the no-contact frames' mean); reports written before
+    # it was kept show the twin's nominal 640×480 layout
+    width, height = r.get("frame_px") or (CameraModel().width, CameraModel().height)
+    if r.get("pin_positions_px") is not None:
+        rest = np.asarray(r["pin_positions_px"], float)
+    else:
+        cam = CameraModel()
+        rest = cam.project_tool_points(cam.geometry.pin_tip_points())
     fig, axes = plt.subplots(1, 2, figsize=(11, 5), dpi=110)
     for ax, key in zip(axes, ("before", "after")):
         mean = np.asarray(r[key]["mean_residual"], float)
@@ -136,8 +142,8 @@ def plot_residuals(r: dict, path: Path) -> None:
             color="tab:red",
             width=0.004,
         )
-        ax.set_xlim(0, cam.width)
-        ax.set_ylim(cam.height, 0)
+        ax.set_xlim(0, width)
+        ax.set_ylim(height, 0)
         ax.set_aspect("equal")
         ax.set_title(f"{key}: pin RMS {r[key]['overall']:.3f} px\nmean residual ×20 (arrows), RMS per pin (colour)")
         fig.colorbar(sc, ax=ax, label="px")

@@ -200,6 +200,9 @@ def _calibrate(
             if settings.rest_pins
             else "not fitted (settings)"
         ),
+        "frame_px": [scenario.sensor.camera.width, scenario.sensor.camera.height],
+        # where the recorded pins are: their mean over the no-contact frames (all frames without one)
+        "pin_positions_px": np.nanmean(data.pins[ev.rest] if ev.rest.any() else data.pins, axis=0).tolist(),
         "before": before,
         "after": after,
         "camera_from_rest": rest_camera,
