@@ -182,3 +182,20 @@ def test_a_pin_the_tracker_did_not_find_is_not_fitted(lab, tmp_path) -> None:
     pins = load_data([flagged], scenario, settings.weights).pins
     assert np.isnan(pins[2, 40]).all() and np.isfinite(np.delete(pins[2], 40, axis=0)).all()
     assert np.isfinite(load_data([lab["fit"]], scenario, settings.weights).pins[2]).all()
+
+
+def test_a_candidate_the_physics_cannot_simulate_is_ranked_last(lab, tmp_path, capsys) -> None:
+    # depth offsets up to 12 mm: the deep candidates press past the contact force limit and
+    # fail their physics checks; the search goes on without them (it ended the calibration)
+    settings = yaml.safe_load(lab["settings"].read_text())
+    settings["parameters"]["tcp.z_mm"] = {"fit": True, "lower": -2.0, "upper": 12.0}
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(settings))
+    assert _calibrate(lab, tmp_path / "cal", tmp_path / "s.yaml") == 0
+    assert "candidates failed their physics checks" in capsys.readouterr().out
+    report = yaml.safe_load((tmp_path / "cal" / "report.json").read_text())
+    failed = report["failed_simulations"]
+    assert failed and all(f["values"]["tcp.z_mm"] > 2.0 for f in failed) and "step" in failed[0]["error"]
+    assert report["uncertainty"]["parameters"]["tcp.z_mm"]["value"] == pytest.approx(0.3, abs=0.3)
+    history = [json.loads(line) for line in (tmp_path / "cal" / "history.jsonl").read_text().splitlines()]
+    assert sum(row.get("failed", False) for row in history) == len(failed)
+    assert "could not be simulated" in (tmp_path / "cal" / "report.md").read_text()

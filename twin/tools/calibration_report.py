@@ -105,6 +105,13 @@ def report_markdown(r: dict) -> str:
             + ", ".join(f"{v:.3g}" for v in sv)
             + f"; reduced χ² {r['uncertainty']['reduced_chi2']:.3g}.",
         ]
+    failed = r.get("failed_simulations") or []
+    if failed:
+        lines += [
+            "",
+            f"{len(failed)} candidates could not be simulated (their physics checks failed; the search ranked them "
+            f"below every other): first {failed[0]['values']}: {failed[0]['error']}",
+        ]
     lines += [
         "",
         f"{r['generations']} CMA-ES generations, {r['simulations']} simulations of the runs "

@@ -296,6 +296,8 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         print(
             f"  held out ({h['samples']} samples, not fitted): {h['before']['overall']:.3f} -> {h['after']['overall']:.3f} px"
         )
+    if r["failed_simulations"]:
+        print(f"  {len(r['failed_simulations'])} candidates failed their physics checks (ranked last; report.md)")
     for name, v in (r["camera_from_rest"] or {}).get("values", {}).items():
         print(f"  {name} from the no-contact frames = {v:.5g} ± {r['camera_from_rest']['std'][name]:.2g}")
     for name, u in r["uncertainty"]["parameters"].items():

@@ -5,12 +5,14 @@ the pin RMS (px)."""
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import least_squares
 
 from twin.analysis.calibration_fit.data import GROUPS, Data
 from twin.analysis.calibration_fit.space import Space
+from twin.core.errors import PhysicsError, UserError
 from twin.core.resources import searching
 from twin.core.scenario import Scenario
 from twin.core.sensor import N_PINS
@@ -18,11 +20,24 @@ from twin.runs.parallel import WorkerPool
 from twin.runs.replay import replay_batch
 
 
-def _replay_candidate(scenario: Scenario, seed: int, batch: list) -> list:
+@dataclass(frozen=True)
+class FailedSimulation:
+    """A candidate the physics could not simulate (its PhysicsError's message)."""
+
+    message: str
+
+
+def _replay_candidate(scenario: Scenario, seed: int, batch: list) -> list | FailedSimulation:
     """`replay_batch` for one candidate of the search: the dome matrices it computes are
-    cached as a search's (twin.core.resources.searching), apart from the models users run."""
+    cached as a search's (twin.core.resources.searching), apart from the models users run.
+    A candidate whose simulation fails its physics checks (a deep tap past the contact
+    force limit) comes back as a FailedSimulation: the search counts it infeasible and
+    records why, instead of the whole calibration ending on one of its candidates."""
     with searching():
-        return replay_batch(scenario, seed, batch)
+        try:
+            return replay_batch(scenario, seed, batch)
+        except PhysicsError as err:
+            return FailedSimulation(str(err))
 
 
 class Evaluator:
@@ -32,6 +47,8 @@ class Evaluator:
     def __init__(self, space: Space, data: Data, pool: WorkerPool) -> None:
         self.space, self.data, self.pool = space, data, pool
         self.simulations = 0
+        #: candidates whose simulation failed its physics checks: {"values", "error"}
+        self.failures: list[dict] = []
         self.sim_seconds = 0.0
         self._cache: dict[tuple, np.ndarray] = {}
         self.cache_size = 32
@@ -45,9 +62,10 @@ class Evaluator:
         #: rest offsets (127, 2) px to use instead of the closed form (held-out runs: the fit's layout)
         self.fixed_offsets: np.ndarray | None = None
 
-    def simulate(self, candidates: list[dict[str, float]]) -> list[np.ndarray]:
+    def simulate(self, candidates: list[dict[str, float]]) -> list[np.ndarray | None]:
         """Pin tips (N, 127, 3) m for each physics candidate, in recorded-sample order (a
-        candidate simulated before is not simulated again). A candidate is read for the
+        candidate simulated before is not simulated again); None for one whose simulation
+        failed its physics checks (recorded in `failures`). A candidate is read for the
         physics parameters the dome model has (`Space.modelled`), at their defaults where
         it does not name them; anything else in it is ignored."""
         full = [{n: c.get(n, self.space.defaults[n]) for n in self.space.modelled} for c in candidates]
@@ -60,7 +78,7 @@ class Evaluator:
                     self._cache.pop(next(iter(self._cache)))
         return [self._cache[k] for k in keys]
 
-    def _simulate(self, candidates: list[dict[str, float]]) -> list[np.ndarray]:
+    def _simulate(self, candidates: list[dict[str, float]]) -> list[np.ndarray | None]:
         t0 = time.perf_counter()
         seed = self.space.scenario.seed
         scenarios = [self.space.physics_scenario(c) for c in candidates]
@@ -70,9 +88,14 @@ class Evaluator:
         batches = [moves[b::n_batches] for b in range(n_batches)]
         jobs = [(s, seed, batch) for s in scenarios for batch in batches]
         results = list(self.pool.map_ordered(_replay_candidate, jobs))
-        out = []
+        out: list[np.ndarray | None] = []
         for c in range(len(candidates)):
             done = results[c * n_batches : (c + 1) * n_batches]
+            failed = [d for d in done if isinstance(d, FailedSimulation)]
+            if failed:
+                self.failures.append({"values": candidates[c], "error": failed[0].message})
+                out.append(None)
+                continue
             in_order = [done[i % n_batches][i // n_batches] for i in range(len(moves))]
             per_run: dict[int, list] = {}
             for (r, _), (_, pins) in zip(self.data.chunks, in_order):
@@ -159,6 +182,14 @@ class Evaluator:
             "at_bound": [n for n, u in zip(names, sol.x) if min(u, 1.0 - u) < 1e-6],
             "rms_px": float(np.sqrt(np.mean(np.sum(diff(sol.x)[valid] ** 2, axis=1)))),
         }
+
+    def simulate_one(self, values: dict[str, float], what: str) -> np.ndarray:
+        """`simulate` of one candidate that must succeed (the twin as given, the fitted
+        point): UserError naming `what` and the physics error otherwise."""
+        tips = self.simulate([values])[0]
+        if tips is None:
+            raise UserError(f"{what} cannot be simulated on these runs: {self.failures[-1]['error']}")
+        return tips
 
     def chi2(self, tips: np.ndarray, values: dict[str, float]) -> float:
         return float(np.sum(self.residuals(tips, values) ** 2))

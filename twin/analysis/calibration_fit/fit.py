@@ -115,7 +115,8 @@ def _predicted_elsewhere(
     data = load_data(runs, space.scenario, space.settings.weights)
     ev = Evaluator(space, data, pool)
     ev.fit_rest = False
-    tips_before, tips_after = ev.simulate([before, after])
+    tips_before = ev.simulate_one(before, "the twin as the scenario has it, on the held-out runs,")
+    tips_after = ev.simulate_one(after, "the fitted point, on the held-out runs,")
     rms_before = ev.rms(tips_before, before)
     ev.fixed_offsets = offsets
     rms_after = ev.rms(tips_after, after)
@@ -144,7 +145,7 @@ def _calibrate(
     space = Space(scenario, settings)
     out.mkdir(parents=True, exist_ok=True)
     ev = Evaluator(space, data, pool)
-    before_tips = ev.simulate([space.defaults])[0]
+    before_tips = ev.simulate_one(space.defaults, "the twin as the scenario has it")
     before_values = dict(space.defaults)
     # "before" is the twin as the scenario has it: its rest layout, not one fitted to these runs
     ev.fit_rest, fit_rest = False, ev.fit_rest
@@ -153,7 +154,7 @@ def _calibrate(
     rest_camera = _camera_from_rest(ev, before_tips)
     state = optimise(ev, out, search_key(run_dirs, scenario, settings), progress)
     best = state["best"]
-    best_tips = ev.simulate([best])[0]
+    best_tips = ev.simulate_one(best, "the best point")
     errors = uncertainty(ev, best, best_tips)
     # what the data cannot identify goes back to its default, and the camera is solved again without it
     final = dict(best)
@@ -162,7 +163,7 @@ def _calibrate(
         final[n] = space.defaults[n]
     final_tips = best_tips
     if any(n in space.physics for n in dropped):
-        final_tips = ev.simulate([final])[0]
+        final_tips = ev.simulate_one(final, "the fitted point (what the runs do not identify at its default)")
     if dropped and space.camera:
         keep = [n for n in space.camera if n not in dropped]
         space.camera = keep
@@ -211,6 +212,7 @@ def _calibrate(
         "generations": state["generation"],
         "best_chi2": state["best_chi2"],
         "simulations": ev.simulations,
+        "failed_simulations": ev.failures,
         "simulated_frames_per_s": ev.simulations * len(data.pins) / max(ev.sim_seconds, 1e-9),
         "evaluations_per_s": ev.simulations / max(ev.sim_seconds, 1e-9),
         "wall_time_s": time.perf_counter() - wall,

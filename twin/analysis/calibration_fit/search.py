@@ -153,7 +153,7 @@ def optimise(ev: Evaluator, out: Path, key: str, progress: bool) -> dict:
         state["es"] = _replayed_search(names, space, opt, state) if names else None
     else:
         start = {n: space.defaults[n] for n in space.fitted}
-        tips = ev.simulate([{n: space.defaults[n] for n in names}])[0]
+        tips = ev.simulate_one({n: space.defaults[n] for n in names}, "the twin as the scenario has it")
         best = ev.solve_camera(tips, {n: space.defaults[n] for n in names}, start)
         chi2_0 = ev.chi2(tips, best)
         state = {
@@ -185,8 +185,12 @@ def optimise(ev: Evaluator, out: Path, key: str, progress: bool) -> dict:
         units = es.ask()
         physics = [space.from_unit(names, np.asarray(u)) for u in units]
         tips_all = ev.simulate(physics)
-        fitted = [ev.solve_camera(t, p, state["best"]) for t, p in zip(tips_all, physics)]
-        chi2 = [ev.chi2(t, v) for t, v in zip(tips_all, fitted)]
+        fitted = [p if t is None else ev.solve_camera(t, p, state["best"]) for t, p in zip(tips_all, physics)]
+        chi2 = [None if t is None else ev.chi2(t, v) for t, v in zip(tips_all, fitted)]
+        # a candidate the physics could not simulate is infeasible: ranked below every other
+        worst = 10.0 * max([c for c in chi2 if c is not None] + [state["best_chi2"], state["start_chi2"]])
+        failed = [c is None for c in chi2]
+        chi2 = [worst if c is None else c for c in chi2]
         es.tell(units, chi2)
         state["asked"].append([np.asarray(u, float).tolist() for u in units])
         state["told"].append([float(c) for c in chi2])
@@ -196,8 +200,9 @@ def optimise(ev: Evaluator, out: Path, key: str, progress: bool) -> dict:
             state["best"], state["best_chi2"] = fitted[k], chi2[k]
         state["trace"].append(state["best_chi2"])
         with history_file.open("a") as f:
-            for v, c in zip(fitted, chi2):
-                f.write(json.dumps({"generation": state["generation"], "values": v, "chi2": c}) + "\n")
+            for v, c, bad in zip(fitted, chi2, failed):
+                row = {"generation": state["generation"], "values": v, "chi2": c}
+                f.write(json.dumps({**row, "failed": True} if bad else row) + "\n")
         trace = state["trace"]
         if (
             len(trace) > opt.patience

@@ -20,12 +20,16 @@ def jacobian(ev: Evaluator, values: dict[str, float], tips: np.ndarray) -> np.nd
         for sign in (1, -1):
             plus_minus.append({m: values[m] for m in space.physics} | {n: values[n] + sign * physics_steps[n]})
     sims = ev.simulate(plus_minus) if plus_minus else []
+    r0 = ev.residuals(tips, values, priors=False)
     for n in space.fitted:
         if n in space.physics:
             i = space.physics.index(n)
-            rp = ev.residuals(sims[2 * i], values, priors=False)
-            rm = ev.residuals(sims[2 * i + 1], values, priors=False)
-            cols.append((rp - rm) / (2 * physics_steps[n]))
+            plus, minus = sims[2 * i], sims[2 * i + 1]
+            # one side beyond what the physics can simulate: the one-sided difference; both: no column
+            rp = r0 if plus is None else ev.residuals(plus, values, priors=False)
+            rm = r0 if minus is None else ev.residuals(minus, values, priors=False)
+            steps = (plus is not None) + (minus is not None)
+            cols.append((rp - rm) / (steps * physics_steps[n]) if steps else np.zeros_like(r0))
         else:
             h = 1e-4 * space.range[n]
             rp = ev.residuals(tips, {**values, n: values[n] + h}, priors=False)
