@@ -1,73 +1,139 @@
 """Step the contour-following Gymnasium env as a vector of N envs (gymnasium.make_vec):
-seeded random steps, no learning, 10,000 frames by default; prints the steps per second of
-the vector against one env's, measured in the same run.
+seeded random steps, no learning, 10,000 frames by default; prints the vector's steps per
+second against one env's, measured in the same run.
 
     MUJOCO_GL=egl .venv/bin/python docs/examples/vector_steps.py --envs 2 --frames 10000
 
 --mode async runs each env in its own process (forkserver: the parent may hold a GL
 context), sync runs them one after another in this one. Envs are seeded per env: reset
-with seed s seeds env i with s + i.
+with seed s seeds env i with s + i. Each env steps its own random actions, as a learning
+policy's would be (--same-actions: all envs the same ones).
+
+The baseline is one env stepped the same way (async: in its own process, so it pays the
+same transfers) with env 0's actions, in rounds that alternate with the vector's, so
+drift and other processes' load reach both. Also printed: the lockstep (each vector step
+waits for its slowest env: the mean env step against the mean slowest one, timed in the
+env processes) and the share of the cores that other processes took meanwhile (Linux).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import time
 
 import gymnasium as gym
 import numpy as np
 
 import twin
-from twin.runs.parallel import one_blas_thread
+from twin.runs.parallel import default_workers, one_blas_thread, one_render_thread
 
 
-def steps_per_second(envs: gym.vector.VectorEnv, frames: int, seed: int) -> float:
-    """Frames stepped per second over `frames` frames (all envs together), after 5 untimed
-    steps (each env's first frames fill caches). Every env gets the same seeded random
-    steps of up to 0.3 × max_step_mm, so each does the same work whatever the vector's size."""
-    steps = -(-frames // envs.num_envs)
-    actions = np.random.default_rng(seed).uniform(-0.3, 0.3, (steps + 5, 1, 2)).astype(np.float32)
-    actions = np.repeat(actions, envs.num_envs, axis=1)
+class StepTime(gym.Wrapper):
+    """Adds the wall time (s) of each env step to its info, as `step_s`."""
+
+    def step(self, action):
+        t0 = time.perf_counter()
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        return obs, reward, terminated, truncated, {**info, "step_s": time.perf_counter() - t0}
+
+
+def busy_ticks(pids: list[int]) -> tuple[int, int]:
+    """(all cores' busy clock ticks, those of the processes `pids`) since boot; (0, 0) off Linux."""
+    try:
+        with open("/proc/stat") as f:
+            user, nice, system, _idle, _iowait, irq, softirq = map(int, f.readline().split()[1:8])
+        ours = 0
+        for pid in pids:
+            with open(f"/proc/{pid}/stat") as f:
+                ours += sum(int(t) for t in f.read().rsplit(")", 1)[1].split()[11:13])
+    except OSError:
+        return 0, 0
+    return user + nice + system + irq + softirq, ours
+
+
+def run_round(envs: gym.vector.VectorEnv, actions: np.ndarray, seed: int) -> tuple[float, float, list]:
+    """Step `envs` through actions (steps, envs, 2) after a reset and 5 untimed steps; returns
+    (frames per second, cores other processes took, per step the env step times (s) when
+    every env stepped, not reset)."""
     envs.reset(seed=seed)
     for action in actions[:5]:
         envs.step(action)
+    pids = [os.getpid()] + [p.pid for p in getattr(envs, "processes", [])]
+    busy0, ours0 = busy_ticks(pids)
+    step_times = []
     t0 = time.perf_counter()
     for action in actions[5:]:
-        envs.step(action)
-    return steps * envs.num_envs / (time.perf_counter() - t0)
+        info = envs.step(action)[4]
+        if np.all(info.get("_step_s", False)):
+            step_times.append(info["step_s"])
+    seconds = time.perf_counter() - t0
+    busy1, ours1 = busy_ticks(pids)
+    others = (busy1 - busy0 - (ours1 - ours0)) / os.sysconf("SC_CLK_TCK") / seconds
+    return (len(actions) - 5) * envs.num_envs / seconds, others, step_times
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--envs", type=int, default=2, help="envs in the vector (one per core)")
-    parser.add_argument("--frames", type=int, default=10_000, help="frames to step, all envs together")
+    parser.add_argument("--frames", type=int, default=10_000, help="frames the vector steps, all envs together")
+    parser.add_argument("--rounds", type=int, default=5, help="alternating rounds of one env and the vector")
     parser.add_argument("--mode", choices=("async", "sync"), default="async")
+    parser.add_argument("--same-actions", action="store_true", help="every env steps the same actions")
     parser.add_argument("--scenario", default="contour_rectangle", help="a shipped contour scenario or a file")
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
-    # one BLAS thread here and in the env processes (they inherit it): a second one only
-    # spin-waits beside the physics and takes the other env's core
+    # one BLAS thread and no rasterizer threads here and in the env processes (they inherit
+    # both): a second BLAS thread only spin-waits beside the physics and takes the other
+    # env's core, and llvmpipe's threads hand each frame back and forth between the cores
     one_blas_thread()
+    one_render_thread()
 
-    def make(n: int, mode: str) -> gym.vector.VectorEnv:
-        kwargs = {"context": "forkserver"} if mode == "async" else {}
+    def make(n: int) -> gym.vector.VectorEnv:
         return gym.make_vec(
-            twin.GYM_ID, num_envs=n, vectorization_mode=mode, vector_kwargs=kwargs, scenario=args.scenario
+            twin.GYM_ID,
+            num_envs=n,
+            vectorization_mode=args.mode,
+            vector_kwargs={"context": "forkserver"} if args.mode == "async" else {},
+            wrappers=[StepTime],
+            scenario=args.scenario,
         )
 
-    one = make(1, "sync")
+    one, vector = make(1), make(args.envs)
+    steps = max(-(-args.frames // (args.envs * args.rounds)), 1)
+    single, many, others, step_times = [], [], [], []
     try:
-        single = steps_per_second(one, max(args.frames // args.envs, 1), args.seed)
+        for r in range(args.rounds):
+            rng = np.random.default_rng(args.seed + r)
+            actions = rng.uniform(-0.3, 0.3, (steps + 5, 1 if args.same_actions else args.envs, 2))
+            actions = np.broadcast_to(actions, (steps + 5, args.envs, 2)).astype(np.float32)
+            fps, load, _ = run_round(one, actions[:, :1], args.seed + r)
+            single.append(fps)
+            others.append(load)
+            fps, load, times = run_round(vector, actions, args.seed + r)
+            many.append(fps)
+            others.append(load)
+            step_times += times
     finally:
         one.close()
-    envs = make(args.envs, args.mode)
-    try:
-        vector = steps_per_second(envs, args.frames, args.seed)
-    finally:
-        envs.close()
+        vector.close()
+    single_fps, vector_fps = np.mean(single), np.mean(many)
+    ratio = vector_fps / single_fps
     print(
-        f"{args.scenario}: 1 env {single:.1f} steps/s; {args.envs} envs ({args.mode}) {vector:.1f} steps/s "
-        f"= {vector / single:.2f}x one env ({np.round(vector / single / args.envs, 2)} of {args.envs}x)"
+        f"{args.scenario}: {args.rounds} rounds, {args.envs * steps} frames each, "
+        f"{'the same' if args.same_actions else 'its own'} random actions per env\n"
+        f"  1 env {single_fps:.1f} steps/s; {args.envs} envs ({args.mode}) {vector_fps:.1f} steps/s "
+        f"= {ratio:.2f}x one env ({ratio / args.envs:.2f} of {args.envs}x); "
+        f"by round {' '.join(f'{m / s:.2f}' for s, m in zip(single, many))}"
+    )
+    if args.mode == "async" and step_times:
+        times = np.array(step_times)
+        print(
+            f"  lockstep: mean env step {1e3 * times.mean():.1f} ms, mean slowest env's "
+            f"{1e3 * times.max(axis=1).mean():.1f} ms ({times.mean() / times.max(axis=1).mean():.2f})"
+        )
+    print(
+        f"  other processes took {np.mean(others):.2f} of {default_workers()} cores meanwhile (at most {max(others):.2f})"
     )
 
 

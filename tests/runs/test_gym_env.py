@@ -115,10 +115,40 @@ def test_the_vector_example_steps_both_modes() -> None:
     example = Path(__file__).parents[2] / "docs" / "examples" / "vector_steps.py"
     for mode in ("sync", "async"):
         done = subprocess.run(
-            [sys.executable, str(example), "--envs", "2", "--frames", "12", "--mode", mode],
+            [sys.executable, str(example), "--envs", "2", "--frames", "12", "--rounds", "2", "--mode", mode],
             capture_output=True,
             text=True,
             timeout=300,
         )
         assert done.returncode == 0, done.stderr[-2000:]
-        assert f"2 envs ({mode})" in done.stdout and "steps/s" in done.stdout
+        assert f"2 envs ({mode})" in done.stdout and "steps/s" in done.stdout and "other processes took" in done.stdout
+        assert ("lockstep:" in done.stdout) == (mode == "async")  # each env's step times, from its process
+
+
+def test_one_render_thread_draws_the_same_frames_without_rasterizer_threads() -> None:
+    """twin.runs.parallel.one_render_thread, which the vector example calls before it starts
+    the env processes: the same frames bit for bit, and no llvmpipe threads in the process
+    (Mesa starts one per CPU by default). Fresh processes: Mesa reads the setting when a
+    process first opens a GL display."""
+    code = (
+        "import hashlib, os, sys, numpy as np\n"
+        "from twin.runs.parallel import one_render_thread\n"
+        "if sys.argv[1] == 'one': one_render_thread()\n"
+        "from twin.core.scenario import scenario_from_dict\n"
+        "from twin.runs.gym_env import ContourFollowingEnv\n"
+        f"env = ContourFollowingEnv(scenario_from_dict({NOISY!r}))\n"
+        "env.reset(seed=3); env.step(np.array([0.5, 0.2], dtype=np.float32))\n"
+        "names = [open(f'/proc/self/task/{t}/comm').read() for t in os.listdir('/proc/self/task')]\n"
+        "print(hashlib.sha256(env.render().tobytes()).hexdigest(), sum(n.startswith('llvmpipe') for n in names))\n"
+        "env.close()\n"
+    )
+
+    def frame_and_threads(which: str) -> tuple[str, int]:
+        done = subprocess.run([sys.executable, "-c", code, which], capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0, done.stderr[-2000:]
+        frame, threads = done.stdout.split()
+        return frame, int(threads)
+
+    default, one = frame_and_threads("default"), frame_and_threads("one")
+    assert one[0] == default[0]
+    assert one[1] == 0, default[1]
