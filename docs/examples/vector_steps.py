@@ -13,7 +13,8 @@ The baseline is one env stepped the same way (async: in its own process, so it p
 same transfers) with env 0's actions, in rounds that alternate with the vector's, so
 drift and other processes' load reach both. Also printed: the lockstep (each vector step
 waits for its slowest env: the mean env step against the mean slowest one, timed in the
-env processes) and the share of the cores that other processes took meanwhile (Linux).
+env processes, in CPU time, which other processes' load barely moves, and in wall time)
+and the share of the cores that other processes took meanwhile (Linux).
 """
 
 from __future__ import annotations
@@ -30,12 +31,14 @@ from twin.runs.parallel import default_workers, one_blas_thread, one_render_thre
 
 
 class StepTime(gym.Wrapper):
-    """Adds the wall time (s) of each env step to its info, as `step_s`."""
+    """Adds the wall time and the CPU time of its process (s) of each env step to its
+    info, as `step_s` and `step_cpu_s`."""
 
     def step(self, action):
-        t0 = time.perf_counter()
+        t0, cpu0 = time.perf_counter(), time.process_time()
         obs, reward, terminated, truncated, info = self.env.step(action)
-        return obs, reward, terminated, truncated, {**info, "step_s": time.perf_counter() - t0}
+        times = {"step_s": time.perf_counter() - t0, "step_cpu_s": time.process_time() - cpu0}
+        return obs, reward, terminated, truncated, {**info, **times}
 
 
 def busy_ticks(pids: list[int]) -> tuple[int, int]:
@@ -54,8 +57,8 @@ def busy_ticks(pids: list[int]) -> tuple[int, int]:
 
 def run_round(envs: gym.vector.VectorEnv, actions: np.ndarray, seed: int) -> tuple[float, float, list]:
     """Step `envs` through actions (steps, envs, 2) after a reset and 5 untimed steps; returns
-    (frames per second, cores other processes took, per step the env step times (s) when
-    every env stepped, not reset)."""
+    (frames per second, cores other processes took, per step the env steps' wall and CPU
+    times (s) when every env stepped, not reset)."""
     envs.reset(seed=seed)
     for action in actions[:5]:
         envs.step(action)
@@ -66,7 +69,7 @@ def run_round(envs: gym.vector.VectorEnv, actions: np.ndarray, seed: int) -> tup
     for action in actions[5:]:
         info = envs.step(action)[4]
         if np.all(info.get("_step_s", False)):
-            step_times.append(info["step_s"])
+            step_times.append((info["step_s"], info["step_cpu_s"]))
     seconds = time.perf_counter() - t0
     busy1, ours1 = busy_ticks(pids)
     others = (busy1 - busy0 - (ours1 - ours0)) / os.sysconf("SC_CLK_TCK") / seconds
@@ -127,10 +130,11 @@ def main() -> None:
         f"by round {' '.join(f'{m / s:.2f}' for s, m in zip(single, many))}"
     )
     if args.mode == "async" and step_times:
-        times = np.array(step_times)
+        wall, cpu = np.moveaxis(np.array(step_times), 1, 0)  # (steps, envs) each
         print(
-            f"  lockstep: mean env step {1e3 * times.mean():.1f} ms, mean slowest env's "
-            f"{1e3 * times.max(axis=1).mean():.1f} ms ({times.mean() / times.max(axis=1).mean():.2f})"
+            f"  lockstep: the mean env step is {cpu.mean() / cpu.max(axis=1).mean():.2f} of the slowest env's "
+            f"in CPU time ({1e3 * cpu.mean():.1f} against {1e3 * cpu.max(axis=1).mean():.1f} ms), "
+            f"{wall.mean() / wall.max(axis=1).mean():.2f} in wall time"
         )
     print(
         f"  other processes took {np.mean(others):.2f} of {default_workers()} cores meanwhile (at most {max(others):.2f})"
