@@ -88,7 +88,7 @@ def main() -> None:
     args = parser.parse_args()
     # one BLAS thread and no rasterizer threads here and in the env processes (they inherit
     # both): a second BLAS thread only spin-waits beside the physics and takes the other
-    # env's core, and llvmpipe's threads hand each frame back and forth between the cores
+    # env's core, and llvmpipe would start a rasterizer thread per CPU in every env process
     one_blas_thread()
     one_render_thread()
 

@@ -406,10 +406,11 @@ def one_render_thread() -> None:
     a process first opens a GL display). Frames are the same bit for bit; a GPU driver
     ignores it.
 
-    By default llvmpipe starts one rasterizer thread per CPU in every process that renders.
-    With one env process per core (gymnasium's async vector envs) those threads only hand
-    each frame's raster work back and forth and wake on the other env's core: in one env
-    they did 3.3 of its 15.5 ms CPU per step (measured)."""
+    By default llvmpipe starts one rasterizer thread per CPU it may run on in every process
+    that renders and hands each frame's raster work to them, so with one env process per
+    core (gymnasium's async vector envs) every process's threads compete for every core.
+    In one env on 2 cores they did 3.3 of a step's 15.5 ms CPU; drawn in the env's own
+    thread, the step took 15.1 ms CPU (measured)."""
     os.environ["LP_NUM_THREADS"] = "0"
 
 
