@@ -122,11 +122,17 @@ def main() -> None:
         vector.close()
     single_fps, vector_fps = np.mean(single), np.mean(many)
     ratio = vector_fps / single_fps
+    # one env per core at most: async envs are processes, sync ones take turns in this one
+    ideal, allow = (
+        (min(args.envs, default_workers()), f"{default_workers()} cores")
+        if args.mode == "async"
+        else (1, "one process")
+    )
     print(
         f"{args.scenario}: {args.rounds} rounds, {args.envs * steps} frames each, "
         f"{'the same' if args.same_actions else 'its own'} random actions per env\n"
         f"  1 env {single_fps:.1f} steps/s; {args.envs} envs ({args.mode}) {vector_fps:.1f} steps/s "
-        f"= {ratio:.2f}x one env ({ratio / args.envs:.2f} of {args.envs}x); "
+        f"= {ratio:.2f}x one env ({ratio / ideal:.2f} of the {ideal}x that {allow} allow); "
         f"by round {' '.join(f'{m / s:.2f}' for s, m in zip(single, many))}"
     )
     if args.mode == "async" and step_times:
