@@ -72,7 +72,8 @@ def run_round(envs: gym.vector.VectorEnv, actions: np.ndarray, seed: int) -> tup
             step_times.append((info["step_s"], info["step_cpu_s"]))
     seconds = time.perf_counter() - t0
     busy1, ours1 = busy_ticks(pids)
-    others = (busy1 - busy0 - (ours1 - ours0)) / os.sysconf("SC_CLK_TCK") / seconds
+    # clock ticks are counted per process, so a quiet host can read a tick below zero
+    others = max(0.0, (busy1 - busy0 - (ours1 - ours0)) / os.sysconf("SC_CLK_TCK") / seconds)
     return (len(actions) - 5) * envs.num_envs / seconds, others, step_times
 
 
