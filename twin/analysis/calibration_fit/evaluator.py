@@ -152,33 +152,29 @@ class Evaluator:
         pins, valid = self.data.pins[self.rest], self.valid[self.rest]
         w = np.sqrt(self.data.weights[self.rest])[:, None, None] / self.space.settings.noise_px
         space = self.space
-        bounds = {n: space.settings.parameters[n] for n in names}
-        lower = np.array([bounds[n].lower for n in names])
-        span = np.array([bounds[n].upper - bounds[n].lower for n in names])
-
-        def unpack(unit: np.ndarray) -> dict[str, float]:
-            return {**values, **{n: float(lo + u * r) for n, lo, u, r in zip(names, lower, unit, span)}}
 
         def diff(unit: np.ndarray) -> np.ndarray:
-            camera = space.calibration(unpack(unit)).camera_model(space.scenario.camera_model().nominal())
+            camera = space.calibration({**values, **space.from_unit(names, unit)}).camera_model(
+                space.scenario.camera_model().nominal()
+            )
             return pins - camera.project_tool_points(tips[self.rest].reshape(-1, 3)).reshape(pins.shape)
 
-        priors = [(i, n, space.settings.parameters[n].prior_std) for i, n in enumerate(names)]
-        priors = [(i, values[n], std) for i, n, std in priors if std]
+        priors = [(n, values[n], space.settings.parameters[n].prior_std) for n in names]
+        priors = [(n, v, std) for n, v, std in priors if std]
 
         def fun(unit: np.ndarray) -> np.ndarray:
-            prior = [(lower[i] + unit[i] * span[i] - v) / std for i, v, std in priors]
+            fitted = space.from_unit(names, unit)
+            prior = [(fitted[n] - v) / std for n, v, std in priors]
             return np.concatenate([(diff(unit) * w)[valid].ravel(), prior])
 
-        x0 = np.clip((np.array([values[n] for n in names]) - lower) / span, 0.0, 1.0)
+        x0 = np.clip(space.to_unit(names, values), 0.0, 1.0)
         sol = least_squares(fun, x0, bounds=(0.0, 1.0), x_scale="jac", diff_step=1e-6, xtol=1e-12, ftol=1e-12)
         r = sol.fun[: sol.fun.size - len(priors)]
         s2 = float(r @ r) / max(1, r.size - len(names))
         cov = np.linalg.pinv(sol.jac.T @ sol.jac) * s2
-        fitted = unpack(sol.x)
         return {
-            "values": {n: fitted[n] for n in names},
-            "std": {n: float(np.sqrt(max(cov[i, i], 0.0)) * span[i]) for i, n in enumerate(names)},
+            "values": space.from_unit(names, sol.x),
+            "std": {n: float(np.sqrt(max(cov[i, i], 0.0)) * space.range[n]) for i, n in enumerate(names)},
             "at_bound": [n for n, u in zip(names, sol.x) if min(u, 1.0 - u) < 1e-6],
             "rms_px": float(np.sqrt(np.mean(np.sum(diff(sol.x)[valid] ** 2, axis=1)))),
         }

@@ -68,8 +68,9 @@ class Space:
         self.camera = [n for n in self.fitted if n in CAMERA]
         self.physics = [n for n in self.fitted if n in PHYSICS]
         p = self.settings.parameters
-        self.lower = {n: p[n].lower for n in self.fitted}
-        self.range = {n: p[n].upper - p[n].lower for n in self.fitted}
+        #: every bounded parameter's, fitted or not (camera_from_rest may start one the search keeps fixed)
+        self.lower = {n: s.lower for n, s in p.items()}
+        self.range = {n: s.upper - s.lower for n, s in p.items()}
 
     def to_unit(self, names: list[str], values: dict[str, float]) -> np.ndarray:
         return np.array([(values[n] - self.lower[n]) / self.range[n] for n in names])

@@ -420,10 +420,6 @@ class SensorPhysics:
             self._projected = self.camera.project_tool_points(self._pins)
         return self._projected
 
-    @_pins_px.setter
-    def _pins_px(self, pins_px: np.ndarray) -> None:
-        self._projected = pins_px
-
     def _check(self, pose: np.ndarray | None, at: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         """Per-step sanity checks (module docstring); `pose` (4×4) or `at` (R, p) names the
         commanded pose in an error."""
