@@ -93,6 +93,35 @@ def _settings(tmp_path: Path, data: dict) -> Path:
     return path
 
 
+#: settings fitting the focal length alone
+FOCAL_ONLY = {
+    "parameters": {
+        "camera.focal_px": {"fit": True},
+        "camera.k1": {"fit": False},
+        "material.young_kpa": {"fit": False},
+        "tcp.z_mm": {"fit": False},
+    }
+}
+
+
+def _calibrate_args(real: dict, runs: list[Path], out: Path, settings: Path) -> list[str]:
+    """`twin calibrate` of `runs` with the test scenario into `out`; the last five
+    arguments are the settings, one worker and no progress bar."""
+    return [
+        "calibrate",
+        *map(str, runs),
+        "--scenario",
+        str(real["root"] / "twin.yaml"),
+        "--out",
+        str(out),
+        "--settings",
+        str(settings),
+        "--workers",
+        "1",
+        "--quiet",
+    ]
+
+
 @pytest.fixture(scope="module")
 def recovered(real, tmp_path_factory) -> dict:
     """The calibration of the "real" taps and rest frames with FIT (shared by the tests that read it)."""
@@ -198,15 +227,7 @@ def test_bracket_search_finds_one_parameter(target: float) -> None:
 
 def test_camera_only_and_what_the_data_cannot_identify(real, tmp_path) -> None:
     # with the rest layout fitted and no distortion, the principal point moves no displacement: not identifiable
-    data = {
-        "parameters": {
-            "camera.focal_px": {"fit": True},
-            "camera.k1": {"fit": False},
-            "camera.cx_px": {"fit": True},
-            "material.young_kpa": {"fit": False},
-            "tcp.z_mm": {"fit": False},
-        }
-    }
+    data = {"parameters": {**FOCAL_ONLY["parameters"], "camera.cx_px": {"fit": True}}}
     r = calibrate_and_report(
         real["runs"],
         real["scenario"],
@@ -235,19 +256,7 @@ def test_camera_only_and_what_the_data_cannot_identify(real, tmp_path) -> None:
 
 def test_not_converged_keeps_the_best_point_and_resumes(real, tmp_path) -> None:
     one = _settings(tmp_path, {**FIT, "optimiser": {**FIT["optimiser"], "max_generations": 1}})
-    args = [
-        "calibrate",
-        *map(str, real["runs"]),
-        "--scenario",
-        str(real["root"] / "twin.yaml"),
-        "--out",
-        str(tmp_path / "cal"),
-        "--settings",
-        str(one),
-        "--workers",
-        "1",
-        "--quiet",
-    ]
+    args = _calibrate_args(real, real["runs"], tmp_path / "cal", one)
     assert main(args) == 1
     assert (tmp_path / "cal" / "best_calibration.yaml").exists()
     history = [json.loads(line) for line in (tmp_path / "cal" / "history.jsonl").read_text().splitlines()]
@@ -270,28 +279,7 @@ def test_a_partial_run_is_calibrated_with_a_warning(real, tmp_path, capsys) -> N
     (cut / "samples.jsonl").write_text("".join(lines[:2]) + lines[2][:30])  # 2 of 4 samples and a torn line
     meta = json.loads((cut / "run.json").read_text())
     (cut / "run.json").write_text(json.dumps({**meta, "status": "interrupted"}))
-    camera = {
-        "parameters": {
-            "camera.focal_px": {"fit": True},
-            "camera.k1": {"fit": False},
-            "material.young_kpa": {"fit": False},
-            "tcp.z_mm": {"fit": False},
-        }
-    }
-    args = [
-        "calibrate",
-        str(cut),
-        str(real["runs"][1]),
-        "--scenario",
-        str(real["root"] / "twin.yaml"),
-        "--out",
-        str(tmp_path / "cal"),
-        "--settings",
-        str(_settings(tmp_path, camera)),
-        "--workers",
-        "1",
-        "--quiet",
-    ]
+    args = _calibrate_args(real, [cut, real["runs"][1]], tmp_path / "cal", _settings(tmp_path, FOCAL_ONLY))
     assert main(args) == 0
     assert f"warning: {cut}: run did not finish (interrupted; 2 samples)" in capsys.readouterr().err
 
@@ -302,19 +290,7 @@ def test_a_planted_checkpoint_is_never_unpickled(real, tmp_path, capsys) -> None
     marker = tmp_path / "ran"
     (out / "checkpoint.pkl").write_bytes(pickle.dumps(_Planted(str(marker))))
     (out / "checkpoint.json").write_text(json.dumps({"format": "twin calibration checkpoint 1", "key": "x"}))
-    args = [
-        "calibrate",
-        *map(str, real["runs"]),
-        "--scenario",
-        str(real["root"] / "twin.yaml"),
-        "--out",
-        str(out),
-        "--settings",
-        str(_settings(tmp_path, FIT)),
-        "--workers",
-        "1",
-        "--quiet",
-    ]
+    args = _calibrate_args(real, real["runs"], out, _settings(tmp_path, FIT))
     assert main(args) == 2
     assert "checkpoint.json: field 'generation' missing or of the wrong type" in capsys.readouterr().err
     assert not marker.exists()
@@ -375,27 +351,7 @@ def test_a_camera_beyond_the_settings_bounds_is_named_not_a_crash(real, tmp_path
     # the rest layout would absorb what the focal length cannot: beyond the calibration's
     # ±50 px offsets, a one-line error (it was an internal fault writing calibration.yaml)
     runs = [_scaled_pins(run, tmp_path / run.name, 1.6) for run in real["runs"]]
-    camera = {
-        "parameters": {
-            "camera.focal_px": {"fit": True},
-            "camera.k1": {"fit": False},
-            "material.young_kpa": {"fit": False},
-            "tcp.z_mm": {"fit": False},
-        }
-    }
-    args = [
-        "calibrate",
-        *map(str, runs),
-        "--scenario",
-        str(real["root"] / "twin.yaml"),
-        "--out",
-        str(tmp_path / "cal"),
-        "--settings",
-        str(_settings(tmp_path, camera)),
-        "--workers",
-        "1",
-        "--quiet",
-    ]
+    args = _calibrate_args(real, runs, tmp_path / "cal", _settings(tmp_path, FOCAL_ONLY))
     assert main(args) == 2
     err = capsys.readouterr().err
     assert "px from the fitted camera's (a calibration holds at most 50 px)" in err and "Traceback" not in err
