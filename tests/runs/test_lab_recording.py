@@ -151,6 +151,11 @@ def twin_sheared_run(tmp_path_factory) -> Path:
     return tmp / "run"
 
 
+def _import_lab(lab: Path, targets: Path, out: Path) -> int:
+    """`twin import-lab` of the lab-format set in `lab` into `out` (nominal depth 2.5 mm)."""
+    return main(["import-lab", str(lab), "--targets", str(targets), "--out", str(out), "--depth-mm", "2.5", "--quiet"])
+
+
 def test_import_round_trips_the_twins_own_taps(twin_sheared_run: Path, tmp_path: Path, capsys) -> None:
     """The twin's sheared taps written in the lab's format and imported give back the
     twin's targets, labels and tracked pins; a blank frame is recorded flagged and a
@@ -158,22 +163,7 @@ def test_import_round_trips_the_twins_own_taps(twin_sheared_run: Path, tmp_path:
     blank = np.zeros((480, 640), np.uint8)
     targets = _write_lab_set(twin_sheared_run, tmp_path / "lab", [("frame_3_0.png", blank), ("frame_4_0.png", None)])
     out = tmp_path / "imported"
-    assert (
-        main(
-            [
-                "import-lab",
-                str(tmp_path / "lab"),
-                "--targets",
-                str(targets),
-                "--out",
-                str(out),
-                "--depth-mm",
-                "2.5",
-                "--quiet",
-            ]
-        )
-        == 0
-    )
+    assert _import_lab(tmp_path / "lab", targets, out) == 0
     printed = capsys.readouterr().out
     assert "imported 6 frames" in printed and "4 with every pin tracked" in printed
     assert "1 with pins not found" in printed and "1 missing or unreadable" in printed
@@ -192,22 +182,7 @@ def test_import_round_trips_the_twins_own_taps(twin_sheared_run: Path, tmp_path:
 def test_replay_takes_an_imported_runs_taps_in_order(twin_sheared_run: Path, tmp_path: Path) -> None:
     """`twin run --taps-from` replays an imported recording's taps: the same targets, in order."""
     targets = _write_lab_set(twin_sheared_run, tmp_path / "lab")
-    assert (
-        main(
-            [
-                "import-lab",
-                str(tmp_path / "lab"),
-                "--targets",
-                str(targets),
-                "--out",
-                str(tmp_path / "imp"),
-                "--depth-mm",
-                "2.5",
-                "--quiet",
-            ]
-        )
-        == 0
-    )
+    assert _import_lab(tmp_path / "lab", targets, tmp_path / "imp") == 0
     scenario = {
         "name": "replay",
         "object": {"name": "rectangle"},
