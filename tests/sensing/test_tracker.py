@@ -282,3 +282,21 @@ def test_every_camera_shape_tracks_all_pins(width: int, height: int) -> None:
     res = tracker.track(pressed.frame)
     assert res.n_found == N_PINS and all(r == "" for r in res.reasons)
     assert _rms(res.pins_px, truth) <= 0.05 * spacing
+
+
+def test_pin_far_from_every_other_found_pin_tracks_without_overflow(tracker: PinTracker) -> None:
+    """One pin matched on the rim 10 spacings from every other matched pin (as in 66 of the
+    DigiTac edge set's 5,000 frames): the consistency check fits the field at that pin from
+    the others alone, whose Gaussian weights there sum to ~1e-39. No overflow, no NaN."""
+    order = np.argsort(TEMPLATE[:, 0])
+    cluster, far = order[:6], order[-1]
+    assert np.min(np.linalg.norm(TEMPLATE[cluster] - TEMPLATE[far], axis=1)) > 10 * SPACING
+    drawn = np.full_like(TEMPLATE, np.nan)
+    drawn[cluster], drawn[far] = TEMPLATE[cluster] + [2.0, -1.0], TEMPLATE[far] + [-1.5, 2.0]
+    with np.errstate(all="raise"):
+        res = tracker.track(render_pins_frame(drawn))
+    seen = np.append(cluster, far)
+    assert res.found[seen].all() and res.n_found == len(seen)
+    assert np.max(np.linalg.norm(res.pins_px[seen] - drawn[seen], axis=1)) < 0.5
+    assert np.all(np.isfinite(res.pins_px))
+    assert {res.reasons[i] for i in np.setdiff1d(np.arange(N_PINS), seen)} == {MISSING}

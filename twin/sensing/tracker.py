@@ -483,6 +483,11 @@ class PinTracker:
         w = np.exp(-np.sum(off**2, axis=2) / (2.0 * float(field_sigma) ** 2))
         ox, oy = off[..., 0], off[..., 1]
         self._moments = np.stack([w, w * ox, w * oy, w * ox * ox, w * ox * oy, w * oy * oy])
+        # The same without each pin's own term (weight 1 at offset 0, so only in Σw), for the
+        # leave-one-out fit: taking 1 off 1 + Σw(others) rounds Σw(others) away below 1e-16 (at
+        # σ = 0.75, a pin over 6.4 spacings from all the others in use), and moments / Σw overflow.
+        self._moments_others = self._moments.copy()
+        np.fill_diagonal(self._moments_others[0], 0.0)
         self._previous = pins.copy()
 
     @property
@@ -519,9 +524,7 @@ class PinTracker:
         of its own fit (the consistency check)."""
         u = use.astype(float)
         rhs = np.column_stack([u, u[:, None] * disp])  # (127, 3): u, u·du, u·dv
-        g = self._moments @ rhs  # (6, 127, 3)
-        if exclude_self:  # the pin's own term: weight 1, offset 0 → only in the Σw rows
-            g[0] -= rhs
+        g = (self._moments_others if exclude_self else self._moments) @ rhs  # (6, 127, 3)
         # Per pin, the weighted affine fit's normal equations A·x = b, divided by Σw:
         # A = [[1, m1, m2], [m1, m11 + ridge, m12], [m2, m12, m22 + ridge]]; its constant
         # term x[0] (the displacement at the pin) by the first row of A's adjugate.
