@@ -12,6 +12,7 @@ from twin.analysis import edge_imprint as E
 from twin.core.scenario import ShearedTapProtocol
 from twin.runs.protocols import drawn_sheared_taps
 from twin.runs.record import Run
+from twin.sensing.perception import pca_fit, pins_to_vectors
 from twin.sensing.tracker import template_pins_px
 
 REST = template_pins_px()
@@ -37,29 +38,37 @@ def _fields(seed: int = 1) -> dict[str, np.ndarray]:
     }
 
 
-def sheared_run(n: int = 1500, seed: int = 0, noise_px: float = 0.01) -> Run:
-    """A sheared-taps run (lateral −2.5 … 2.5 mm) with pins = rest + the fields × the tap's values."""
+def _sheared(displacement, n: int, seed: int, noise_px: float) -> Run:
+    """A sheared-taps run (lateral −2.5 … 2.5 mm, θ ±45°) with pins = rest +
+    `displacement(tap)` (127, 2) px + Gaussian noise."""
     protocol = ShearedTapProtocol(taps=n, seed=seed, lateral_range_mm=[-2.5, 2.5])
-    f = _fields()
     rng = np.random.default_rng(seed + 1)
     samples = []
     for k, tap in enumerate(drawn_sheared_taps(protocol)):
-        fade = FADE[float(np.round(tap.lateral_mm)) + 0.0]
-        pins = (
-            REST
-            + fade * tap.theta_deg / 45.0 * f["theta"]
-            + tap.slide_along_mm / fade * f["along"]
-            + tap.slide_lateral_mm * f["across"]
-            + tap.twist_deg * f["twist"]
-            + tap.depth_offset_mm * f["depth"]
-            + rng.normal(0, noise_px, REST.shape)
-        )
+        pins = REST + displacement(tap) + rng.normal(0, noise_px, REST.shape)
         labels = {**tap.model_dump(), "depth_mm": protocol.depth_mm + tap.depth_offset_mm, "tap": k}
         samples.append(
             {"index": k, "target": [0.0] * 6, "labels": labels, "pins_px": pins.tolist(), "found": [True] * 127}
         )
     meta = {"scenario": {"name": "synthetic", "protocol": protocol.model_dump()}, "rest_pins_px": REST.tolist()}
     return Run(Path("synthetic"), meta, samples)
+
+
+def sheared_run(n: int = 1500, seed: int = 0, noise_px: float = 0.01) -> Run:
+    """A sheared-taps run with pins = rest + the fields × the tap's values."""
+    f = _fields()
+
+    def displacement(tap) -> np.ndarray:
+        fade = FADE[float(np.round(tap.lateral_mm)) + 0.0]
+        return (
+            fade * tap.theta_deg / 45.0 * f["theta"]
+            + tap.slide_along_mm / fade * f["along"]
+            + tap.slide_lateral_mm * f["across"]
+            + tap.twist_deg * f["twist"]
+            + tap.depth_offset_mm * f["depth"]
+        )
+
+    return _sheared(displacement, n, seed, noise_px)
 
 
 @pytest.fixture(scope="module")
@@ -141,6 +150,83 @@ def test_a_sixth_of_a_turn_maps_the_grid_onto_itself() -> None:
     squashed = REST * [1.0, 0.8]
     with pytest.raises(Exception, match="does not map the rest pins onto themselves"):
         E.grid_turn(squashed, 1)
+
+
+CENTRED = REST - REST.mean(axis=0)
+RHO = float(np.sqrt(np.mean(np.sum(CENTRED**2, axis=1))))  # the rest pins' RMS radius, px
+EDGE_SHIFT_PX = 5.0  # the taps' rigid shift along the edge normal
+ORIENT_PX = 2.0  # the orientation imprint at the RMS radius
+DEPTH_PX_PER_MM = 3.0  # the radial dilation per mm of depth offset, at the RMS radius
+
+
+def _imprint_run(n: int = 1500, seed: int = 3) -> Run:
+    """Sheared taps over θ ±45° whose pins hold: a rigid shift b·n(θ) along the edge normal
+    n = (cos θ, sin θ); an orientation imprint a·S(2θ)·r/ρ (S(φ) = [[cos φ, sin φ], [sin φ,
+    −cos φ]], r the rest pin about the centre); a radial dilation with the depth offset;
+    slides along and across the edge that shift every pin rigidly; a twist that turns them."""
+
+    def displacement(tap) -> np.ndarray:
+        t, phi = np.radians(tap.theta_deg), np.radians(2 * tap.theta_deg)
+        turn = np.array([[np.cos(phi), np.sin(phi)], [np.sin(phi), -np.cos(phi)]])
+        return (
+            EDGE_SHIFT_PX * np.array([np.cos(t), np.sin(t)])
+            + ORIENT_PX * CENTRED @ turn.T / RHO
+            + tap.depth_offset_mm * DEPTH_PX_PER_MM * CENTRED / RHO
+            + tap.slide_along_mm * np.array([1.0, -0.5])
+            + tap.slide_lateral_mm * np.array([0.5, 1.0])
+            + tap.twist_deg * 0.3 * CENTRED[:, ::-1] * [-1.0, 1.0] / RHO
+        )
+
+    return _sheared(displacement, n, seed, 0.01)
+
+
+def test_turned_taps_read_the_orientation_without_the_rigid_shifts() -> None:
+    """Turned by the grid's six-fold symmetry, the rigid shift b·n(θ) would be a rotating
+    pair as large as b²/2 per pin and take PC1 and PC2. Without each frame's uniform shift
+    the PCs are, in closed form over the six turns (2θ + k·120° averages cos² to ½ and cos
+    to 0 exactly), the depth's dilation (variance s²·var(d) per pin) and the orientation's
+    pair (a²/2 each): θ_PC23 = ±2θ + const, and a slide along the edge (a rigid shift) has
+    none of its energy in PC2–PC3 and turns θ_PC23 by nothing."""
+    run = _imprint_run()
+    pcs = E.tap_pcs(run)
+    assert pcs.turned
+    shifts = np.stack([np.tile([1.0, 0.0], 127), np.tile([0.0, 1.0], 127)])
+    np.testing.assert_allclose(pcs.components @ shifts.T, 0.0, atol=1e-9)
+    depth_var = DEPTH_PX_PER_MM**2 * np.var(run.label("depth_offset_mm"))
+    variances = np.array([depth_var, ORIENT_PX**2 / 2, ORIENT_PX**2 / 2])
+    np.testing.assert_allclose(pcs.explained, variances / (depth_var + ORIENT_PX**2), rtol=0.01)
+    theta = run.label("theta_deg")
+    read = pcs.theta_pc23_deg(pins_to_vectors(run.pins_px))
+    spread = min(
+        np.std(E._wrap(read - sign * 2 * theta - np.mean(E._wrap(read - sign * 2 * theta)))) for sign in (1, -1)
+    )
+    assert spread < 0.5
+    for figures in E.along_edge_turn_sheared(run, pcs).values():
+        assert figures["translation_share"] == pytest.approx(1.0, abs=1e-3)
+        assert figures["plane_share"] < 1e-3
+        assert figures["pc23_deg_per_mm"] < 0.5
+
+
+def test_taps_over_a_full_turn_are_not_turned_and_keep_their_shifts() -> None:
+    """Taps whose angles span a full turn: their PCs are those of their frames as recorded."""
+    thetas = np.arange(-180.0, 180.0, 20.0)
+    pins = np.stack(
+        [
+            REST + EDGE_SHIFT_PX * np.array([np.cos(t), np.sin(t)]) + np.sin(t) * CENTRED / RHO
+            for t in np.radians(thetas)
+        ]
+    )
+    samples = [
+        {"pins_px": p.tolist(), "found": None, "labels": {"theta_deg": t, "lateral_mm": 0.0, "depth_mm": 3.0}}
+        for p, t in zip(pins, thetas)
+    ]
+    run = Run(Path("synthetic"), {"scenario": {"protocol": {"kind": "taps"}}, "rest_pins_px": REST.tolist()}, samples)
+    pcs = E.tap_pcs(run)
+    mean, components, explained = pca_fit(pins_to_vectors(pins), 3)
+    assert not pcs.turned
+    np.testing.assert_array_equal(pcs.components, components)
+    np.testing.assert_array_equal(pcs.mean, mean)
+    np.testing.assert_array_equal(pcs.explained, explained)
 
 
 def test_reach_profile_finds_the_edge_side_in_the_image() -> None:

@@ -21,7 +21,10 @@ coordinate in θ, the slide along and across the edge, the twist, the depth offs
 within the bin; the signal and the drag are the spreads of the fitted θ and slide terms
 over the run's samples. A run whose angles span less than a turn (a lab set's ±45°) has
 its PCs taken over its frames turned by the pin grid's six-fold symmetry (a 60° turn of
-the rest pins about their centre maps the grid onto itself), so PC2–PC3 can turn with θ.
+the rest pins about their centre maps the grid onto itself), so PC2–PC3 can turn with θ,
+each frame's uniform shift (its mean pin displacement) taken out first: turned, a rigid
+shift would itself become a rotating pair and take PC1 and PC2, and the drag (mostly a
+rigid shift) would then lie in an arbitrary part of that pair.
 Only samples with every pin found and in contact count.
 """
 
@@ -162,6 +165,12 @@ def grid_turn(rest_px: np.ndarray, turns: int = 1) -> tuple[np.ndarray, np.ndarr
     return perm, rot, centre
 
 
+def without_uniform_shift(pins_px: np.ndarray, rest_px: np.ndarray) -> np.ndarray:
+    """(N, 127, 2) px: the frames with each one's uniform shift (its mean pin displacement
+    from the rest pins) taken out."""
+    return pins_px - (pins_px.mean(axis=1, keepdims=True) - rest_px.mean(axis=0))
+
+
 def turned_frames(pins_px: np.ndarray, rest_px: np.ndarray) -> np.ndarray:
     """(6N, 127, 2) px: the frames and their five turns by the grid's symmetry (`grid_turn`)."""
     out = [pins_px]
@@ -175,12 +184,16 @@ def turned_frames(pins_px: np.ndarray, rest_px: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class TapPCs:
-    """A tap set's first three PCs; PC2–PC3 is the plane the paper reads the orientation in."""
+    """A tap set's first three PCs; PC2–PC3 is the plane the paper reads the orientation in.
+
+    Turned sets are fitted to frames without their uniform shift, so their components are
+    orthogonal to every rigid shift of the pins: a frame's or a field's shift projects to
+    nothing, and `project`, `theta_pc23_deg` and `plane_share` need no step of their own."""
 
     mean: np.ndarray  # (254,) px
     components: np.ndarray  # (3, 254)
-    explained: np.ndarray  # (3,) fractions
-    turned: bool  # over the frames turned by the grid's symmetry
+    explained: np.ndarray  # (3,) fractions (turned: of the variance without the frames' uniform shifts)
+    turned: bool  # over the frames turned by the grid's symmetry, each frame's uniform shift taken out
     pair: tuple[int, int] = (1, 2)  # PC2, PC3 (0-based)
 
     def project(self, z: np.ndarray) -> np.ndarray:
@@ -196,21 +209,22 @@ class TapPCs:
         return np.degrees(np.arctan2(p[:, 1], p[:, 0]))
 
     def plane_share(self, field: np.ndarray) -> float:
-        """The share of a displacement field's energy (254,) in the PC2–PC3 plane."""
+        """The share of a displacement field's energy (254,) in the PC2–PC3 plane (of its
+        whole energy, any rigid shift in it included)."""
         return float(np.sum((self.components[list(self.pair)] @ field) ** 2) / np.sum(field**2))
 
 
 def tap_pcs(run: Run) -> TapPCs:
     """The PCs of a tap run's usable frames (sheared taps: with their fitted slide and
-    twist taken out, the taps the paper's PCA is of); over their six-fold turns when its
-    angles span less than 300° (a lab set's ±45°)."""
+    twist taken out, the taps the paper's PCA is of); over their six-fold turns, each
+    frame's uniform shift taken out, when its angles span less than 300° (a lab set's ±45°)."""
     ok = usable(run)
     theta = run.label("theta_deg")[ok]
     fits = sheared_fits(run) if is_sheared(run) else []
     pins = np.concatenate([f.tap_z for f in fits]).reshape(-1, 127, 2) if fits else run.pins_px[ok]
     turned = np.ptp(theta) < 300.0
     if turned:
-        pins = turned_frames(pins, run.rest_pins_px)
+        pins = turned_frames(without_uniform_shift(pins, run.rest_pins_px), run.rest_pins_px)
     mean, comps, explained = pca_fit(pins_to_vectors(pins), 3)
     return TapPCs(mean, comps, explained, turned)
 
