@@ -15,6 +15,7 @@ import pytest
 from twin.core.errors import PhysicsError
 from twin.core.sensor import CameraModel
 from twin.world.dome.flex import FIDELITY_LEVELS, DomeParams
+from twin.world.dome.flex.clearance import CLEARANCE_SAFETY
 from twin.world.dome.testbed import edge_scene, sensor_down
 
 SPEED = 15.0  # mm/s, the paper's robot
@@ -155,3 +156,48 @@ def test_pin_map_is_exact():
     mujoco.mj_flex(physics.model, physics.data)
     exact = pin_tips_tool(physics.model, physics.data, physics.handles)
     assert np.max(np.abs(physics._pin_map(physics.data.qpos) - exact)) < 1e-12
+
+
+def test_clear_stretches_are_jumped_not_lost():
+    """jump_clear_moves carries the box over the stretch of a move where nothing can touch
+    the dome, in closed form: the collision surface lies `margin` behind the apex and the
+    gap is that margin, one step's travel and CLEARANCE_SAFETY, so a pose is clear while
+    the box's top is more than a step + CLEARANCE_SAFETY above the apex. The settled press
+    is the one that stepping every step gives, within the settling band, on the same clock."""
+    stepped_params = FIDELITY_LEVELS["fast"].with_(jump_clear_moves=False)
+    jumped_params = stepped_params.with_(jump_clear_moves=True)
+    frames, steps = [], []
+    for params in (stepped_params, jumped_params):
+        _, _, _, physics = edge_scene(params, start_tool2world=sensor_down(-10, 0, -20))
+        steps.append(physics.move(sensor_down(-10, 0, 3), SPEED))  # 23 mm down, the last 3 into the box
+        frames.append(physics.settle())
+    n = int(np.ceil(23.0 / (SPEED * stepped_params.timestep)))
+    step_mm = 23.0 / n
+    clear_poses = int(
+        np.ceil((20.0 - step_mm - CLEARANCE_SAFETY * 1e3) / step_mm)
+    )  # heights 20 − k·step > step + safety
+    assert steps == [n, n - (clear_poses - 1)]
+    camera = CameraModel()
+    by_steps, by_jump = (camera.project_tool_points(f.pins_tool) for f in frames)
+    assert frames[1].contact_force > 1.0
+    assert np.abs(by_jump - by_steps).max() < stepped_params.settle_px
+    assert frames[1].time - frames[0].time == pytest.approx(
+        (frames[1].settle_steps - frames[0].settle_steps) * stepped_params.timestep
+    )
+
+
+def test_a_move_through_the_object_is_stepped_where_it_touches():
+    """A move that starts and ends clear of the box but cuts its edge 1 mm deep on the way
+    is stepped there, and the skin comes back to the rest it comes to when every step is
+    stepped."""
+    stepped_params = FIDELITY_LEVELS["fast"].with_(jump_clear_moves=False)
+    rests, steps = [], []
+    for params in (stepped_params, stepped_params.with_(jump_clear_moves=True)):
+        _, _, _, physics = edge_scene(params, start_tool2world=sensor_down(-25, 0, -5))
+        steps.append(physics.move(sensor_down(25, 0, 7), SPEED))  # at x = 0 the apex is 1 mm deep
+        rests.append(physics.settle())
+    total = int(np.ceil(np.hypot(50.0, 12.0) / (SPEED * stepped_params.timestep)))
+    assert steps[0] == total
+    assert 10 <= steps[1] < total
+    assert rests[1].contact_force == 0.0
+    assert np.abs(rests[1].pins_tool - rests[0].pins_tool).max() < REST_TOL

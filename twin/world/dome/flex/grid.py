@@ -146,6 +146,12 @@ class DomeParams:
         inertia, 17 g, is negligible at robot speeds). Moves keep the velocities: the
         skin stuck to a sliding object must keep moving with it, and resetting them every
         step made friction slip (the shear halved and depended on the timestep).
+      jump_clear_moves: carry the objects over the stretches at a move's start and end
+        along which no object comes near the dome (twin.world.dome.flex.clearance) instead
+        of stepping them: there is nothing to touch, the skin is at rest (start) or springs
+        back freely, and the settling after the move finishes that quasi-statically. The
+        frames' time still runs at the move's speed. Exact at a clear start; at a clear end
+        the settled frame differs from the stepped one by the settling tolerance.
 
     Settling, in camera pixels (1 px ≈ 75 µm of lateral pin motion: focal ≈ 451 px, pin
     tips 30–42 mm in front of the camera; what the camera cannot see does not matter)
@@ -209,6 +215,7 @@ class DomeParams:
     skin_extent_deg: float = 55.0
     timestep: float = 0.02
     quasi_static_settle: bool = True
+    jump_clear_moves: bool = False
     settle_px: float = 0.1
     free_settle_px: float = 0.005
     settle_steps: int = 1
@@ -252,6 +259,7 @@ FIDELITY_LEVELS: dict[str, DomeParams] = {
         free_settle_px=0.01,
         cycle_after=20,
         cycle_px=0.3,
+        jump_clear_moves=True,
     ),
     "default": DomeParams(),
     # the accuracy reference: a 6×6×3 grid (6.7 mm cells), 1.5 mm collision surface, 10 ms

@@ -64,6 +64,7 @@ from twin.core.errors import PhysicsError
 from twin.core.poses import invert_transform, make_transform
 from twin.core.sensor import CameraModel
 from twin.world.dome.base import Frame, physics_error
+from twin.world.dome.flex.clearance import Clearance
 from twin.world.dome.flex.grid import (
     DomeParams,
     TacTipHandles,
@@ -196,6 +197,8 @@ class SensorPhysics:
         self._quat_memo: dict[bytes, np.ndarray] = {}  # _quats_xyzw's last single rotations
         self._set_carrier(self._carrier_state(self._commanded, np.zeros(3), np.zeros(3)))
         mujoco.mj_forward(model, data)
+        #: which stretches of a move need no stepping (DomeParams.jump_clear_moves)
+        self._clearance = Clearance(model, data, handles, body) if params.jump_clear_moves else None
         self.rest_pins = pin_tips_tool(model, data, handles).copy()
         self._pins = self._read_pins()
         self._projected: np.ndarray | None = None  # _pins_px, once asked for
@@ -209,7 +212,9 @@ class SensorPhysics:
         Position moves at `speed_mm_s` (mm/s); orientation is slerped over the same steps
         (at most `angular_speed_deg_s`). Each physics step advances the commanded pose by
         one increment and prescribes the carrier velocity, so sliding is simulated.
-        Returns the number of steps taken.
+        Returns the number of physics steps simulated: a level with
+        DomeParams.jump_clear_moves carries the objects over the move's clear stretches at
+        its start and end without stepping.
         """
         if not speed_mm_s > 0:
             raise PhysicsError(f"[{self.scenario_name}] move speed must be > 0 mm/s, got {speed_mm_s}")
@@ -237,13 +242,22 @@ class SensorPhysics:
             rotations = start[None, :3, :3]  # broadcast over the steps
         positions = start[:3, 3] + delta_p * s[:, None]
         qpos, qvel = self._carrier_states(rotations, positions, v_tool, w_tool)
-        for k in range(1, n + 1):
-            self._set_carrier_velocity(qvel[k - 1])  # the carrier is at pose k − 1 moving towards pose k
+        clear_after = self._clear_stretches(qpos)
+        k = 0
+        if clear_after is not None and clear_after[0] > 0 and not self.data.ncon:
+            k = self._jump(qpos, qvel, 0, int(clear_after[0]))  # a clear start: the skin is at rest
+        steps = 0
+        while k < n:
+            self._set_carrier_velocity(qvel[k])  # the carrier is at pose k moving towards pose k + 1
             self._advance()
+            k += 1
+            steps += 1
             self._set_carrier((qpos[k], qvel[k]))  # snap onto the commanded path (removes ≤ nm drift)
             self._after_step_at(rotations[k if turns else 0], positions[k])
+            if clear_after is not None and clear_after[k] == n and k < n and not self.data.ncon:
+                k = self._jump(qpos, qvel, k, n)  # clear to the end: settling finishes the skin's spring-back
         self._commanded = target
-        return n
+        return steps
 
     def settle(self) -> Frame:
         """Step with the sensor at rest until the pins settle; return the settled Frame.
@@ -304,6 +318,29 @@ class SensorPhysics:
         )
 
     # ------------------------------------------------------------------ internals
+    def _clear_stretches(self, qpos: np.ndarray) -> np.ndarray | None:
+        """(n + 1,) int: for each pose of a move, the last pose up to which every pose from
+        it on is clear of the objects (twin.world.dome.flex.clearance), itself − 1 when it is
+        not clear; None when the level steps every move (DomeParams.jump_clear_moves)."""
+        if self._clearance is None:
+            return None
+        clear = self._clearance.poses_clear(self.data, qpos)
+        last = np.empty(len(clear), int)
+        reach = len(clear) - 1
+        for k in range(len(clear) - 1, -1, -1):
+            if not clear[k]:
+                reach = k - 1
+            last[k] = reach
+        return last
+
+    def _jump(self, qpos: np.ndarray, qvel: np.ndarray, start: int, stop: int) -> int:
+        """Carry the objects from pose `start` to pose `stop` of a move without stepping
+        (the clock advances as if it had); returns `stop`."""
+        if stop > start:
+            self._set_carrier((qpos[stop], qvel[stop]))
+            self.data.time += (stop - start) * self.model.opt.timestep
+        return max(stop, start)
+
     def _skin_offsets(self) -> np.ndarray:
         """(127, 3) pin-tip offsets (m, tool frame) from the skin layer at the commanded pose.
 
