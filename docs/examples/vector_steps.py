@@ -5,12 +5,14 @@ second against one env's, measured in the same run.
     MUJOCO_GL=egl .venv/bin/python docs/examples/vector_steps.py --envs 2 --frames 10000
 
 --mode async runs each env in its own process (forkserver: the parent may hold a GL
-context), sync runs them one after another in this one. Envs are seeded per env: reset
+context), sync runs them one after another in this one, workers (`make_vec` without a
+mode: twin.runs.vector_env) runs them in --workers processes (default: one per core),
+several envs each. Envs are seeded per env: reset
 with seed s seeds env i with s + i. Each env steps its own random actions, as a learning
 policy's would be (--same-actions: all envs the same ones).
 
-The baseline is one env stepped the same way (async: in its own process, so it pays the
-same transfers) with env 0's actions, in rounds that alternate with the vector's, so
+The baseline is one env stepped the same way (async and workers: in its own process, so
+it pays the same transfers) with env 0's actions, in rounds that alternate with the vector's, so
 drift and other processes' load reach both. Also printed: the lockstep (each vector step
 waits for its slowest env: the mean env step against the mean slowest one, timed in the
 env processes, in CPU time, which other processes' load barely moves, and in wall time)
@@ -82,7 +84,10 @@ def main() -> None:
     parser.add_argument("--envs", type=int, default=2, help="envs in the vector (one per core)")
     parser.add_argument("--frames", type=int, default=10_000, help="frames the vector steps, all envs together")
     parser.add_argument("--rounds", type=int, default=5, help="alternating rounds of one env and the vector")
-    parser.add_argument("--mode", choices=("async", "sync"), default="async")
+    parser.add_argument("--mode", choices=("async", "sync", "workers"), default="async")
+    parser.add_argument(
+        "--workers", type=int, default=None, help="worker processes of --mode workers (default: one per core)"
+    )
     parser.add_argument("--same-actions", action="store_true", help="every env steps the same actions")
     parser.add_argument("--scenario", default="contour_rectangle", help="a shipped contour scenario or a file")
     parser.add_argument("--seed", type=int, default=0)
@@ -94,6 +99,8 @@ def main() -> None:
     one_render_thread()
 
     def make(n: int) -> gym.vector.VectorEnv:
+        if args.mode == "workers":  # the registered vector entry point; it takes no wrappers
+            return gym.make_vec(twin.GYM_ID, num_envs=n, workers=args.workers, scenario=args.scenario)
         return gym.make_vec(
             twin.GYM_ID,
             num_envs=n,
@@ -124,11 +131,9 @@ def main() -> None:
     single_fps, vector_fps = np.mean(single), np.mean(many)
     ratio = vector_fps / single_fps
     # one env per core at most: async envs are processes, sync ones take turns in this one
-    ideal, allow = (
-        (min(args.envs, default_workers()), f"{default_workers()} cores")
-        if args.mode == "async"
-        else (1, "one process")
-    )
+    processes = {"async": args.envs, "sync": 1, "workers": min(args.envs, args.workers or default_workers())}[args.mode]
+    ideal = min(processes, default_workers())
+    allow = "one process" if processes == 1 else f"{ideal} processes on {default_workers()} cores"
     print(
         f"{args.scenario}: {args.rounds} rounds, {args.envs * steps} frames each, "
         f"{'the same' if args.same_actions else 'its own'} random actions per env\n"

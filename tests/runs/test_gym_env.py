@@ -109,11 +109,52 @@ def test_vector_envs_sync_and_async_are_seeded_per_env() -> None:
         np.testing.assert_array_equal(a, b)
 
 
+def test_worker_vector_steps_as_the_sync_vector_does() -> None:
+    """gymnasium.make_vec without a mode: the registered vector entry point
+    (twin.runs.vector_env), 3 envs in 2 worker processes. Over 7 steps with each env's own
+    actions, a truncation after the scenario's 5 steps and the next-step autoreset, it
+    gives what gymnasium's own sync vector gives, bit for bit: observations, rewards,
+    flags; reset(seed=s) seeds env i with s + i."""
+    actions = np.random.default_rng(0).uniform(-0.5, 0.5, (7, 3, 2)).astype(np.float32)
+    runs = {}
+    for mode, options in (("sync", {}), (None, {"workers": 2})):
+        envs = gym.make_vec(
+            twin.GYM_ID, num_envs=3, vectorization_mode=mode, scenario=scenario_from_dict(NOISY), **options
+        )
+        try:
+            runs[mode] = [(envs.reset(seed=11)[0],)] + [envs.step(a)[:4] for a in actions]
+        finally:
+            envs.close()
+        if mode is None:
+            assert type(envs.unwrapped).__name__ == "WorkerVectorEnv" and envs.unwrapped.env_groups == [(0, 2), (2, 1)]
+    (first,) = runs[None][0]
+    assert first.shape == (3, 254) and np.abs(first[0] - first[1]).max() > 1e-3  # each env its own seed
+    truncated = [step[3] for step in runs[None][1:]]
+    assert truncated[4].all() and not truncated[5].any()  # the 5th step truncates, the 6th resets
+    assert np.all(runs[None][6][1] == 0.0)  # a reset step earns nothing
+    for ours, theirs in zip(runs[None], runs["sync"]):
+        for a, b in zip(ours, theirs):
+            np.testing.assert_array_equal(a, b)
+
+
+def test_worker_vector_names_the_env_that_failed() -> None:
+    """An env that cannot be built in a worker raises in the caller, naming the env and why."""
+    scenario = scenario_from_dict(
+        {**SCENARIO, "protocol": {"kind": "taps", "orientations_deg": [0], "lateral_mm": [0], "depths_mm": [1]}}
+    )
+    try:
+        gym.make_vec(twin.GYM_ID, num_envs=2, workers=1, scenario=scenario)
+    except RuntimeError as err:
+        assert "env 0 of the vector failed: ValueError" in str(err) and "contour protocol" in str(err)
+    else:
+        raise AssertionError("a vector of envs without a contour protocol was built")
+
+
 def test_the_vector_example_steps_both_modes() -> None:
     """docs/examples/vector_steps.py, the docs' example of stepping a vector of envs, runs
     as a user runs it (a few frames instead of 10,000)."""
     example = Path(__file__).parents[2] / "docs" / "examples" / "vector_steps.py"
-    for mode in ("sync", "async"):
+    for mode in ("sync", "async", "workers"):
         done = subprocess.run(
             [sys.executable, str(example), "--envs", "2", "--frames", "12", "--rounds", "2", "--mode", mode],
             capture_output=True,

@@ -17,12 +17,15 @@ import gymnasium as gym
 
 GYM_ID = "twin/ContourFollowing-v0"
 ENTRY_POINT = "twin.runs.gym_env:ContourFollowingEnv"
+#: `gymnasium.make_vec` without a mode (or vectorization_mode="vector_entry_point"): several envs per worker process
+VECTOR_ENTRY_POINT = "twin.runs.vector_env:WorkerVectorEnv"
 
 
 def register() -> None:
-    """Register `ENTRY_POINT` under `GYM_ID` unless it already is (imports nothing of the twin)."""
+    """Register `ENTRY_POINT` and `VECTOR_ENTRY_POINT` under `GYM_ID` unless it already is
+    (imports nothing of the twin)."""
     if GYM_ID not in gym.registry:
-        gym.register(id=GYM_ID, entry_point=ENTRY_POINT)
+        gym.register(id=GYM_ID, entry_point=ENTRY_POINT, vector_entry_point=VECTOR_ENTRY_POINT)
 
 
 register()
