@@ -18,13 +18,15 @@ path, or a Scenario).
 `reset(seed=…)` seeds the wrapper's `np_random`, which seeds the backend (the simulator's
 camera noise): one seed, one run.
 
-Vector envs: ``gymnasium.make_vec(twin.GYM_ID, num_envs=N, vectorization_mode="async",
-vector_kwargs={"context": "forkserver"}, scenario=…)`` runs each env in its own process;
-call `twin.runs.parallel.one_blas_thread` and `one_render_thread` before it, so that each
-env process runs one BLAS thread and renders in its own thread. Each vector step waits
-for the slowest env: a step's cost follows the physics steps its contact takes to settle,
-so envs stepping different actions wait for each other (docs/examples/vector_steps.py
-prints how long).
+Vector envs: ``gymnasium.make_vec(twin.GYM_ID, num_envs=N, scenario=…)`` (no mode) runs
+the envs in one worker process per core, several envs each (twin.runs.vector_env): the
+mode that keeps the cores busy. ``vectorization_mode="async"`` (with ``vector_kwargs=
+{"context": "forkserver"}``) runs each env in its own process; call
+`twin.runs.parallel.one_blas_thread` and `one_render_thread` before it, so that each env
+process runs one BLAS thread and renders in its own thread. Each vector step waits for
+the slowest env (or worker): a step's cost follows the physics steps its contact takes to
+settle, so envs stepping different actions wait for each other
+(docs/examples/vector_steps.py prints how long).
 """
 
 from __future__ import annotations
