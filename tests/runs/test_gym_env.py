@@ -114,7 +114,8 @@ def test_worker_vector_steps_as_the_sync_vector_does() -> None:
     (twin.runs.vector_env), 3 envs in 2 worker processes. Over 7 steps with each env's own
     actions, a truncation after the scenario's 5 steps and the next-step autoreset, it
     gives what gymnasium's own sync vector gives, bit for bit: observations, rewards,
-    flags; reset(seed=s) seeds env i with s + i."""
+    flags, rendered frames; reset(seed=s) seeds env i with s + i; set_attr and get_attr
+    reach each env."""
     actions = np.random.default_rng(0).uniform(-0.5, 0.5, (7, 3, 2)).astype(np.float32)
     runs = {}
     for mode, options in (("sync", {}), (None, {"workers": 2})):
@@ -122,14 +123,16 @@ def test_worker_vector_steps_as_the_sync_vector_does() -> None:
             twin.GYM_ID, num_envs=3, vectorization_mode=mode, scenario=scenario_from_dict(NOISY), **options
         )
         try:
-            runs[mode] = [(envs.reset(seed=11)[0],)] + [envs.step(a)[:4] for a in actions]
+            runs[mode] = [(envs.reset(seed=11)[0],)] + [envs.step(a)[:4] for a in actions] + [envs.render()]
+            envs.set_attr("max_step_mm", [1.0, 2.0, 3.0])
+            assert envs.get_attr("max_step_mm") == (1.0, 2.0, 3.0)
         finally:
             envs.close()
         if mode is None:
             assert type(envs.unwrapped).__name__ == "WorkerVectorEnv" and envs.unwrapped.env_groups == [(0, 2), (2, 1)]
     (first,) = runs[None][0]
     assert first.shape == (3, 254) and np.abs(first[0] - first[1]).max() > 1e-3  # each env its own seed
-    truncated = [step[3] for step in runs[None][1:]]
+    truncated = [step[3] for step in runs[None][1:-1]]
     assert truncated[4].all() and not truncated[5].any()  # the 5th step truncates, the 6th resets
     assert np.all(runs[None][6][1] == 0.0)  # a reset step earns nothing
     for ours, theirs in zip(runs[None], runs["sync"]):

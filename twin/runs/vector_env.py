@@ -11,8 +11,9 @@ relatively less; envs per core is what buys it.
 
 Semantics are Gymnasium's vector API: batched observations, rewards and flags, info
 dicts with `_key` masks, next-step autoreset, ``reset(seed=s)`` seeds env i with s + i
-(the same observations as the sync and async modes for the same seed). A worker that
-fails raises its error in this process, naming the env.
+(the same observations as the sync and async modes for the same seed); `call`,
+`get_attr`, `set_attr` and `render` reach every env as in gymnasium's own vectors. A
+worker that fails raises its error in this process, naming the env.
 """
 
 from __future__ import annotations
@@ -53,6 +54,18 @@ def _serve(conn, env_kwargs: dict, first: int, count: int) -> None:
                     current = first + i
                     obs, info = env.reset(seed=seed, options=options)
                     results.append((obs, 0.0, False, False, info))
+            elif command == "call":  # a method called, or an attribute read, on every env
+                name, call_args, call_kwargs = args
+                for i, env in enumerate(envs):
+                    current = first + i
+                    value = env.get_wrapper_attr(name)
+                    results.append(value(*call_args, **call_kwargs) if callable(value) else value)
+            elif command == "set":
+                name, values = args
+                for i, (env, value) in enumerate(zip(envs, values)):
+                    current = first + i
+                    env.set_wrapper_attr(name, value)
+                    results.append(None)
             else:  # "step"
                 actions, autoreset = args
                 for i, (env, action, again) in enumerate(zip(envs, actions, autoreset)):
@@ -161,6 +174,31 @@ class WorkerVectorEnv(VectorEnv):
         batch = self._batch(self._gather())
         self._autoreset = batch[2] | batch[3]
         return batch
+
+    def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
+        """Each env's method `name` called with these arguments, or its attribute `name`,
+        in env order (as gymnasium's own vectors do)."""
+        for pipe in self._pipes:
+            pipe.send(("call", name, args, kwargs))
+        return tuple(self._gather())
+
+    def get_attr(self, name: str) -> tuple[Any, ...]:
+        """Each env's attribute `name`, in env order."""
+        return self.call(name)
+
+    def set_attr(self, name: str, values: Any) -> None:
+        """Set each env's attribute `name`: one value for all, or a list or tuple of one per env."""
+        if not isinstance(values, (list, tuple)):
+            values = [values] * self.num_envs
+        if len(values) != self.num_envs:
+            raise ValueError(f"set_attr got {len(values)} values for {self.num_envs} envs")
+        for pipe, (first, size) in zip(self._pipes, self.env_groups):
+            pipe.send(("set", name, list(values[first : first + size])))
+        self._gather()
+
+    def render(self) -> tuple[Any, ...]:
+        """Each env's last frame (RGB, H × W × 3 uint8; None without the render effect)."""
+        return self.call("render")
 
     def close_extras(self, **kwargs: Any) -> None:
         if self._closed:
