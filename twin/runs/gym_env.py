@@ -47,7 +47,8 @@ from twin.sensing.pins import PinReader
 class ContourFollowingEnv(gym.Env):
     """reset(seed) → (observation, info); step(action) → (obs, reward, terminated, truncated, info)."""
 
-    metadata = {"render_modes": ["rgb_array"]}
+    #: render_fps: frames per second of a video of the env's frames (one per step, 10/s as `twin run`'s videos)
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
 
     def __init__(
         self,
