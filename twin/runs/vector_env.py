@@ -31,9 +31,29 @@ from twin.runs.gym_registration import GYM_ID
 from twin.runs.parallel import default_workers, one_blas_thread, one_render_thread
 
 
+def _answer(env: gym.Env, command: str, item: Any, shared: Any) -> Any:
+    """One env's answer to a command of the parent: `item` is this env's part (a seed, an
+    (action, autoreset) pair, a value), `shared` the part every env gets."""
+    if command == "reset":
+        obs, info = env.reset(seed=item, options=shared)
+        return obs, 0.0, False, False, info
+    if command == "step":
+        action, again = item
+        if again:  # next-step autoreset: this step only resets the env
+            obs, info = env.reset()
+            return obs, 0.0, False, False, info
+        return env.step(action)
+    if command == "call":  # a method called, or an attribute read
+        name, args, kwargs = shared
+        value = env.get_wrapper_attr(name)
+        return value(*args, **kwargs) if callable(value) else value
+    env.set_wrapper_attr(shared, item)  # "set"
+    return None
+
+
 def _serve(conn, env_kwargs: dict, first: int, count: int) -> None:
-    """Worker loop: build envs `first` … `first + count − 1` and answer the parent's
-    ("reset", seeds, options) and ("step", actions, autoreset mask) until ("close",)."""
+    """Worker loop: build envs `first` … `first + count − 1`, send their spaces, then answer
+    the parent's (command, items: one per env or None, shared) until ("close", None, None)."""
     envs: list[gym.Env] = []
     current = first
     try:
@@ -42,39 +62,15 @@ def _serve(conn, env_kwargs: dict, first: int, count: int) -> None:
         for i in range(count):
             current = first + i
             envs.append(gym.make(GYM_ID, **env_kwargs))
-        conn.send(("ok", (envs[0].observation_space, envs[0].action_space)))
+        conn.send(("ok", [(envs[0].observation_space, envs[0].action_space)]))
         while True:
-            command, *args = conn.recv()
+            command, items, shared = conn.recv()
             if command == "close":
                 break
             results = []
-            if command == "reset":
-                seeds, options = args
-                for i, (env, seed) in enumerate(zip(envs, seeds)):
-                    current = first + i
-                    obs, info = env.reset(seed=seed, options=options)
-                    results.append((obs, 0.0, False, False, info))
-            elif command == "call":  # a method called, or an attribute read, on every env
-                name, call_args, call_kwargs = args
-                for i, env in enumerate(envs):
-                    current = first + i
-                    value = env.get_wrapper_attr(name)
-                    results.append(value(*call_args, **call_kwargs) if callable(value) else value)
-            elif command == "set":
-                name, values = args
-                for i, (env, value) in enumerate(zip(envs, values)):
-                    current = first + i
-                    env.set_wrapper_attr(name, value)
-                    results.append(None)
-            else:  # "step"
-                actions, autoreset = args
-                for i, (env, action, again) in enumerate(zip(envs, actions, autoreset)):
-                    current = first + i
-                    if again:  # next-step autoreset: this step only resets the env
-                        obs, info = env.reset()
-                        results.append((obs, 0.0, False, False, info))
-                    else:
-                        results.append(env.step(action))
+            for i, (env, item) in enumerate(zip(envs, items or [None] * count)):
+                current = first + i
+                results.append(_answer(env, command, item, shared))
             conn.send(("ok", results))
     except (KeyboardInterrupt, EOFError):
         pass
@@ -102,7 +98,6 @@ class WorkerVectorEnv(VectorEnv):
         sizes = [num_envs // n_workers + (w < num_envs % n_workers) for w in range(n_workers)]
         self.env_groups = [(sum(sizes[:w]), size) for w, size in enumerate(sizes)]
         self._autoreset = np.zeros(num_envs, bool)
-        self._closed = False
         ctx = mp.get_context(context)
         self._pipes, self.processes = [], []
         for first, size in self.env_groups:
@@ -128,13 +123,20 @@ class WorkerVectorEnv(VectorEnv):
             if status == "error" and failure is None:
                 failure = payload
             elif status == "ok":
-                results += payload if isinstance(payload, list) else [payload]
+                results += payload
         if failure is not None:
             env, message, trace = failure
             self.close()
             who = "a worker" if env is None else f"env {env}"
             raise RuntimeError(f"{who} of the vector failed: {message}\n{trace}")
         return results
+
+    def _ask(self, command: str, items: list | None = None, shared: Any = None) -> list:
+        """Send a command to every worker, each its envs' share of `items` (one per env),
+        and gather the answers in env order."""
+        for pipe, (first, size) in zip(self._pipes, self.env_groups):
+            pipe.send((command, None if items is None else list(items[first : first + size]), shared))
+        return self._gather()
 
     def _batch(self, results: list) -> tuple:
         obs, rewards, terminated, truncated, infos = zip(*results)
@@ -157,9 +159,7 @@ class WorkerVectorEnv(VectorEnv):
             seeds = list(seed)
             if len(seeds) != self.num_envs:
                 raise ValueError(f"reset got {len(seeds)} seeds for {self.num_envs} envs")
-        for pipe, (first, size) in zip(self._pipes, self.env_groups):
-            pipe.send(("reset", seeds[first : first + size], options))
-        obs, _, _, _, infos = self._batch(self._gather())
+        obs, _, _, _, infos = self._batch(self._ask("reset", seeds, options))
         self._autoreset[:] = False
         return obs, infos
 
@@ -169,18 +169,14 @@ class WorkerVectorEnv(VectorEnv):
         actions = np.asarray(actions)
         if len(actions) != self.num_envs:
             raise ValueError(f"step got {len(actions)} actions for {self.num_envs} envs")
-        for pipe, (first, size) in zip(self._pipes, self.env_groups):
-            pipe.send(("step", actions[first : first + size], self._autoreset[first : first + size].copy()))
-        batch = self._batch(self._gather())
+        batch = self._batch(self._ask("step", list(zip(actions, self._autoreset.tolist()))))
         self._autoreset = batch[2] | batch[3]
         return batch
 
     def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
         """Each env's method `name` called with these arguments, or its attribute `name`,
         in env order (as gymnasium's own vectors do)."""
-        for pipe in self._pipes:
-            pipe.send(("call", name, args, kwargs))
-        return tuple(self._gather())
+        return tuple(self._ask("call", shared=(name, args, kwargs)))
 
     def get_attr(self, name: str) -> tuple[Any, ...]:
         """Each env's attribute `name`, in env order."""
@@ -192,21 +188,16 @@ class WorkerVectorEnv(VectorEnv):
             values = [values] * self.num_envs
         if len(values) != self.num_envs:
             raise ValueError(f"set_attr got {len(values)} values for {self.num_envs} envs")
-        for pipe, (first, size) in zip(self._pipes, self.env_groups):
-            pipe.send(("set", name, list(values[first : first + size])))
-        self._gather()
+        self._ask("set", values, name)
 
     def render(self) -> tuple[Any, ...]:
         """Each env's last frame (RGB, H × W × 3 uint8; None without the render effect)."""
         return self.call("render")
 
     def close_extras(self, **kwargs: Any) -> None:
-        if self._closed:
-            return
-        self._closed = True
         for pipe in self._pipes:
             try:
-                pipe.send(("close",))
+                pipe.send(("close", None, None))
             except (BrokenPipeError, OSError):
                 pass
         for process in self.processes:

@@ -242,10 +242,10 @@ class SensorPhysics:
             rotations = start[None, :3, :3]  # broadcast over the steps
         positions = start[:3, 3] + delta_p * s[:, None]
         qpos, qvel = self._carrier_states(rotations, positions, v_tool, w_tool)
-        clear_after = self._clear_stretches(qpos)
+        start_clear_to, end_clear_from = self._clear_ends(qpos)
         k = 0
-        if clear_after is not None and clear_after[0] > 0 and not self.data.ncon:
-            k = self._jump(qpos, qvel, 0, int(clear_after[0]))  # a clear start: the skin is at rest
+        if start_clear_to > 0:
+            k = self._jump(qpos, qvel, 0, start_clear_to)  # a clear start: the skin is at rest
         steps = 0
         while k < n:
             self._set_carrier_velocity(qvel[k])  # the carrier is at pose k moving towards pose k + 1
@@ -254,7 +254,7 @@ class SensorPhysics:
             steps += 1
             self._set_carrier((qpos[k], qvel[k]))  # snap onto the commanded path (removes ≤ nm drift)
             self._after_step_at(rotations[k if turns else 0], positions[k])
-            if clear_after is not None and clear_after[k] == n and k < n and not self.data.ncon:
+            if end_clear_from <= k < n and not self.data.ncon:
                 k = self._jump(qpos, qvel, k, n)  # clear to the end: settling finishes the skin's spring-back
         self._commanded = target
         return steps
@@ -318,28 +318,30 @@ class SensorPhysics:
         )
 
     # ------------------------------------------------------------------ internals
-    def _clear_stretches(self, qpos: np.ndarray) -> np.ndarray | None:
-        """(n + 1,) int: for each pose of a move, the last pose up to which every pose from
-        it on is clear of the objects (twin.world.dome.flex.clearance), itself − 1 when it is
-        not clear; None when the level steps every move (DomeParams.jump_clear_moves)."""
+    def _clear_ends(self, qpos: np.ndarray) -> tuple[int, int]:
+        """For a move's poses (carrier qpos (n + 1, 7)): the last pose of its clear start
+        (0: none to jump; only out of contact, where the skin is at rest) and the first
+        pose of its clear end (n + 1: none), clear as twin.world.dome.flex.clearance has
+        it; (0, n + 1) when the level steps every move (DomeParams.jump_clear_moves)."""
+        none = (0, len(qpos))
         if self._clearance is None:
-            return None
-        clear = self._clearance.poses_clear(self.data, qpos)
-        last = np.empty(len(clear), int)
-        reach = len(clear) - 1
-        for k in range(len(clear) - 1, -1, -1):
-            if not clear[k]:
-                reach = k - 1
-            last[k] = reach
-        return last
+            return none
+        in_contact = bool(self.data.ncon)
+        # in contact only a clear end can be jumped, and the last pose, tested with no travel
+        # (a smaller gap), tells cheaply when there is none: slides in contact skip the rest
+        if in_contact and not self._clearance.poses_clear(self.data, qpos[-1:])[0]:
+            return none
+        blocked = np.flatnonzero(~self._clearance.poses_clear(self.data, qpos))
+        if not len(blocked):  # the whole move is clear
+            return (0, 0) if in_contact else (len(qpos) - 1, 0)
+        return (0 if in_contact else int(blocked[0]) - 1, int(blocked[-1]) + 1)
 
     def _jump(self, qpos: np.ndarray, qvel: np.ndarray, start: int, stop: int) -> int:
         """Carry the objects from pose `start` to pose `stop` of a move without stepping
         (the clock advances as if it had); returns `stop`."""
-        if stop > start:
-            self._set_carrier((qpos[stop], qvel[stop]))
-            self.data.time += (stop - start) * self.model.opt.timestep
-        return max(stop, start)
+        self._set_carrier((qpos[stop], qvel[stop]))
+        self.data.time += (stop - start) * self.model.opt.timestep
+        return stop
 
     def _skin_offsets(self) -> np.ndarray:
         """(127, 3) pin-tip offsets (m, tool frame) from the skin layer at the commanded pose.
