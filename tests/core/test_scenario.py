@@ -62,6 +62,22 @@ BAD = {
         "physics.skin_held_deg",
         "50",
     ),
+    "silhouette_with_lighting": (
+        "name: x\nobject: {name: rectangle}\nsensor: {camera: {renderer: silhouette}}\n"
+        "effects: [contact, render, lighting]\n",
+        "sensor.camera.renderer",
+        "lighting",
+    ),
+    "silhouette_with_msaa": (
+        "name: x\nobject: {name: rectangle}\nsensor: {camera: {renderer: silhouette, msaa: 4}}\n",
+        "sensor.camera.renderer",
+        "msaa",
+    ),
+    "unknown_renderer": (
+        "name: x\nobject: {name: rectangle}\nsensor: {camera: {renderer: vulkan}}\n",
+        "sensor.camera.renderer",
+        "vulkan",
+    ),
     "unknown_dome": ("name: x\nobject: {name: rectangle}\ndome: rubber\n", "dome", "rubber"),
     "skin_held_on_flex": (
         "name: x\nobject: {name: rectangle}\nphysics: {skin_held_deg: 80}\n",

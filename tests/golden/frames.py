@@ -13,8 +13,11 @@ SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
 
 
 def no_contact_frame() -> np.ndarray:
-    """The inside-camera frame of the rectangle scenario with the sensor out of contact."""
-    scenario = load_scenario(SCENARIOS / "rectangle_render.yaml")
+    """The inside-camera frame of the rectangle scenario with the sensor out of contact,
+    rendered by GL (the golden images are GL's, one per backend)."""
+    base = load_scenario(SCENARIOS / "rectangle_render.yaml")
+    camera = base.sensor.camera.model_copy(update={"renderer": "gl"})
+    scenario = base.model_copy(update={"sensor": base.sensor.model_copy(update={"camera": camera})})
     with SimEnvironment(scenario) as env:
         env.move_to(first_pose(scenario))
         return env.observe().frame

@@ -81,6 +81,12 @@ class CameraSpec(StrictModel):
     )
     msaa: int = bounded(0, 16, "samples per px", "anti-aliasing", 0)
     noise_std: float = bounded(0, 50, "grey levels", "pixel noise sigma, with camera_noise", 2.0)
+    renderer: Literal["auto", "gl", "silhouette"] = Field(
+        default="auto",
+        description="silhouette: the pins' exact silhouettes drawn without GL, for unlit frames without "
+        "msaa (twin.world.silhouette); gl: MuJoCo's OpenGL renderer, every effect (twin.world.render); "
+        "auto: silhouette unless the scenario asks for lighting or msaa",
+    )
 
 
 def calibrated_camera(camera: CameraSpec, calibration: Calibration | None) -> CameraModel:
@@ -244,6 +250,16 @@ class Scenario(StrictModel):
         if "camera_noise" in effects and "render" not in effects:
             raise ValueError("effect 'camera_noise' needs 'render'")
         return sorted(set(effects), key=EFFECTS.index)
+
+    @model_validator(mode="after")
+    def _renderer_draws_effects(self) -> Scenario:
+        camera = self.sensor.camera
+        if camera.renderer == "silhouette" and ("lighting" in self.effects or camera.msaa > 0):
+            raise ValueError(
+                "sensor.camera.renderer 'silhouette' draws unlit frames without anti-aliasing: "
+                "drop effect 'lighting' and set sensor.camera.msaa to 0, or use renderer 'gl'"
+            )
+        return self
 
     def has(self, effect: str) -> bool:
         return effect in self.effects

@@ -18,6 +18,7 @@ from twin.runs.spec import SimSpec, scene_spec, sim_spec
 from twin.world.arm import ArmDynamics
 from twin.world.render import PinRenderer, render_overview
 from twin.world.scene import TOOL2FLANGE, Scene, build_overview, build_scene, kinematics, sensor_physics
+from twin.world.silhouette import SilhouetteRenderer
 
 
 class SimEnvironment(Environment):
@@ -44,7 +45,10 @@ class SimEnvironment(Environment):
         self.world2work = invert_transform(self.scene.work2world)
         self._renderer = None
         if spec.has("render"):
-            self._renderer = PinRenderer(self.camera.nominal(), lighting=spec.has("lighting"), msaa=spec.msaa)
+            if spec.renderer == "silhouette":
+                self._renderer = SilhouetteRenderer(self.camera)
+            else:
+                self._renderer = PinRenderer(self.camera.nominal(), lighting=spec.has("lighting"), msaa=spec.msaa)
         self._noise = spec.noise_std
         #: wall time (s) spent per stage since construction: physics (move + settle), render
         self.timings = {"physics": 0.0, "render": 0.0, "frames": 0}

@@ -36,15 +36,17 @@ class SimSpec:
 
     scene: the physics scene's values (twin.world.scene.SceneSpec: object, frames, dome
     model and parameters, camera, contact and friction). effects: the scenario's effects.
-    seed: its seed. msaa (samples per px), noise_std (grey levels; 0 without
-    camera_noise): the renderer's. rest_offsets_px: (127, 2) px the sensor's rest layout
-    differs from the lattice (calibration), None without one. tcp2apex: 4×4 (m), the dome
-    apex relative to the commanded TCP (calibration's tcp_offset_mm).
+    seed: its seed. renderer (gl or silhouette, `auto` resolved by `inside_renderer`), msaa
+    (samples per px), noise_std (grey levels; 0 without camera_noise): the renderer's.
+    rest_offsets_px: (127, 2) px the sensor's rest layout differs from the lattice
+    (calibration), None without one. tcp2apex: 4×4 (m), the dome apex relative to the
+    commanded TCP (calibration's tcp_offset_mm).
     """
 
     scene: SceneSpec
     effects: tuple[str, ...]
     seed: int
+    renderer: str
     msaa: int
     noise_std: float
     rest_offsets_px: np.ndarray | None
@@ -179,6 +181,16 @@ def scene_spec(scenario: Scenario, calibration: Calibration | None = None) -> Sc
     )
 
 
+def inside_renderer(scenario: Scenario) -> str:
+    """The inside camera's renderer: `sensor.camera.renderer`, with `auto` resolved to the
+    silhouette renderer (twin.world.silhouette) for unlit frames without anti-aliasing and
+    to GL (twin.world.render) when the scenario asks for lighting or MSAA."""
+    camera = scenario.sensor.camera
+    if camera.renderer != "auto":
+        return camera.renderer
+    return "gl" if scenario.has("lighting") or camera.msaa > 0 else "silhouette"
+
+
 def sim_spec(scenario: Scenario) -> SimSpec:
     """`scenario` resolved for the simulator, its calibration read once."""
     calibration = scenario.calibration()
@@ -188,6 +200,7 @@ def sim_spec(scenario: Scenario) -> SimSpec:
         scene=scene,
         effects=tuple(scenario.effects),
         seed=scenario.seed,
+        renderer=inside_renderer(scenario),
         msaa=camera.msaa,
         noise_std=camera.noise_std if scenario.has("camera_noise") else 0.0,
         rest_offsets_px=_read_only(None if calibration is None else calibration.rest_offsets_px(scene.camera.width)),

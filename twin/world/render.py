@@ -3,7 +3,9 @@
 The inside view is rendered from a small dedicated MuJoCo model (pins + dark skin seen
 from the camera), fed with the pin tips computed by the physics. Rendering only what the
 camera can see keeps the frame rate high and the image identical whichever physics
-fidelity produced the pins.
+fidelity produced the pins. Scenes draw unlit frames without anti-aliasing with
+twin.world.silhouette by default (scenario `sensor.camera.renderer`); this renderer
+draws every frame that asks for it, lighting and MSAA included.
 """
 
 from __future__ import annotations
@@ -18,6 +20,23 @@ _OPENCV_TO_MUJOCO_CAMERA_QUAT = "0 1 0 0"
 
 #: Slices round a pin sphere in the default 640×480 frame, and the most any frame gets
 _PIN_SLICES = 16
+
+#: Grey levels of an unlit frame (no `lighting`): the pins, and the skin inside the aperture
+#: as GL draws its material (rgba 0.08, emission 1: MuJoCo lights an emissive material at 1.3×
+#: its colour, tests/world/test_silhouette.py); beyond the aperture the frame is black
+PIN_GREY = 255
+SKIN_GREY = 27
+
+
+def add_camera_noise(frame: np.ndarray, noise_std: float, rng: np.random.Generator | None) -> np.ndarray:
+    """`frame` (H, W, 3) uint8 with per-pixel Gaussian noise of `noise_std` grey levels, the
+    same on the three channels, drawn from `rng` (required when noise_std > 0)."""
+    if noise_std <= 0:
+        return frame
+    if rng is None:
+        raise ValueError("camera noise needs a seeded numpy Generator")
+    grey = rng.standard_normal(frame.shape[:2], dtype=np.float32) * np.float32(noise_std)
+    return np.clip(frame + grey[..., None], 0, 255).astype(np.uint8)
 
 
 def _pin_apex_radius_px(camera: CameraModel) -> float:
@@ -114,13 +133,7 @@ class PinRenderer:
         mujoco.mj_kinematics(self.model, self.data)
         mujoco.mj_camlight(self.model, self.data)  # the camera pose is computed here, not in mj_kinematics
         self._renderer.update_scene(self.data, self._camera_id)
-        frame = self._renderer.render()
-        if noise_std > 0:
-            if rng is None:
-                raise ValueError("camera noise needs a seeded numpy Generator")
-            grey = rng.standard_normal(frame.shape[:2], dtype=np.float32) * np.float32(noise_std)
-            frame = np.clip(frame + grey[..., None], 0, 255).astype(np.uint8)
-        return frame
+        return add_camera_noise(self._renderer.render(), noise_std, rng)
 
     def close(self) -> None:
         self._renderer.close()

@@ -12,7 +12,7 @@ only rendered, never stepped.
 | contact       | the object's convex collision pieces (else the object has none)      |
 | friction      | frictional dome contacts (else condim 1, no friction rows at all;    |
 |               | the dome model gets friction coefficient 0)                          |
-| render, camera_noise, lighting | nothing here: twin.world.render                          |
+| render, camera_noise, lighting | nothing here: twin.world.render, twin.world.silhouette    |
 
 World = robot base frame on the table top (docs/conventions.md).
 """
