@@ -332,3 +332,16 @@ def test_pin_fronts_stay_within_a_dome_model_and_the_contour_front_spans_both() 
     assert closed["contour_completed_mm"] == 2.0 and gone["contour_completed_mm"] == math.inf
     assert closed["on_front_contour"] is True and gone["on_front_contour"] is None
     assert pareto_flags([flex, comp], by_output=False) == [True, True]
+
+
+@pytest.mark.parametrize("shape", [(128, 128), (320, 240), (120, 160), (640, 480)])
+def test_pins_of_another_camera_are_compared_at_640x480(shape: tuple[int, int]) -> None:
+    """The pin errors of settings at another resolution are taken at 640×480: the same pins
+    seen by a `shape` camera (same field of view across the short side) land where the
+    640×480 camera sees them, square and portrait frames included."""
+    from twin.analysis.sweep.probe import rescale_pins
+    from twin.core.sensor import CameraModel
+
+    pins = CameraModel().geometry.pin_tip_points()
+    seen = CameraModel(width=shape[0], height=shape[1]).project_tool_points(pins)
+    np.testing.assert_allclose(rescale_pins(seen, *shape), CameraModel().project_tool_points(pins), atol=1e-9)

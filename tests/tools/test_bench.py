@@ -78,15 +78,38 @@ def test_pixels_rows_cover_96x96_to_1280x960() -> None:
     assert "120x160" in [r["resolution"] for r in rows]  # a portrait camera renders and tracks too
     default = next(r for r in rows if r["resolution"] == "640x480")
     assert default["render_to_640x480"] == 1.0 and default["pixels_to_640x480"] == 1.0
+    assert default["silhouette_to_640x480"] == 1.0
     for r in rows:
-        assert r["render_ms"] > 0 and r["track_ms"] > 0
+        assert r["render_ms"] > 0 and r["track_ms"] > 0 and r["silhouette_ms"] > 0
         assert r["pixels"] == r["pixels_to_640x480"] * 640 * 480
 
 
 @pytest.mark.slow
 def test_observation_rows_compare_the_fast_small_frame_with_the_default() -> None:
     rows = bench_observation(quick=True)
-    assert [(r["level"], r["resolution"]) for r in rows] == [("fast", "128x128"), ("default", "640x480")]
-    assert rows[0]["frames"] == rows[1]["frames"] > 0  # the same moves in both
-    assert rows[1]["fps_to_default"] == 1.0
-    assert rows[0]["fps"] > 0 and rows[0]["fps_to_default"] > 0
+    assert [(r["level"], r["resolution"], r["renderer"]) for r in rows] == [
+        ("fast", "128x128", "silhouette"),
+        ("fast", "128x128", "gl"),
+        ("default", "640x480", "silhouette"),
+        ("default", "640x480", "gl"),
+    ]
+    assert len({r["frames"] for r in rows}) == 1 and rows[0]["frames"] > 0  # the same moves in each
+    assert rows[-1]["fps_to_default"] == 1.0
+    assert all(r["fps"] > 0 and r["fps_to_default"] > 0 for r in rows)
+
+
+@pytest.mark.parametrize(
+    "argv, named",
+    [
+        (["bench", "sweep", "--settings", "reference,fast,nope"], "'nope'"),
+        (["bench", "sweep", "--settings", "fast,default"], "'reference'"),  # the pin errors' reference
+        (["bench", "pixels", "--settings", "fast"], "twin bench sweep"),
+    ],
+)
+def test_sweep_settings_are_checked_before_anything_runs(argv, named, tmp_path, capsys) -> None:
+    from twin.tools.cli import main
+
+    assert main([*argv, "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert named in err and "Traceback" not in err, err
+    assert not (tmp_path / "out" / "sweep.csv").exists()

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from twin.analysis.sweep.knobs import full_settings
 from twin.core.errors import UserError
 from twin.core.resources import scenario_path
 from twin.core.scenario import ContourProtocol, load_scenario
@@ -34,6 +35,7 @@ from twin.world.dome.registry import DOME_MODELS
 from twin.world.dome.testbed import edge_scene, sensor_down
 from twin.world.render import PinRenderer
 from twin.world.scene import build_scene
+from twin.world.silhouette import SilhouetteRenderer
 
 
 def _time_per_call(fn: Callable[[], object], min_calls: int = 20, min_seconds: float = 0.5) -> float:
@@ -86,32 +88,38 @@ PIXEL_SHAPES = [(96, 96), (128, 128), (160, 120), (120, 160), (320, 240), (640, 
 
 def bench_pixels(quick: bool = False) -> list[dict]:
     """Inside-camera render and tracking ms per frame against the frame's pixel count,
-    96×96 to 1280×960 (no lighting, no anti-aliasing), timed in rounds that run every
-    shape once (median over rounds), so that a host that speeds up or slows down moves
-    every shape alike; each row's render time also as a ratio of 640×480's (median of
-    the per-round ratios)."""
+    96×96 to 1280×960 (no lighting, no anti-aliasing), with the GL renderer and the
+    silhouette renderer (twin.world.silhouette), timed in rounds that run every shape once
+    (median over rounds), so that a host that speeds up or slows down moves every shape
+    alike; each row's render times also as ratios of 640×480's (median of the per-round
+    ratios)."""
 
     rng = np.random.default_rng(0)
-    renderers, trackers = [], []
+    renderers, silhouettes, trackers = [], [], []
     for width, height in PIXEL_SHAPES:
         camera = CameraModel(width=width, height=height)
         renderer = PinRenderer(camera)
         renderers.append(renderer)
+        silhouettes.append(SilhouetteRenderer(camera))
         trackers.append(PinTracker(renderer.render(camera.geometry.pin_tip_points())))
     pins = CameraModel().geometry.pin_tip_points()
     calls = 10 if quick else 40
     render_s = np.zeros((5 if quick else 9, len(PIXEL_SHAPES)))
-    track_s = np.zeros_like(render_s)
+    track_s, silhouette_s = np.zeros_like(render_s), np.zeros_like(render_s)
     for round_ in range(-1, len(render_s)):  # round −1 untimed
-        for i, (renderer, tracker) in enumerate(zip(renderers, trackers)):
-            frames, t0 = [], time.perf_counter()
-            for _ in range(calls):
-                frames.append(renderer.render(pins + rng.normal(0, 2e-4, pins.shape)))
+        for i, (renderer, silhouette, tracker) in enumerate(zip(renderers, silhouettes, trackers)):
+            moved = [pins + rng.normal(0, 2e-4, pins.shape) for _ in range(calls)]
+            t0 = time.perf_counter()
+            frames = [renderer.render(p) for p in moved]
             t1 = time.perf_counter()
             for frame in frames:
                 tracker.track(frame)
+            t2 = time.perf_counter()
+            for p in moved:
+                silhouette.render(p)
             if round_ >= 0:
-                render_s[round_, i], track_s[round_, i] = (t1 - t0) / calls, (time.perf_counter() - t1) / calls
+                render_s[round_, i], track_s[round_, i] = (t1 - t0) / calls, (t2 - t1) / calls
+                silhouette_s[round_, i] = (time.perf_counter() - t2) / calls
     for renderer in renderers:
         renderer.close()
     default = PIXEL_SHAPES.index((640, 480))
@@ -124,21 +132,31 @@ def bench_pixels(quick: bool = False) -> list[dict]:
             "track_ms": 1e3 * float(np.median(track_s[:, i])),
             "pixels_to_640x480": w * h / (640 * 480),
             "render_to_640x480": float(np.median(render_s[:, i] / render_s[:, default])),
+            "silhouette_ms": 1e3 * float(np.median(silhouette_s[:, i])),
+            "silhouette_to_640x480": float(np.median(silhouette_s[:, i] / silhouette_s[:, default])),
             "gl": gl.GL_BACKEND,
         }
         for i, (w, h) in enumerate(PIXEL_SHAPES)
     ]
 
 
-#: (fidelity level, width, height) of `twin bench observation`: the fast level's small frame
-#: against the default level's default frame
-OBSERVATION_SETUPS = [("fast", 128, 128), ("default", 640, 480)]
+#: (fidelity level, width, height, renderer) of `twin bench observation`: the fast level's
+#: small frame and the default level's 640×480 frame, each drawn by both renderers, against
+#: the last: the default level's 640×480 frame drawn by GL, as every frame was drawn before
+#: the silhouette renderer (twin.world.silhouette)
+OBSERVATION_SETUPS = [
+    ("fast", 128, 128, "silhouette"),
+    ("fast", 128, 128, "gl"),
+    ("default", 640, 480, "silhouette"),
+    ("default", 640, 480, "gl"),
+]
 
 
 def bench_observation(quick: bool = False) -> list[dict]:
     """Printed by `twin bench pixels` after its own table. Full-observation frames per second (the move into a frame, settling, rendering and
     tracking: the environment's step) of the fast level at 128×128 against the default
-    level at 640×480, on the multi-directional slide protocol (§III-C), flex dome.
+    level at 640×480 (OBSERVATION_SETUPS, renderers included), on the multi-directional
+    slide protocol (§III-C), flex dome.
 
     Both environments are built first; then rounds run the same chunk of moves in each,
     and `fps_to_default` is the median of the per-round ratios of a frame's time."""
@@ -152,8 +170,8 @@ def bench_observation(quick: bool = False) -> list[dict]:
     )
     moves = chunk_moves(protocol_moves(scenario.protocol))[0]
     envs = []
-    for level, width, height in OBSERVATION_SETUPS:
-        camera = scenario.sensor.camera.model_copy(update={"width": width, "height": height})
+    for level, width, height, renderer in OBSERVATION_SETUPS:
+        camera = scenario.sensor.camera.model_copy(update={"width": width, "height": height, "renderer": renderer})
         setup = scenario.model_copy(
             update={"fidelity": level, "sensor": scenario.sensor.model_copy(update={"camera": camera})}
         )
@@ -176,12 +194,13 @@ def bench_observation(quick: bool = False) -> list[dict]:
             "section": "observation",
             "level": level,
             "resolution": f"{width}x{height}",
+            "renderer": renderer,
             "frames": int(frames[i]),
             "fps": float(np.median(frames[i] / seconds[:, i])),
             "fps_to_default": float(np.median((seconds[:, default] / frames[default]) / (seconds[:, i] / frames[i]))),
             "gl": gl.GL_BACKEND,
         }
-        for i, (level, width, height) in enumerate(OBSERVATION_SETUPS)
+        for i, (level, width, height, renderer) in enumerate(OBSERVATION_SETUPS)
     ]
 
 
@@ -372,15 +391,33 @@ def bench_startup(quick: bool = False) -> list[dict]:
 
 
 def bench_sweep(
-    quick: bool = False, out: Path | None = None, workers: int | None = None, cluster: str | None = None
+    quick: bool = False,
+    out: Path | None = None,
+    workers: int | None = None,
+    cluster: str | None = None,
+    settings: list[str] | None = None,
 ) -> list[dict]:
     """The fidelity sweep (twin.analysis.sweep): per setting, ms per frame split into physics,
     render, tracking and perception, against pin error (px), perception error (deg, mm)
     and contour error (mm); writes sweep.csv, sweep.md, sweep.json and pareto.png to
-    `out` (default out/bench). Prints its own table."""
+    `out` (default out/bench). Prints its own table. `settings`: names of the full sweep's
+    settings to run instead of the quick or full set (UserError naming an unknown one)."""
 
+    chosen = None
+    if settings is not None:
+        known = {s.name: s for s in full_settings()}
+        unknown = [name for name in settings if name not in known]
+        if unknown or not settings:
+            raise UserError(
+                f"--settings: no sweep setting {', '.join(map(repr, unknown)) or 'given'}; known: {', '.join(known)}"
+            )
+        chosen = [known[name] for name in settings]
     return sweep_and_report(
-        out if out is not None else Path("out") / "bench", quick=quick, workers=workers, cluster=cluster
+        out if out is not None else Path("out") / "bench",
+        quick=quick,
+        workers=workers,
+        cluster=cluster,
+        settings=chosen,
     )
 
 
@@ -510,20 +547,24 @@ def run_bench(
     out: Path | None = None,
     workers: int | None = None,
     cluster: str | None = None,
+    settings: list[str] | None = None,
 ) -> int:
     """Run one section or all of them, print tables, optionally write CSVs to `out`.
 
     The sweep section always writes its files (to `out`, default out/bench) and runs its
     settings in parallel (`workers` local processes, default all cores, or a Ray
-    `cluster`). Returns the exit code: 1 when a sweep setting failed (reported, not hidden).
+    `cluster`); `settings` names the full sweep's settings to run (bench_sweep). Returns
+    the exit code: 1 when a sweep setting failed (reported, not hidden).
     """
     names = list(SECTIONS) if what == "all" else [what]
+    if settings is not None and names != ["sweep"]:
+        raise UserError("--settings chooses settings of the sweep: use it with `twin bench sweep`")
     status = 0
     for name in names:
         if name not in SECTIONS:
             raise UserError(f"unknown bench section {name!r}; choose from {', '.join(SECTIONS)}")
         if name in _SELF_REPORTING:
-            rows = SECTIONS[name](quick, out=out, workers=workers, cluster=cluster)
+            rows = SECTIONS[name](quick, out=out, workers=workers, cluster=cluster, settings=settings)
             failed = [r["setting"] for r in rows if r.get("status") != "ok"]
             if failed:
                 print(f"{len(failed)} sweep setting(s) failed: {', '.join(failed)}")

@@ -343,6 +343,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         out=output_folder(Path(args.out), "twin bench --out") if args.out else None,
         workers=args.workers,
         cluster=args.cluster,
+        settings=None if args.settings is None else [n.strip() for n in args.settings.split(",") if n.strip()],
     )
 
 
@@ -556,6 +557,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--workers", type=WORKERS, default=None, help="sweep: local processes (default: all cores)")
     p.add_argument("--cluster", default=None, help="sweep: Ray address ('local' starts one); needs the ray extra")
+    p.add_argument(
+        "--settings",
+        default=None,
+        help="sweep: only these settings of the full sweep, comma-separated (names as in sweep.md; "
+        "the reference must be among them), e.g. reference,fast,default,silhouette",
+    )
     p.set_defaults(func=_cmd_bench)
     return parser
 

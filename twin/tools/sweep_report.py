@@ -48,6 +48,7 @@ CSV_COLUMNS: tuple[str, ...] = (
     "settle_px",
     "camera",
     "msaa",
+    "renderer",
     "effects",
     "status",
     "stage",

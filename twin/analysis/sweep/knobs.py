@@ -35,7 +35,7 @@ class Setting:
     (cellcount [i, j, k], timestep_s s, settle_px px, surface_spacing_mm mm, skin_spacing_mm mm,
     gel_enclosed, increment_mm mm, …; the dome model's settings, twin.world.dome.registry). dome: the scenario's dome model ('flex' or 'compliant').
     effects: scenario effects. camera: scenario `sensor.camera` overrides (width px,
-    height px, msaa samples, noise_std grey levels). note: what the setting shows.
+    height px, msaa samples, noise_std grey levels, renderer). note: what the setting shows.
     pins_comparable: False where the setting changes the dome's material model (a skin over
     the compliant gel): its pins are then not an approximation of its dome's reference, and
     it gets no pin error (its time, θ, l and contour figures stand).
@@ -125,6 +125,19 @@ def full_settings() -> list[Setting]:
         Setting("cam_320x240", "render resolution", camera={"width": 320, "height": 240}),
         Setting("cam_1280x960", "render resolution", camera={"width": 1280, "height": 960}),
         Setting("msaa_4", "anti-aliasing", camera={"msaa": 4}),
+        Setting(
+            "gl_renderer",
+            "renderer",
+            camera={"renderer": "gl"},
+            note="MuJoCo's OpenGL renderer for the unlit frames the silhouette renderer draws by default",
+        ),
+        Setting(
+            "fast_128x128",
+            "render resolution",
+            "fast",
+            camera={"width": 128, "height": 128},
+            note="fast physics, 128×128 frames: the cheapest rendered observation",
+        ),
         Setting("lighting", "effect", effects=BASE_EFFECTS + ("lighting",)),
         Setting("camera_noise", "effect", effects=BASE_EFFECTS + ("camera_noise",)),
         Setting("friction_off", "effect", effects=("contact", "render"), note="no shear"),

@@ -21,7 +21,7 @@ from twin.runs.protocols import protocol_moves
 from twin.runs.record import Run
 from twin.runs.runner import chunk_moves, chunk_samples
 from twin.runs.sim_env import SimEnvironment
-from twin.runs.spec import dome_builder, dome_params, load_scenario_stimulus
+from twin.runs.spec import dome_builder, dome_params, inside_renderer, load_scenario_stimulus
 from twin.sensing.perception import GPConfig, PerceptionModel, angle_error_deg
 
 #: Reference camera resolution (W, H) px: pin errors are expressed at this resolution.
@@ -100,11 +100,12 @@ QUICK_PROBE = Probe(
 )
 
 
-def _rescale_pins(pins_px: np.ndarray, width: int) -> np.ndarray:
-    """Pins (px) at image width `width` → px at REFERENCE_RESOLUTION (pixel centres at integers)."""
-    if int(width) == REFERENCE_RESOLUTION[0]:
+def rescale_pins(pins_px: np.ndarray, width: int, height: int) -> np.ndarray:
+    """Pins (px) in a `width` × `height` frame → px at REFERENCE_RESOLUTION (pixel centres at
+    integers; another shape by its short side, twin.core.sensor.CameraModel.rescale_px)."""
+    if (int(width), int(height)) == REFERENCE_RESOLUTION:
         return np.asarray(pins_px, float)
-    return CameraModel(*REFERENCE_RESOLUTION).rescale_px(pins_px, width)
+    return CameraModel(*REFERENCE_RESOLUTION).rescale_px(pins_px, width, height)
 
 
 STAGES: tuple[str, ...] = ("physics", "render", "track", "perception")
@@ -245,6 +246,7 @@ def probe_setting(setting: Setting, probe: Probe, seed: int = 0) -> dict:
                 **resolution,
                 "camera": f"{cam.width}x{cam.height}" if setting.renders else "—",
                 "msaa": cam.msaa if setting.renders else 0,
+                "renderer": inside_renderer(scenario) if setting.renders else "—",
                 "effects": "+".join(scenario.effects),
             }
         )
@@ -273,11 +275,13 @@ def probe_setting(setting: Setting, probe: Probe, seed: int = 0) -> dict:
             settling=scenario.has("contact"),
         )
         row["n_slide_frames"] = len(slides["labels"])
-        out["slide_pins_px"] = _rescale_pins(slides["pins"], cam.width)
-        out["slide_truth_px"] = _rescale_pins(slides["truth"], cam.width)
+        out["slide_pins_px"] = rescale_pins(slides["pins"], cam.width, cam.height)
+        out["slide_truth_px"] = rescale_pins(slides["truth"], cam.width, cam.height)
         row["pin_tracking_rms_px"] = rms_px(out["slide_pins_px"], out["slide_truth_px"])
         if slides["converged"] is not None:
-            row["pin_settling_rms_px"] = rms_px(out["slide_truth_px"], _rescale_pins(slides["converged"], cam.width))
+            row["pin_settling_rms_px"] = rms_px(
+                out["slide_truth_px"], rescale_pins(slides["converged"], cam.width, cam.height)
+            )
         stage = "perception"
         theta_hat, lat_hat = [], []
         resolution = (cam.width, cam.height)
