@@ -78,6 +78,18 @@ def test_gl_pins_lie_inside_the_silhouettes_and_track_alike(shape: tuple[int, in
     assert np.sqrt(np.mean(np.sum((tracked.pins_px - gl_pins.pins_px) ** 2, axis=1))) < 0.3
 
 
+def test_bad_pins_are_refused_by_name() -> None:
+    camera = CameraModel(width=128, height=128)
+    renderer = SilhouetteRenderer(camera)
+    pins = camera.geometry.pin_tip_points()
+    with pytest.raises(ValueError, match="finite"):
+        renderer.render(np.where(np.arange(127)[:, None] == 5, np.nan, pins))
+    behind = pins.copy()
+    behind[0, 2] = -camera.geometry.camera_to_apex  # the apex pin in the camera's plane
+    with pytest.raises(ValueError, match="camera's plane"):
+        renderer.render(behind)
+
+
 def test_noise_is_seeded_and_needs_a_generator() -> None:
     camera = CameraModel(width=128, height=128)
     renderer = SilhouetteRenderer(camera)

@@ -62,6 +62,8 @@ class SilhouetteRenderer:
     ) -> np.ndarray:
         """Frame for (127, 3) pin tips in the tool frame (m)."""
         centres = np.asarray(pins_tool, float) + self._tool2camera_offset
+        if not np.all(np.isfinite(centres)):
+            raise ValueError(f"pin tips must be finite, got {np.count_nonzero(~np.isfinite(centres))} NaN/Inf values")
         if not np.all(centres[:, 2] > self._radius):
             raise ValueError("a pin sphere reaches the camera's plane: no silhouette to draw")
         first, last = self._boxes(centres)
