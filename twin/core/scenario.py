@@ -253,8 +253,7 @@ class Scenario(StrictModel):
 
     @model_validator(mode="after")
     def _renderer_draws_effects(self) -> Scenario:
-        camera = self.sensor.camera
-        if camera.renderer == "silhouette" and ("lighting" in self.effects or camera.msaa > 0):
+        if self.sensor.camera.renderer == "silhouette" and self.needs_gl_renderer():
             raise ValueError(
                 "sensor.camera.renderer 'silhouette' draws unlit frames without anti-aliasing: "
                 "drop effect 'lighting' and set sensor.camera.msaa to 0, or use renderer 'gl'"
@@ -263,6 +262,10 @@ class Scenario(StrictModel):
 
     def has(self, effect: str) -> bool:
         return effect in self.effects
+
+    def needs_gl_renderer(self) -> bool:
+        """Whether the frames ask for what only the GL renderer draws: lighting or MSAA."""
+        return self.has("lighting") or self.sensor.camera.msaa > 0
 
     @property
     def source_dir(self) -> Path:

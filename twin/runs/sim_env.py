@@ -45,10 +45,11 @@ class SimEnvironment(Environment):
         self.world2work = invert_transform(self.scene.work2world)
         self._renderer = None
         if spec.has("render"):
+            nominal = self.camera.nominal()  # the renderers draw through the nominal pinhole (observe)
             if spec.renderer == "silhouette":
-                self._renderer = SilhouetteRenderer(self.camera)
+                self._renderer = SilhouetteRenderer(nominal)
             else:
-                self._renderer = PinRenderer(self.camera.nominal(), lighting=spec.has("lighting"), msaa=spec.msaa)
+                self._renderer = PinRenderer(nominal, lighting=spec.has("lighting"), msaa=spec.msaa)
         self._noise = spec.noise_std
         #: wall time (s) spent per stage since construction: physics (move + settle), render
         self.timings = {"physics": 0.0, "render": 0.0, "frames": 0}

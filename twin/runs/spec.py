@@ -185,10 +185,10 @@ def inside_renderer(scenario: Scenario) -> str:
     """The inside camera's renderer: `sensor.camera.renderer`, with `auto` resolved to the
     silhouette renderer (twin.world.silhouette) for unlit frames without anti-aliasing and
     to GL (twin.world.render) when the scenario asks for lighting or MSAA."""
-    camera = scenario.sensor.camera
-    if camera.renderer != "auto":
-        return camera.renderer
-    return "gl" if scenario.has("lighting") or camera.msaa > 0 else "silhouette"
+    renderer = scenario.sensor.camera.renderer
+    if renderer != "auto":
+        return renderer
+    return "gl" if scenario.needs_gl_renderer() else "silhouette"
 
 
 def sim_spec(scenario: Scenario) -> SimSpec:

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from twin.analysis.sweep.knobs import full_settings
+from twin.analysis.sweep.knobs import named_settings
 from twin.core.errors import UserError
 from twin.core.resources import scenario_path
 from twin.core.scenario import ContourProtocol, load_scenario
@@ -403,21 +403,12 @@ def bench_sweep(
     `out` (default out/bench). Prints its own table. `settings`: names of the full sweep's
     settings to run instead of the quick or full set (UserError naming an unknown one)."""
 
-    chosen = None
-    if settings is not None:
-        known = {s.name: s for s in full_settings()}
-        unknown = [name for name in settings if name not in known]
-        if unknown or not settings:
-            raise UserError(
-                f"--settings: no sweep setting {', '.join(map(repr, unknown)) or 'given'}; known: {', '.join(known)}"
-            )
-        chosen = [known[name] for name in settings]
     return sweep_and_report(
         out if out is not None else Path("out") / "bench",
         quick=quick,
         workers=workers,
         cluster=cluster,
-        settings=chosen,
+        settings=None if settings is None else named_settings(settings),
     )
 
 

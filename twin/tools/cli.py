@@ -561,7 +561,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--settings",
         default=None,
         help="sweep: only these settings of the full sweep, comma-separated (names as in sweep.md; "
-        "the reference must be among them), e.g. reference,fast,default,silhouette",
+        "the reference must be among them), e.g. reference,fast,default,gl_renderer",
     )
     p.set_defaults(func=_cmd_bench)
     return parser

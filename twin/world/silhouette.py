@@ -30,11 +30,12 @@ from twin.world.render import PIN_GREY, SKIN_GREY, add_camera_noise
 class SilhouetteRenderer:
     """Renders the unlit inside-camera frame (H, W, 3) uint8 RGB from pin tips in the tool
     frame, as twin.world.render.PinRenderer does without lighting or anti-aliasing (module
-    docstring). `noise_std` (grey levels) adds per-pixel Gaussian camera noise drawn from
-    the generator passed to `render`."""
+    docstring), through `camera`'s pinhole (the nominal camera, as the GL renderer's).
+    `noise_std` (grey levels) adds per-pixel Gaussian camera noise drawn from the generator
+    passed to `render`."""
 
     def __init__(self, camera: CameraModel) -> None:
-        self.camera = camera.nominal()
+        self.camera = camera
         k = self.camera.intrinsics
         self._focal, self._centre = float(k[0, 0]), np.array([k[0, 2], k[1, 2]])
         self._radius = self.camera.geometry.pin_radius

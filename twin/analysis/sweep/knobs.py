@@ -7,6 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+from twin.core.errors import UserError
 from twin.core.scenario import scenario_from_dict
 from twin.world.dome.registry import DOME_MODELS
 
@@ -225,3 +226,15 @@ def quick_settings() -> list[Setting]:
     """The smoke check's five: reference, fast, default, default with projected pins, default with 4× MSAA."""
     by_name = {s.name: s for s in full_settings()}
     return [by_name[n] for n in (REFERENCE, "fast", DEFAULT, "render_off", "msaa_4")]
+
+
+def named_settings(names: list[str]) -> list[Setting]:
+    """The full sweep's settings called `names`, in that order (`twin bench sweep
+    --settings`); UserError naming any unknown name, or none given."""
+    known = {s.name: s for s in full_settings()}
+    unknown = [name for name in names if name not in known]
+    if unknown or not names:
+        raise UserError(
+            f"--settings: no sweep setting {', '.join(map(repr, unknown)) or 'given'}; known: {', '.join(known)}"
+        )
+    return [known[name] for name in names]

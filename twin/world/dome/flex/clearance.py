@@ -55,23 +55,15 @@ class Clearance:
             float(model.geom_margin[geoms].max()) if len(geoms) else 0.0
         )
 
-    def poses_clear(self, data: mujoco.MjData, carrier_qpos: np.ndarray) -> np.ndarray:
-        """(n,) bool: at which carrier poses (free-joint qpos (n, 7), scene frame, m) no
-        object comes within the gap of the dome, the gap covering the motion between
-        consecutive poses."""
+    def poses_clear(self, data: mujoco.MjData, positions: np.ndarray, rotations: np.ndarray) -> np.ndarray:
+        """(n,) bool: at which carrier poses (positions (n, 3) m and rotations (n, 3, 3), scene
+        frame) no object comes within the gap of the dome, the gap covering the motion
+        between consecutive poses."""
         now = data.flexvert_xpos[self._flex_vertices]
         lo = np.minimum(self._rest_lo, now.min(axis=0))
         hi = np.maximum(self._rest_hi, now.max(axis=0))
-        rot = np.empty((len(carrier_qpos), 9))
-        mujoco.mju_quat2Mat(rot[0], carrier_qpos[0, 3:])
-        for k in range(1, len(carrier_qpos)):
-            if np.array_equal(carrier_qpos[k, 3:], carrier_qpos[k - 1, 3:]):
-                rot[k] = rot[k - 1]
-            else:
-                mujoco.mju_quat2Mat(rot[k], carrier_qpos[k, 3:])
-        rot = rot.reshape(-1, 3, 3)
-        centres = np.einsum("nij,gj->ngi", rot, self._carried_centres) + carrier_qpos[:, None, :3]
-        halves = np.einsum("nij,gj->ngi", np.abs(rot), self._carried_halves)
+        centres = np.einsum("nij,gj->ngi", rotations, self._carried_centres) + positions[:, None, :]
+        halves = np.einsum("nij,gj->ngi", np.abs(rotations), self._carried_halves)
         # how far a box moves from one pose to the next, at most
         travel = np.linalg.norm(np.diff(centres, axis=0), axis=-1) + np.linalg.norm(np.diff(halves, axis=0), axis=-1)
         step = float(travel.max()) if travel.size else 0.0

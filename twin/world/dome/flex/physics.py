@@ -241,8 +241,8 @@ class SensorPhysics:
         else:
             rotations = start[None, :3, :3]  # broadcast over the steps
         positions = start[:3, 3] + delta_p * s[:, None]
-        qpos, qvel = self._carrier_states(rotations, positions, v_tool, w_tool)
-        start_clear_to, end_clear_from = self._clear_ends(qpos)
+        qpos, qvel, carrier_rotations = self._carrier_states(rotations, positions, v_tool, w_tool)
+        start_clear_to, end_clear_from = self._clear_ends(qpos[:, :3], carrier_rotations)
         k = 0
         if start_clear_to > 0:
             k = self._jump(qpos, qvel, 0, start_clear_to)  # a clear start: the skin is at rest
@@ -318,22 +318,23 @@ class SensorPhysics:
         )
 
     # ------------------------------------------------------------------ internals
-    def _clear_ends(self, qpos: np.ndarray) -> tuple[int, int]:
-        """For a move's poses (carrier qpos (n + 1, 7)): the last pose of its clear start
+    def _clear_ends(self, positions: np.ndarray, rotations: np.ndarray) -> tuple[int, int]:
+        """For a move's carrier poses (positions (n + 1, 3), rotations (n + 1, 3, 3), scene
+        frame, as `_carrier_states` gives them): the last pose of its clear start
         (0: none to jump; only out of contact, where the skin is at rest) and the first
         pose of its clear end (n + 1: none), clear as twin.world.dome.flex.clearance has
         it; (0, n + 1) when the level steps every move (DomeParams.jump_clear_moves)."""
-        none = (0, len(qpos))
+        none = (0, len(positions))
         if self._clearance is None:
             return none
         in_contact = bool(self.data.ncon)
         # in contact only a clear end can be jumped, and the last pose, tested with no travel
         # (a smaller gap), tells cheaply when there is none: slides in contact skip the rest
-        if in_contact and not self._clearance.poses_clear(self.data, qpos[-1:])[0]:
+        if in_contact and not self._clearance.poses_clear(self.data, positions[-1:], rotations[-1:])[0]:
             return none
-        blocked = np.flatnonzero(~self._clearance.poses_clear(self.data, qpos))
+        blocked = np.flatnonzero(~self._clearance.poses_clear(self.data, positions, rotations))
         if not len(blocked):  # the whole move is clear
-            return (0, 0) if in_contact else (len(qpos) - 1, 0)
+            return (0, 0) if in_contact else (len(positions) - 1, 0)
         return (0 if in_contact else int(blocked[0]) - 1, int(blocked[-1]) + 1)
 
     def _jump(self, qpos: np.ndarray, qvel: np.ndarray, start: int, stop: int) -> int:
@@ -365,15 +366,15 @@ class SensorPhysics:
 
     def _carrier_state(self, pose: np.ndarray, v_tool: np.ndarray, w_tool: np.ndarray):
         """Carrier (qpos (7,), qvel (6,)) for a sensor at `pose` (4×4) moving at (v, ω)."""
-        qpos, qvel = self._carrier_states(pose[None, :3, :3], pose[None, :3, 3], v_tool, w_tool)
+        qpos, qvel, _ = self._carrier_states(pose[None, :3, :3], pose[None, :3, 3], v_tool, w_tool)
         return qpos[0], qvel[0]
 
     def _carrier_states(
         self, rotations: np.ndarray, positions: np.ndarray, v_tool: np.ndarray, w_tool: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Carrier qpos (n, 7) and qvel (n, 6) for sensor poses (rotations (n,3,3), or (1,3,3)
-        for all, positions (n,3) m, lab frame) moving at linear velocity v and angular
-        velocity ω (lab frame).
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Carrier qpos (n, 7), qvel (n, 6) and rotation matrices (n, 3, 3; scene frame) for
+        sensor poses (rotations (n,3,3), or (1,3,3) for all, positions (n,3) m, lab frame)
+        moving at linear velocity v and angular velocity ω (lab frame).
 
         carrier2scene = tool2scene · inv(tool2world) · stimulus2world. A point fixed in the
         lab, seen from a tool frame moving with linear velocity v (of the tool origin) and
@@ -396,7 +397,7 @@ class SensorPhysics:
         w_scene = -(r_scene @ w_tool)
         w_local = np.einsum("nji,nj->ni", c2s_r, w_scene)
         qpos = np.column_stack([c2s_p, quat[:, 3], quat[:, :3]])
-        return qpos, np.column_stack([v_scene, w_local])
+        return qpos, np.column_stack([v_scene, w_local]), c2s_r
 
     def _quats_xyzw(self, rotations: np.ndarray) -> np.ndarray:
         """(n, 4) scipy quaternions (x, y, z, w) of (n, 3, 3) rotations. A single rotation's
