@@ -86,6 +86,28 @@ def test_active_set_matches_complementarity():
     np.testing.assert_allclose(w[p > 0], delta[p > 0], atol=1e-12)
 
 
+def test_a_guessed_active_set_reaches_the_same_pressures():
+    """The LCP has one solution (K is symmetric positive definite): whatever nodes the
+    guess starts from (none, all, the answer, its complement, a random half, a shifted
+    contact's), the pressures are the cold start's, bit for bit, and complementary."""
+    layer = SkinLayer(TacTipGeometry(), 0.002, 50.0)
+    x, z = layer.nodes[:, 0], layer.nodes[:, 2]
+    # an edge along y pressed 3 mm, its face x > 2 mm: the pressure is not a flat press's
+    delta = np.where(x > 2e-3, np.maximum(0.0, z - (z.max() - 3e-3)), 0.0)
+    cold = layer.pressures(delta)
+    pressed = cold > 0
+    assert 0 < pressed.sum() < (delta > 0).sum()  # some touching nodes carry no pressure
+    shifted = layer.pressures(np.where(x > 3e-3, delta, 0.0)) > 0
+    rng = np.random.default_rng(0)
+    guesses = [np.zeros_like(pressed), np.ones_like(pressed), pressed, ~pressed, rng.random(len(x)) < 0.5, shifted]
+    for guess in guesses:
+        p = layer.pressures(delta, guess)
+        np.testing.assert_array_equal(p, cold)
+    w = layer.kernel @ cold
+    assert np.all(w >= delta - 1e-12)
+    np.testing.assert_allclose(w[pressed], delta[pressed], atol=1e-12)
+
+
 def test_on_by_default_and_zero_spacing_is_off():
     assert edge_scene(DEFAULT)[3].skin is not None
     _, _, _, physics = edge_scene(DEFAULT.with_(skin_spacing=0.0))

@@ -193,6 +193,7 @@ class SensorPhysics:
         if params.skin_spacing > 0 and len(flex_contact_geoms(model, handles)):
             self.skin = skin_layer(self.camera.geometry, params.skin_spacing, params.skin_extent_deg)
         self.skin_seconds = 0.0  # wall time spent in the skin layer (s), for benchmarks
+        self._skin_pressed: np.ndarray | None = None  # the skin nodes the last frame pressed
         self._saved_data: mujoco.MjData | None = None  # converged_pins' snapshot, allocated once
         self._quat_memo: dict[bytes, np.ndarray] = {}  # _quats_xyzw's last single rotations
         self._set_carrier(self._carrier_state(self._commanded, np.zeros(3), np.zeros(3)))
@@ -358,9 +359,11 @@ class SensorPhysics:
                 "(DomeParams.skin_extent_deg)"
             )
         try:
-            offsets = self.skin.pin_offsets(delta)
+            pressures = self.skin.pressures(delta, self._skin_pressed)
         except PhysicsError as err:
             self._fail(str(err))
+        self._skin_pressed = pressures > 0  # the next frame's guess: contacts move little between frames
+        offsets = self.skin.pin_offsets(delta, pressures)
         self.skin_seconds += time.perf_counter() - t0
         return offsets
 
@@ -539,7 +542,7 @@ class SensorPhysics:
         on for as long as one steps (≈ 0.1–0.3 px/s of pin motion on the sweep's slide
         frames at every time step, measured), so a tighter band is never met. Then all of
         mjData and the bookkeeping (step counters, pins, warnings, step_seconds,
-        skin_seconds) are restored: what follows is bit-identical to a run without this
+        skin_seconds, the skin's pressed nodes) are restored: what follows is bit-identical to a run without this
         call. Raises PhysicsError if not settled within `max_steps` steps.
         """
         p = self.params
@@ -557,6 +560,7 @@ class SensorPhysics:
             self._warnings.copy(),
             self.step_seconds,
             self.skin_seconds,
+            self._skin_pressed,
         )
         self.params = p.with_(
             settle_px=band, free_settle_px=min(p.free_settle_px, band), settle_steps=1, max_settle_steps=max_steps
@@ -574,5 +578,6 @@ class SensorPhysics:
                 self._warnings,
                 self.step_seconds,
                 self.skin_seconds,
+                self._skin_pressed,
             ) = saved
         return pins

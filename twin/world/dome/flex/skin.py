@@ -114,40 +114,44 @@ class SkinLayer:
         dist = np.where(self._geomid >= 0, self._dist, np.inf)
         return np.maximum(0.0, self.radius - dist)
 
-    def pressures(self, delta: np.ndarray) -> np.ndarray:
+    def pressures(self, delta: np.ndarray, pressed: np.ndarray | None = None) -> np.ndarray:
         """(nodes,) contact pressures p ≥ 0 (kernel units) with w = K·p: w = δ where p > 0,
         w ≥ δ elsewhere (active-set solution of the linear complementarity problem).
 
         Solved among the nodes with δ > 0 only: a node the object does not reach needs no
-        pressure (K ≥ 0, so w ≥ 0 ≥ δ there)."""
+        pressure (K ≥ 0, so w ≥ 0 ≥ δ there). pressed: (nodes,) bool, the nodes guessed to
+        carry pressure (the last frame's `p > 0`): the active set starts from them instead
+        of from every touching node. K is symmetric positive definite, so the problem has
+        one solution and the guess changes only how many solves reach it; a guess that
+        does not reach it in `_WARM_ITERATIONS` solves is dropped for the cold start."""
         touching = np.flatnonzero(delta > 0)
         full = np.zeros(len(delta))
+        if not len(touching):
+            return full
         kernel = self.kernel[np.ix_(touching, touching)]
         target = delta[touching]
-        p = np.zeros(len(touching))
-        active = np.arange(len(touching))
-        for _ in range(50):
-            if not len(active):
-                return full
-            pa = np.linalg.solve(kernel[np.ix_(active, active)], target[active])
-            if np.any(pa < 0):
-                active = active[pa > 0]
-                continue
-            p[:] = 0.0
-            p[active] = pa
-            short = np.flatnonzero((p == 0) & (kernel @ p < target))
-            if not len(short):
+        everywhere = np.arange(len(touching))
+        guess = np.flatnonzero(pressed[touching]) if pressed is not None else everywhere
+        if len(guess) and len(guess) < len(touching):
+            p = _active_set(kernel, target, guess, _WARM_ITERATIONS)
+            if p is not None:
                 full[touching] = p
                 return full
-            active = np.union1d(active, short)
-        raise PhysicsError("skin contact: the active set did not converge in 50 iterations")
+        p = _active_set(kernel, target, everywhere, 50)
+        if p is None:
+            raise PhysicsError("skin contact: the active set did not converge in 50 iterations")
+        full[touching] = p
+        return full
 
-    def pin_offsets(self, delta: np.ndarray) -> np.ndarray:
-        """(127, 3) pin-tip offsets (m, tool frame) for the penetrations `delta` (m)."""
-        if not np.any(delta > 0):
-            return np.zeros_like(self.pin_normals)
+    def pin_offsets(self, delta: np.ndarray, pressures: np.ndarray | None = None) -> np.ndarray:
+        """(127, 3) pin-tip offsets (m, tool frame) for the penetrations `delta` (m);
+        `pressures`: `pressures(delta)`, when the caller has solved it already."""
         touching = np.flatnonzero(delta > 0)
-        slope = (self.gradient_matrix[:, touching] @ self.pressures(delta)[touching]).reshape(-1, 3)
+        if not len(touching):
+            return np.zeros_like(self.pin_normals)
+        if pressures is None:
+            pressures = self.pressures(delta)
+        slope = (self.gradient_matrix[:, touching] @ pressures[touching]).reshape(-1, 3)
         tilted = self.pin_normals + slope  # the skin's outward normal n + ∇w (unnormalised)
         tilted /= np.linalg.norm(tilted, axis=1, keepdims=True)
         return -self.lever * (tilted - self.pin_normals)
@@ -155,6 +159,32 @@ class SkinLayer:
     def rim_in_contact(self, delta: np.ndarray) -> bool:
         """Whether the contact reaches the rim of the modelled cap (the model no longer holds)."""
         return bool(np.any(delta[self.rim] > 0))
+
+
+#: solves a guessed active set may take before the cold start takes over (SkinLayer.pressures)
+_WARM_ITERATIONS = 10
+
+
+def _active_set(kernel: np.ndarray, target: np.ndarray, active: np.ndarray, iterations: int) -> np.ndarray | None:
+    """p ≥ 0 with K·p = δ on the active nodes and K·p ≥ δ elsewhere, from the active set
+    `active` (sorted indices): drop the nodes a solve gives negative pressure, add those
+    left short of δ, until neither happens; None if that takes more than `iterations`
+    solves."""
+    p = np.zeros(len(target))
+    for _ in range(iterations):
+        if not len(active):
+            return None
+        pa = np.linalg.solve(kernel[np.ix_(active, active)], target[active])
+        if np.any(pa < 0):
+            active = active[pa > 0]
+            continue
+        p[:] = 0.0
+        p[active] = pa
+        short = np.flatnonzero((p == 0) & (kernel @ p < target))
+        if not len(short):
+            return p
+        active = np.union1d(active, short)
+    return None
 
 
 @lru_cache(maxsize=4)
