@@ -84,8 +84,6 @@ class SkinLayer:
         self.pin_normals = pin_dirs
         #: (127·3, nodes): pressures → surface gradient ∇w of the inward deflection at the pin roots
         self.gradient_matrix = grad.transpose(0, 2, 1).reshape(-1, len(self.nodes))
-        self._geomid = np.zeros(len(self.nodes), np.int32)
-        self._dist = np.zeros(len(self.nodes))
 
     def penetration(
         self, model: mujoco.MjModel, data: mujoco.MjData, tool2scene: np.ndarray, exclude_body: int
@@ -96,23 +94,20 @@ class SkinLayer:
         whose geoms the rays ignore (the TacTip's own rigid base). Flexes are not hit.
         """
         centre = tool2scene[:3, :3] @ self.centre_tool + tool2scene[:3, 3]
-        dirs = (self.normals @ tool2scene[:3, :3].T).ravel()
+        dirs = self.normals @ tool2scene[:3, :3].T
+        # only rays that reach a geom's bounding box within the skin's radius can find a
+        # penetration, and most nodes face away from the contact: cast just those
+        cast = _rays_into_boxes(model, data, centre, dirs, self.radius, exclude_body)
+        delta = np.zeros(len(self.nodes))
+        if not len(cast):
+            return delta
+        geomid, dist = np.empty(len(cast), np.int32), np.empty(len(cast))
         mujoco.mj_multiRay(
-            model,
-            data,
-            centre,
-            dirs,
-            None,
-            1,
-            exclude_body,
-            self._geomid,
-            self._dist,
-            None,
-            len(self.nodes),
-            2 * self.radius,
+            model, data, centre, dirs[cast].ravel(), None, 1, exclude_body, geomid, dist, None, len(cast), 2 * self.radius
         )
-        dist = np.where(self._geomid >= 0, self._dist, np.inf)
-        return np.maximum(0.0, self.radius - dist)
+        hit = geomid >= 0
+        delta[cast[hit]] = np.maximum(0.0, self.radius - dist[hit])
+        return delta
 
     def pressures(self, delta: np.ndarray, pressed: np.ndarray | None = None) -> np.ndarray:
         """(nodes,) contact pressures p ≥ 0 (kernel units) with w = K·p: w = δ where p > 0,
@@ -159,6 +154,42 @@ class SkinLayer:
     def rim_in_contact(self, delta: np.ndarray) -> bool:
         """Whether the contact reaches the rim of the modelled cap (the model no longer holds)."""
         return bool(np.any(delta[self.rim] > 0))
+
+
+_PLANE, _HFIELD = int(mujoco.mjtGeom.mjGEOM_PLANE), int(mujoco.mjtGeom.mjGEOM_HFIELD)
+
+
+def _rays_into_boxes(
+    model: mujoco.MjModel, data: mujoco.MjData, origin: np.ndarray, dirs: np.ndarray, length: float, exclude_body: int
+) -> np.ndarray:
+    """Indices of the rays from `origin` along the unit `dirs` (n, 3) (scene frame) whose
+    first `length` (m) may meet a geom outside `exclude_body`: the only rays mj_multiRay
+    can find a hit on within that length. A geom counts if its bounding sphere
+    (geom_rbound) reaches within `length` of the origin; a ray, if it meets such a geom's
+    bounding box (geom_aabb, posed; slab test, 1 µm slack). Static geoms included, as the
+    skin's rays see them; a ray the test cannot decide (a NaN: parallel to a slab, on its
+    face) is kept."""
+    geoms = np.flatnonzero(model.geom_bodyid != exclude_body)
+    types = model.geom_type[geoms]
+    if ((types == _PLANE) | (types == _HFIELD)).any():
+        return np.arange(len(dirs))  # geoms that geom_rbound and geom_aabb do not bound: every ray
+    offset = origin - data.geom_xpos[geoms]  # (g, 3)
+    near = np.einsum("ij,ij->i", offset, offset) <= (length + model.geom_rbound[geoms] + 1e-6) ** 2
+    geoms, offset = geoms[near], offset[near]
+    if not len(geoms):
+        return np.zeros(0, int)
+    to_box = data.geom_xmat[geoms].reshape(-1, 3, 3).transpose(0, 2, 1)  # scene → geom frames
+    aabb = model.geom_aabb[geoms]
+    half = aabb[:, 3:, None] + 1e-6  # (g, 3, 1)
+    start = to_box @ offset[:, :, None] - aabb[:, :3, None]  # (g, 3, 1): the origin in the boxes' frames, centred
+    with np.errstate(divide="ignore", invalid="ignore"):
+        step = 1.0 / (to_box @ dirs.T)  # (g, 3, n); ±inf along a slab: its t's ±inf, or NaN on its face
+        t1, t2 = (-half - start) * step, (half - start) * step
+    near_t, far_t = np.minimum(t1, t2), np.maximum(t1, t2)
+    enter = np.maximum(np.maximum(near_t[:, 0], near_t[:, 1]), near_t[:, 2])  # (g, n), axis by axis: faster than a reduction
+    leave = np.minimum(np.minimum(far_t[:, 0], far_t[:, 1]), far_t[:, 2])
+    missed = (enter > leave) | (leave < 0.0) | (enter > length)  # NaN compares False: kept
+    return np.flatnonzero(~missed.all(axis=0))
 
 
 #: solves a guessed active set may take before the cold start takes over (SkinLayer.pressures)
