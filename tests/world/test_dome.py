@@ -158,6 +158,34 @@ def test_pin_map_is_exact():
     assert np.max(np.abs(physics._pin_map(physics.data.qpos) - exact)) < 1e-12
 
 
+def test_pin_map_is_measured_once_per_model_and_holds_from_any_state():
+    """Every episode builds a SensorPhysics; the map is measured once per compiled model,
+    from whatever state it first sees. Built again on the same model just after a 4 mm
+    press was lifted off (the dome still springing back, not at rest), it is the same
+    map, and still MuJoCo's own interpolation after a new press."""
+    import mujoco
+
+    from twin.world.dome.flex import pin_tips_tool
+    from twin.world.dome.flex.physics import SensorPhysics
+
+    first, _ = _press(FIDELITY_LEVELS["fast"], -3, 0, 4)
+    first.move(sensor_down(-3, 0, -1), SPEED)
+    nodes = first._pin_map.qadr
+    assert np.abs(first.data.qpos[nodes] - first._pin_map.q0).max() > 1e-5  # not at rest
+    again = SensorPhysics(
+        first.model, first.data, first.handles, first.params, "edge", first._commanded, camera=first.camera
+    )
+    assert again._pin_map is first._pin_map
+    again.move(sensor_down(-2, 0, 3), SPEED)
+    again.settle()
+    mujoco.mj_kinematics(again.model, again.data)
+    mujoco.mj_flex(again.model, again.data)
+    exact = pin_tips_tool(again.model, again.data, again.handles)
+    assert np.max(np.abs(again._pin_map(again.data.qpos) - exact)) < 1e-12
+    other, _ = _press(FIDELITY_LEVELS["fast"], -3, 0, 4)  # a model of its own: a map of its own
+    assert other._pin_map is not first._pin_map
+
+
 def test_clear_stretches_are_jumped_not_lost():
     """jump_clear_moves carries the box over the stretch of a move where nothing can touch
     the dome, in closed form: the collision surface lies `margin` behind the apex and the

@@ -55,6 +55,7 @@ from __future__ import annotations
 
 import math
 import time
+import weakref
 
 import mujoco
 import numpy as np
@@ -85,11 +86,11 @@ class PinMap:
     its body position plus its slide joints' qpos, so pins = p0 + J·(q − q0) exactly.
     J is measured by unit perturbations of each node coordinate (exact for a linear map)
     and checked on a random configuration; if the check fails (a flex that is not
-    interpolated), `exact` is False and callers recompute kinematics instead.
+    interpolated), `exact` is False and callers recompute kinematics instead. The map
+    belongs to the compiled model: `pin_map` measures it once per model.
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, handles: TacTipHandles) -> None:
-        self.model, self.handles = model, handles
         qadr = []
         for b in handles.node_bodies:
             for j in range(model.body_jntadr[b], model.body_jntadr[b] + model.body_jntnum[b]):
@@ -100,26 +101,42 @@ class PinMap:
         scratch = mujoco.MjData(model)
         scratch.qpos[:] = data.qpos
         self.q0 = scratch.qpos[self.qadr].copy()
-        self.p0 = self._exact(scratch)
+        self.p0 = _pins_by_kinematics(model, scratch, handles)
         self.jacobian = np.zeros((self.p0.size, len(self.qadr)))
         step = 1e-3  # m; the map is linear, so the size only sets the rounding (≈ 1e-16 m)
         for k, a in enumerate(self.qadr):
             scratch.qpos[a] += step
-            self.jacobian[:, k] = (self._exact(scratch) - self.p0).ravel() / step
+            self.jacobian[:, k] = (_pins_by_kinematics(model, scratch, handles) - self.p0).ravel() / step
             scratch.qpos[a] -= step
         rng = np.random.default_rng(0)
         scratch.qpos[self.qadr] = self.q0 + rng.normal(0.0, 2e-3, len(self.qadr))
-        err = np.max(np.abs(self._exact(scratch) - self(scratch.qpos)))
+        err = np.max(np.abs(_pins_by_kinematics(model, scratch, handles) - self(scratch.qpos)))
         self.exact = bool(err < 1e-9)
-
-    def _exact(self, d: mujoco.MjData) -> np.ndarray:
-        mujoco.mj_kinematics(self.model, d)
-        mujoco.mj_flex(self.model, d)
-        return pin_tips_tool(self.model, d, self.handles)
 
     def __call__(self, qpos: np.ndarray) -> np.ndarray:
         """(127, 3) pin tips in the tool frame (m) for the full qpos vector."""
         return self.p0 + (self.jacobian @ (qpos[self.qadr] - self.q0)).reshape(self.p0.shape)
+
+
+def _pins_by_kinematics(model: mujoco.MjModel, data: mujoco.MjData, handles: TacTipHandles) -> np.ndarray:
+    """(127, 3) pin tips in the tool frame (m) of `data`'s qpos, by MuJoCo's kinematics."""
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_flex(model, data)
+    return pin_tips_tool(model, data, handles)
+
+
+#: each compiled model's PinMap, measured from its first state (≈ 2 ms; every episode
+#: builds a SensorPhysics): the map is affine, so any state of the model gives the same one
+_PIN_MAPS: weakref.WeakKeyDictionary[mujoco.MjModel, tuple[str, PinMap]] = weakref.WeakKeyDictionary()
+
+
+def pin_map(model: mujoco.MjModel, data: mujoco.MjData, handles: TacTipHandles) -> PinMap:
+    """The PinMap of the TacTip `handles` names in `model`, measured at `data`'s state the
+    first time this model asks."""
+    known = _PIN_MAPS.get(model)
+    if known is None or known[0] != handles.prefix:
+        known = _PIN_MAPS[model] = (handles.prefix, PinMap(model, data, handles))
+    return known[1]
 
 
 class SensorPhysics:
@@ -187,7 +204,7 @@ class SensorPhysics:
         self._since_frame = 0
         self._warnings = data.warning.number.copy()
         self._commanded = np.asarray(start_tool2world, float)
-        self._pin_map = PinMap(model, data, handles)
+        self._pin_map = pin_map(model, data, handles)
         #: the sub-grid skin (twin.world.dome.flex.skin); None when it is off or nothing can touch the dome
         self.skin: SkinLayer | None = None
         if params.skin_spacing > 0 and len(flex_contact_geoms(model, handles)):
@@ -435,9 +452,7 @@ class SensorPhysics:
     def _read_pins(self) -> np.ndarray:
         if self._pin_map.exact:
             return self._pin_map(self.data.qpos)
-        mujoco.mj_kinematics(self.model, self.data)
-        mujoco.mj_flex(self.model, self.data)
-        return pin_tips_tool(self.model, self.data, self.handles)
+        return _pins_by_kinematics(self.model, self.data, self.handles)
 
     def _after_step(self, pose: np.ndarray) -> None:
         self._read_step()
