@@ -93,17 +93,26 @@ def _posed_geoms(with_plane: bool) -> tuple[mujoco.MjModel, mujoco.MjData]:
     static world."""
     rng = np.random.default_rng(3)
     spec = mujoco.MjSpec()
-    kinds = [mujoco.mjtGeom.mjGEOM_BOX, mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_CAPSULE,
-             mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_ELLIPSOID]
+    kinds = [
+        mujoco.mjtGeom.mjGEOM_BOX,
+        mujoco.mjtGeom.mjGEOM_SPHERE,
+        mujoco.mjtGeom.mjGEOM_CAPSULE,
+        mujoco.mjtGeom.mjGEOM_CYLINDER,
+        mujoco.mjtGeom.mjGEOM_ELLIPSOID,
+    ]
     for kind in kinds:
         direction = rng.normal(size=3)
         quat = rng.normal(size=4)
         spec.worldbody.add_geom(
-            type=kind, size=rng.uniform(0.002, 0.008, 3), quat=quat / np.linalg.norm(quat),
+            type=kind,
+            size=rng.uniform(0.002, 0.008, 3),
+            quat=quat / np.linalg.norm(quat),
             pos=direction / np.linalg.norm(direction) * rng.uniform(0.01, 0.03),
         )
     spec.add_mesh(name="rock", uservert=rng.normal(0.0, 0.004, (20, 3)).ravel())
-    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname="rock", pos=[0.0, 0.012, 0.012], quat=[0.8, 0.6, 0, 0])
+    spec.worldbody.add_geom(
+        type=mujoco.mjtGeom.mjGEOM_MESH, meshname="rock", pos=[0.0, 0.012, 0.012], quat=[0.8, 0.6, 0, 0]
+    )
     if with_plane:
         spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[1, 1, 0.1], pos=[0, 0, -0.015])
     model = spec.compile()
