@@ -557,8 +557,9 @@ class SensorPhysics:
         on for as long as one steps (≈ 0.1–0.3 px/s of pin motion on the sweep's slide
         frames at every time step, measured), so a tighter band is never met. Then all of
         mjData and the bookkeeping (step counters, pins, warnings, step_seconds,
-        skin_seconds, the skin's pressed nodes) are restored: what follows is bit-identical to a run without this
-        call. Raises PhysicsError if not settled within `max_steps` steps.
+        skin_seconds, the skin's pressed nodes) are restored: what follows is
+        bit-identical to a run without this call. Raises PhysicsError if not settled
+        within `max_steps` steps.
         """
         p = self.params
         creep_px = 0.5 * self.model.opt.timestep

@@ -167,7 +167,10 @@ class SkinLayer:
         return bool(np.any(delta[self.rim] > 0))
 
 
-_PLANE, _HFIELD = int(mujoco.mjtGeom.mjGEOM_PLANE), int(mujoco.mjtGeom.mjGEOM_HFIELD)
+#: by geom type: whether geom_rbound and geom_aabb may not bound it (a plane, a height field,
+#: a signed distance field's plugin); with one of them in the scene every ray is cast
+_UNBOUNDED = np.zeros(int(mujoco.mjtGeom.mjNGEOMTYPES), bool)
+_UNBOUNDED[[int(mujoco.mjtGeom.mjGEOM_PLANE), int(mujoco.mjtGeom.mjGEOM_HFIELD), int(mujoco.mjtGeom.mjGEOM_SDF)]] = True
 
 
 def _rays_into_boxes(
@@ -181,9 +184,8 @@ def _rays_into_boxes(
     skin's rays see them; a ray the test cannot decide (a NaN: parallel to a slab, on its
     face) is kept."""
     geoms = np.flatnonzero(model.geom_bodyid != exclude_body)
-    types = model.geom_type[geoms]
-    if ((types == _PLANE) | (types == _HFIELD)).any():
-        return np.arange(len(dirs))  # geoms that geom_rbound and geom_aabb do not bound: every ray
+    if _UNBOUNDED[model.geom_type[geoms]].any():
+        return np.arange(len(dirs))
     offset = origin - data.geom_xpos[geoms]  # (g, 3)
     near = np.einsum("ij,ij->i", offset, offset) <= (length + model.geom_rbound[geoms] + 1e-6) ** 2
     geoms, offset = geoms[near], offset[near]
