@@ -78,6 +78,21 @@ def test_gl_pins_lie_inside_the_silhouettes_and_track_alike(shape: tuple[int, in
     assert np.sqrt(np.mean(np.sum((tracked.pins_px - gl_pins.pins_px) ** 2, axis=1))) < 0.3
 
 
+def test_the_renderers_camera_frame_projects_as_the_camera_does() -> None:
+    """The frame both renderers draw in (CameraModel.in_nominal_camera) and the one
+    projection of the twin (project_tool_points) state the same nominal camera: a pinhole
+    at that frame's origin, looking down +z, sees each pin where the projection puts it."""
+    camera = CameraModel(320, 240)
+    pins = camera.geometry.pin_tip_points()
+    in_camera = camera.in_nominal_camera(pins)
+    k = camera.intrinsics
+    pinhole = np.column_stack(
+        [k[0, 0] * in_camera[:, 0] / in_camera[:, 2] + k[0, 2], k[1, 1] * in_camera[:, 1] / in_camera[:, 2] + k[1, 2]]
+    )
+    np.testing.assert_allclose(pinhole, camera.project_tool_points(pins), atol=1e-9)
+    assert np.all(in_camera[:, 2] > 0.02)  # every pin well in front of the camera
+
+
 def test_bad_pins_are_refused_by_name() -> None:
     camera = CameraModel(width=128, height=128)
     renderer = SilhouetteRenderer(camera)

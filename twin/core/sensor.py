@@ -189,6 +189,12 @@ class CameraModel:
         the renderer draws with)."""
         return CameraModel(self.width, self.height, self.fov_y_deg, self.aperture_fraction, self.geometry)
 
+    def in_nominal_camera(self, points_tool: np.ndarray) -> np.ndarray:
+        """(N, 3) tool-frame points (m) in the nominal camera's frame (m): the tool frame
+        moved camera_to_apex along the axis, so the camera sits at the origin looking down +z
+        (x right, y down): the frame the inside-camera renderers draw in."""
+        return np.asarray(points_tool, float) + np.array([0.0, 0.0, self.geometry.camera_to_apex])
+
     def place_at_pixels(self, points_tool: np.ndarray, pixels: np.ndarray) -> np.ndarray:
         """(N, 3) tool-frame points (m) moved within their depth plane so that this
         camera's *nominal pinhole* sees them at `pixels` (N, 2): how the renderer shows

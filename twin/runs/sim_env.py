@@ -16,7 +16,7 @@ from twin.core.scenario import DEFAULT_SPEED_MM_S, START_POSE, Scenario
 from twin.runs.protocols import protocol_moves
 from twin.runs.spec import SimSpec, scene_spec, sim_spec
 from twin.world.arm import ArmDynamics
-from twin.world.render import PinRenderer, render_overview
+from twin.world.render import InsideRenderer, PinRenderer, render_overview
 from twin.world.scene import TOOL2FLANGE, Scene, build_overview, build_scene, kinematics, sensor_physics
 from twin.world.silhouette import SilhouetteRenderer
 
@@ -43,7 +43,7 @@ class SimEnvironment(Environment):
         self.tcp2apex = spec.tcp2apex
         self.work_frame = Pose.from_matrix(self.scene.work2world)
         self.world2work = invert_transform(self.scene.work2world)
-        self._renderer = None
+        self._renderer: InsideRenderer | None = None
         if spec.has("render"):
             nominal = self.camera.nominal()  # the renderers draw through the nominal pinhole (observe)
             if spec.renderer == "silhouette":

@@ -10,6 +10,8 @@ draws every frame that asks for it, lighting and MSAA included.
 
 from __future__ import annotations
 
+from typing import Protocol
+
 import mujoco
 import numpy as np
 
@@ -37,6 +39,22 @@ def add_camera_noise(frame: np.ndarray, noise_std: float, rng: np.random.Generat
         raise ValueError("camera noise needs a seeded numpy Generator")
     grey = rng.standard_normal(frame.shape[:2], dtype=np.float32) * np.float32(noise_std)
     return np.clip(frame + grey[..., None], 0, 255).astype(np.uint8)
+
+
+class InsideRenderer(Protocol):
+    """What twin.runs.sim_env asks of an inside-camera renderer: this module's PinRenderer
+    (GL, every effect) or twin.world.silhouette.SilhouetteRenderer (unlit, no MSAA)."""
+
+    def render(
+        self, pins_tool: np.ndarray, noise_std: float = 0.0, rng: np.random.Generator | None = None
+    ) -> np.ndarray:
+        """Frame (H, W, 3) uint8 RGB for (127, 3) pin tips in the tool frame (m), with
+        `noise_std` grey levels of camera noise drawn from `rng`."""
+        ...
+
+    def close(self) -> None:
+        """Release what the renderer holds (a GL context), if anything."""
+        ...
 
 
 def _pin_apex_radius_px(camera: CameraModel) -> float:
@@ -120,7 +138,6 @@ class PinRenderer:
         self.data = mujoco.MjData(self.model)
         self._renderer = mujoco.Renderer(self.model, camera.height, camera.width)
         self._camera_id = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, "inside")
-        self._tool2camera_offset = np.array([0.0, 0.0, camera.geometry.camera_to_apex])
 
     def render(
         self,
@@ -129,7 +146,7 @@ class PinRenderer:
         rng: np.random.Generator | None = None,
     ) -> np.ndarray:
         """Frame for (127, 3) pin tips in the tool frame (m)."""
-        self.data.mocap_pos[:] = pins_tool + self._tool2camera_offset
+        self.data.mocap_pos[:] = self.camera.in_nominal_camera(pins_tool)
         mujoco.mj_kinematics(self.model, self.data)
         mujoco.mj_camlight(self.model, self.data)  # the camera pose is computed here, not in mj_kinematics
         self._renderer.update_scene(self.data, self._camera_id)

@@ -40,7 +40,6 @@ class SilhouetteRenderer:
         k = self.camera.intrinsics
         self._focal, self._centre = float(k[0, 0]), np.array([k[0, 2], k[1, 2]])
         self._radius = self.camera.geometry.pin_radius
-        self._tool2camera_offset = np.array([0.0, 0.0, self.camera.geometry.camera_to_apex])
         v, u = np.mgrid[0 : self.camera.height, 0 : self.camera.width]
         aperture = (u - self._centre[0]) ** 2 + (v - self._centre[1]) ** 2 <= self.camera.aperture_radius_px**2
         self._background = np.where(aperture, SKIN_GREY, 0).astype(np.uint8)
@@ -63,7 +62,7 @@ class SilhouetteRenderer:
         rng: np.random.Generator | None = None,
     ) -> np.ndarray:
         """Frame for (127, 3) pin tips in the tool frame (m)."""
-        centres = np.asarray(pins_tool, float) + self._tool2camera_offset
+        centres = self.camera.in_nominal_camera(pins_tool)
         if not np.all(np.isfinite(centres)):
             raise ValueError(f"pin tips must be finite, got {np.count_nonzero(~np.isfinite(centres))} NaN/Inf values")
         if not np.all(centres[:, 2] > self._radius):
@@ -87,4 +86,4 @@ class SilhouetteRenderer:
         return add_camera_noise(frame, noise_std, rng)
 
     def close(self) -> None:
-        """Nothing to release (no GL context); kept for the renderers' common interface."""
+        """Nothing to release (no GL context): InsideRenderer's close (twin.world.render)."""
