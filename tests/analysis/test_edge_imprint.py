@@ -256,6 +256,39 @@ def test_reach_profile_finds_the_edge_side_in_the_image() -> None:
     assert profile[-1] == 1.0 and np.all(np.diff(profile) > 0) and profile[0] == pytest.approx(0.55, abs=0.05)
 
 
+def test_closest_pins_is_the_nearest_pair_against_its_rest_spacing() -> None:
+    """Plain taps at two l: at l = 0 the whole pattern magnified 1.2× about its centre
+    (every pin 1.2× as far from its neighbours); at l = −2 one pin and its nearest neighbour
+    moved towards each other to 0.3 of their rest distance, and in one of those taps a third
+    pin lost (not found): the figure is the smallest ratio, 1.2 and 0.3, with the lost share.
+    The squeezed pin's rest spacing is the grid's widest (33.4 px against a median of 32.6),
+    so a figure taken against one spacing for all pins would read 0.307."""
+    from scipy.spatial import cKDTree
+
+    distance, index = cKDTree(REST).query(REST, k=2)
+    i = int(np.argmax(distance[:, 1]))
+    j = int(index[i, 1])
+    middle = (REST[i] + REST[j]) / 2
+    squeezed = REST.copy()
+    squeezed[[i, j]] = middle + 0.3 * (REST[[i, j]] - middle)
+    magnified = REST.mean(axis=0) + 1.2 * (REST - REST.mean(axis=0))
+    lost = np.ones(127, bool)
+    lost[5] = False
+    samples = [
+        {"pins_px": p.tolist(), "found": f, "labels": {"theta_deg": t, "lateral_mm": l, "depth_mm": 3.0}}
+        for p, f, t, l in (
+            (magnified, None, 0.0, 0.0),
+            (magnified, None, 45.0, 0.0),
+            (squeezed, None, 0.0, -2.0),
+            (squeezed, lost.tolist(), 45.0, -2.0),
+        )
+    ]
+    run = Run(Path("synthetic"), {"scenario": {"protocol": {"kind": "taps"}}, "rest_pins_px": REST.tolist()}, samples)
+    rows = E.closest_pins(run)[3.0]
+    assert rows[0.0] == pytest.approx({"min": 1.2, "median": 1.2, "lost": 0.0})
+    assert rows[-2.0] == pytest.approx({"min": 0.3, "median": 0.3, "lost": 0.5})
+
+
 def _write(run: Run, out: Path, name: str, x0_mm: float = 0.0) -> Path:
     """`run` recorded to `out` by the run recorder, after a no-contact frame (as a sheared-taps
     run has), its targets from x = `x0_mm` on."""

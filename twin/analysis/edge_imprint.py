@@ -12,7 +12,10 @@ Unit-free figures, so they compare across cameras:
 * the along-edge drag in degrees of turn per mm of slide: how far along the orientation
   direction a 1 mm slide along the edge moves the pins, in degrees of the edge angle
   (raw pins), and how far it turns θ_PC23, the angle in the taps' PC2–PC3 plane that the
-  paper reads the orientation from; and the share of that drag's energy in the plane.
+  paper reads the orientation from; and the share of that drag's energy in the plane;
+* closest pins: how near the pins come to each other (each pin's nearest-neighbour
+  distance over its distance at rest, the smallest in a frame): where it nears 0 two
+  pins' images merge and a tracker loses them.
 
 Plain tap runs (discrete l, θ over a turn) give the spread directly. Sheared-tap runs
 (twin.core.scenario.ShearedTapProtocol: random l, θ, depth, slide and twist) are fitted
@@ -33,6 +36,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from twin.analysis.evaluation import orientation_signal_px
 from twin.core.errors import UserError
@@ -313,6 +317,49 @@ def translation_share(field: np.ndarray) -> float:
     return float(len(field) // 2 * mean @ mean / (field @ field))
 
 
+# ------------------------------------------------------------------ closest pins
+def nearest_neighbour_px(pins_px: np.ndarray) -> np.ndarray:
+    """(n,) each pin's distance to its nearest neighbour, px, for (n, 2) pins."""
+    distance, _ = cKDTree(pins_px).query(pins_px, k=2)
+    return distance[:, 1]
+
+
+def closest_pins(run: Run) -> dict[float, dict[float, dict[str, float]]]:
+    """{depth_mm: {lateral_mm: {"min", "median", "lost"}}}: how near the pins come to each
+    other. Per in-contact sample, each found pin's distance to its nearest found neighbour
+    over its nearest-neighbour distance at rest, the smallest over the pins (1: no pin
+    nearer a neighbour than at rest; 0: two pins in one place); its minimum and median over
+    the samples at each l, and "lost": the share of those samples with a pin not found.
+    Pin by pin, so a lens's magnification across the image cancels; found pins only, so a
+    real sensor's frames that lost a pin count too. Plain taps per depth; sheared taps in
+    1 mm lateral bins as one row at their nominal depth."""
+    rest_px = nearest_neighbour_px(run.rest_pins_px)
+    ratio, lost, lateral, depth = [], [], [], []
+    sheared = is_sheared(run)
+    for s in run.samples:
+        if s["pins_px"] is None or s["labels"].get("no_contact"):
+            continue
+        found = np.ones(127, bool) if s.get("found") is None else np.asarray(s["found"], bool)
+        if found.sum() < 2:
+            continue
+        pins = np.asarray(s["pins_px"], float)[found]
+        ratio.append(np.min(nearest_neighbour_px(pins) / rest_px[found]))
+        lost.append(not found.all())
+        lateral.append(np.round(s["labels"]["lateral_mm"]) + 0.0 if sheared else s["labels"]["lateral_mm"])
+        depth.append(run.meta["scenario"]["protocol"]["depth_mm"] if sheared else s["labels"]["depth_mm"])
+    ratio, lost, lateral, depth = (np.array(v, float) for v in (ratio, lost, lateral, depth))
+    rows: dict[float, dict[float, dict[str, float]]] = {}
+    for d in sorted(set(depth.tolist())):
+        for l in sorted(set(lateral[depth == d].tolist())):
+            m = (depth == d) & (lateral == l)
+            rows.setdefault(float(d), {})[float(l)] = {
+                "min": float(ratio[m].min()),
+                "median": float(np.median(ratio[m])),
+                "lost": float(lost[m].mean()),
+            }
+    return rows
+
+
 # ------------------------------------------------------------------ reach
 def edge_normal_in_image(run: Run) -> tuple[float, float]:
     """(φ0 deg, σ ±1) with the image direction of the edge's outward normal (off the
@@ -358,8 +405,9 @@ def reach_profile(run: Run, lateral_mm: float, half_width_mm: float = 0.5, bins:
 def edge_figures(taps: Run, slides: Run | None = None, reach_at: tuple[float, ...] = (-4.0, 4.0)) -> dict:
     """Every figure of this module for one sensor: a tap run (plain or sheared) and, for
     plain taps, a slides run for the along-edge drag (its slides at their first lateral
-    position). Keys: signal_profile, reach (l → ten bins), pcs_explained, pcs_turned,
-    drag_over_signal and along_edge (l → figures; sheared taps, or plain taps with slides)."""
+    position). Keys: signal_profile, reach (l → ten bins), closest_pins, pcs_explained,
+    pcs_turned, drag_over_signal and along_edge (l → figures; sheared taps, or plain taps
+    with slides)."""
     pcs = tap_pcs(taps)
     lateral = taps.label("lateral_mm")[usable(taps)]
     figures = {
@@ -367,6 +415,7 @@ def edge_figures(taps: Run, slides: Run | None = None, reach_at: tuple[float, ..
         "kind": taps.meta["scenario"]["protocol"]["kind"],
         "signal_profile": signal_profile(taps),
         "reach": {l: reach_profile(taps, l) for l in reach_at if np.any(np.abs(lateral - l) <= 0.5 + 1e-9)},
+        "closest_pins": closest_pins(taps),
         "pcs_explained": pcs.explained.tolist(),
         "pcs_turned": pcs.turned,
         "drag_over_signal": {},

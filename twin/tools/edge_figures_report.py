@@ -41,6 +41,21 @@ def format_edge_figures(figures: list[dict], labels: list[str] | None = None) ->
         for label, f in zip(labels, figures):
             bins = f["reach"].get(l)
             lines.append(f"    {label}: " + ("—" if bins is None else " ".join(f"{v:.2f}" for v in bins)))
+    for depth in sorted({d for f in figures for d in f.get("closest_pins", {})}):
+        lines.append(
+            f"  closest pins, {depth:g} mm deep (nearest neighbour / at rest, the frame's smallest: "
+            "min / median over taps; frames with a pin lost, %):"
+        )
+        for l in sorted({l for f in figures for l in f.get("closest_pins", {}).get(depth, {})}, reverse=True):
+            cells = []
+            for f in figures:
+                row = f.get("closest_pins", {}).get(depth, {}).get(l)
+                cells.append(
+                    ("—" if row is None else f"{row['min']:.2f} / {row['median']:.2f}; {100 * row['lost']:.0f}").rjust(
+                        WIDTH
+                    )
+                )
+            lines.append(f"    l {l:+g} mm".ljust(34) + "".join(cells))
     if any(f["drag_over_signal"] for f in figures):
         lines.append("  drag / orientation signal (fitted slide and twist terms against the angle term, px/px):")
         lines += _rows_by_lateral(figures, "drag_over_signal", "ratio", "{:.1f}")
