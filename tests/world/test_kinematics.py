@@ -121,7 +121,7 @@ def test_unreachable_pose_names_the_distance(kin: Irb120Kinematics) -> None:
         UnreachablePoseError, match=r"out of reach \(wrist centre 2001\.7 mm from shoulder, max 580\.0 mm\)"
     ) as info:
         kin.inverse(target, np.eye(4))
-    assert "x 2000.0, y 0.0, z 300.0 mm" in str(info.value)
+    assert "x=2000.000 y=0.000 z=300.000 mm" in str(info.value)
 
 
 def test_pose_beyond_joint_limits_names_the_joint(kin: Irb120Kinematics) -> None:

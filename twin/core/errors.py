@@ -39,6 +39,12 @@ class LostPinsError(TwinError):
     """Too many pins could not be tracked in a frame: the run stops (records kept)."""
 
 
+class MistrackedPinsError(LostPinsError):
+    """A simulated frame's tracked pins lie off their true positions (a pin took a
+    neighbour's blob): the run stops (records kept). Only a simulation knows; a real
+    sensor's tracker cannot tell."""
+
+
 class Terminated(KeyboardInterrupt):
     """SIGTERM (job schedulers, Ray, `timeout`, `kill`): handled like Ctrl-C — the run
     stops, keeps everything recorded and is marked "interrupted"; the CLI exits 143."""

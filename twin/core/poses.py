@@ -33,6 +33,12 @@ class Pose:
             raise ValueError(f"a pose has 6 values (x, y, z mm; α, β, γ deg), got {len(v)}")
         return cls(*v)
 
+    def __str__(self) -> str:
+        return (
+            f"x={self.x:.3f} y={self.y:.3f} z={self.z:.3f} mm, "
+            f"α={self.alpha:.2f} β={self.beta:.2f} γ={self.gamma:.2f} deg"
+        )
+
     def as_array(self) -> np.ndarray:
         """(6,) array: mm and degrees."""
         return np.array([self.x, self.y, self.z, self.alpha, self.beta, self.gamma])

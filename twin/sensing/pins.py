@@ -13,7 +13,7 @@ from typing import NamedTuple
 import numpy as np
 
 from twin.core.environment import Observation
-from twin.core.errors import LostPinsError
+from twin.core.errors import LostPinsError, MistrackedPinsError
 from twin.sensing.tracker import PinTracker
 
 
@@ -32,9 +32,12 @@ class PinReader:
     reference: the no-contact observation (`Environment.reset()`); its frame, if any, is
     the tracker's reference. A frame with more than `max_lost_fraction` of its pins
     untracked stops the run with LostPinsError (a torn skin, a covered lens or a camera
-    that moved)."""
+    that moved). A simulated observation carries its true pins: a pin the tracker reports
+    found more than `max_mistrack_fraction` of a pin spacing from its true position took
+    another pin's blob, and the run stops with MistrackedPinsError instead of recording it."""
 
     max_lost_fraction = 0.2
+    max_mistrack_fraction = 0.5
 
     def __init__(self, reference: Observation) -> None:
         self.tracker = PinTracker(reference.frame) if reference.frame is not None else None
@@ -55,4 +58,14 @@ class PinReader:
                 f"lost {lost}/{len(result.found)} pins at pose {obs.pose} ({', '.join(reasons)}); "
                 "check the camera and the skin"
             )
+        true_px = obs.truth.get("pins_px")
+        if true_px is not None:
+            off_px = np.linalg.norm(result.pins_px - np.asarray(true_px, float), axis=1)
+            wrong = np.flatnonzero(result.found & (off_px > self.max_mistrack_fraction * self.tracker.spacing_px))
+            if len(wrong):
+                raise MistrackedPinsError(
+                    f"the tracker put {len(wrong)} pin(s) on another pin's blob at pose {obs.pose}: pin "
+                    f"{wrong[0]} found {off_px[wrong[0]]:.1f} px from its true position (a pin spacing is "
+                    f"{self.tracker.spacing_px:.1f} px); the pins moved further between frames than it can follow"
+                )
         return PinReading(result.pins_px, result.found, result.ms)

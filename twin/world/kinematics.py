@@ -293,4 +293,4 @@ class Irb120Kinematics:
         with warnings.catch_warnings():  # scipy warns on gimbal lock (β = ±90°); the angles are still valid
             warnings.simplefilter("ignore", UserWarning)
             p = Pose.from_matrix(np.asarray(tool2world, float))
-        return f"(x {p.x:.1f}, y {p.y:.1f}, z {p.z:.1f} mm; α {p.alpha:.1f}, β {p.beta:.1f}, γ {p.gamma:.1f}°)"
+        return f"({p})"

@@ -61,10 +61,7 @@ def physics_error(
     """The PhysicsError of a dome model: scenario, `where` ("step 12"), simulated time (s),
     the commanded pose in the lab convention (work frame, mm/deg) and what failed."""
     lab = Pose.from_matrix(world2work @ tool2world)
-    return PhysicsError(
-        f"[{scenario_name}] {where} (t = {time_s:.4f} s) at pose x={lab.x:.3f} y={lab.y:.3f} z={lab.z:.3f} mm, "
-        f"α={lab.alpha:.2f} β={lab.beta:.2f} γ={lab.gamma:.2f} deg: {what}"
-    )
+    return PhysicsError(f"[{scenario_name}] {where} (t = {time_s:.4f} s) at pose {lab}: {what}")
 
 
 class DomeParameters(Protocol):
