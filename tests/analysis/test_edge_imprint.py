@@ -366,3 +366,25 @@ def test_calibration_simulates_a_square_lab_camera(tmp_path: Path) -> None:
     camera = physics.camera_model()
     assert (camera.width, camera.height) == (256, 256)
     assert camera.intrinsics[0, 0] == pytest.approx(scenario.camera_model().intrinsics[0, 0])
+
+
+def test_sheared_runs_at_other_nominal_depths_print_side_by_side(run: Run) -> None:
+    """A lab set's nominal depth is not recorded, so two sheared-tap runs whose nominal
+    depths differ print their depth-keyed figures in one group, both columns filled; plain
+    taps keep a group per depth."""
+    from twin.tools.edge_figures_report import format_edge_figures
+
+    a = E.edge_figures(run)
+    b = {
+        **a,
+        "signal_profile": {4.0: a["signal_profile"][3.0]},
+        "closest_pins": {4.0: a["closest_pins"][3.0]},
+    }
+    text = format_edge_figures([a, b], ["rig", "twin"])
+    assert "orientation signal / its value at l = 0, each run's nominal depth (3 / 4 mm):" in text
+    assert "closest pins, each run's nominal depth (3 / 4 mm)" in text
+    centre = next(line for line in text.splitlines() if line.strip().startswith("l +0 mm"))
+    assert centre.split()[-2:] == ["1.00", "1.00"]
+    plain = {**b, "kind": "taps"}
+    text = format_edge_figures([a, plain], ["rig", "twin"])
+    assert "l = 0, 3 mm deep:" in text and "l = 0, 4 mm deep:" in text

@@ -23,15 +23,28 @@ def _rows_by_lateral(figures: list[dict], key: str, field: str | None, fmt: str,
     return lines
 
 
+def _depth_groups(figures: list[dict], key: str) -> list[tuple[str, list[dict]]]:
+    """The depth-keyed figure `key` as (depth text, each sensor's {l: value}) groups: one per
+    depth, or, when every run is sheared taps (one row each, at a nominal depth that a lab
+    set does not record), a single group with the runs' nominal depths."""
+    if all(f["kind"] == "sheared_taps" and len(f.get(key, {})) == 1 for f in figures):
+        depths = [next(iter(f[key])) for f in figures]
+        if len(set(depths)) > 1:
+            text = "each run's nominal depth (" + " / ".join(f"{d:g}" for d in depths) + " mm)"
+            return [(text, [next(iter(f[key].values())) for f in figures])]
+    return [
+        (f"{depth:g} mm deep", [f.get(key, {}).get(depth, {}) for f in figures])
+        for depth in sorted({d for f in figures for d in f.get(key, {})})
+    ]
+
+
 def format_edge_figures(figures: list[dict], labels: list[str] | None = None) -> str:
     """The figures of several sensors (twin.analysis.edge_imprint.edge_figures) side by side."""
     labels = labels or [f["name"] for f in figures]
     lines = ["edge figures".ljust(34) + "".join(label[: WIDTH - 1].rjust(WIDTH) for label in labels)]
-    depths = sorted({d for f in figures for d in f["signal_profile"]})
-    for depth in depths:
-        rows = [{"signal_profile": f["signal_profile"].get(depth, {})} for f in figures]
-        lines.append(f"  orientation signal / its value at l = 0, {depth:g} mm deep:")
-        lines += _rows_by_lateral(rows, "signal_profile", None, "{:.2f}")
+    for depth, profiles in _depth_groups(figures, "signal_profile"):
+        lines.append(f"  orientation signal / its value at l = 0, {depth}:")
+        lines += _rows_by_lateral([{"signal_profile": p} for p in profiles], "signal_profile", None, "{:.2f}")
     reach_at = sorted({l for f in figures for l in f["reach"]}, reverse=True)
     for l in reach_at:
         lines.append(
@@ -41,15 +54,15 @@ def format_edge_figures(figures: list[dict], labels: list[str] | None = None) ->
         for label, f in zip(labels, figures):
             bins = f["reach"].get(l)
             lines.append(f"    {label}: " + ("—" if bins is None else " ".join(f"{v:.2f}" for v in bins)))
-    for depth in sorted({d for f in figures for d in f.get("closest_pins", {})}):
+    for depth, closest in _depth_groups(figures, "closest_pins"):
         lines.append(
-            f"  closest pins, {depth:g} mm deep (nearest neighbour / at rest, the frame's smallest: "
+            f"  closest pins, {depth} (nearest neighbour / at rest, the frame's smallest: "
             "min / median over taps; frames with a pin lost, %):"
         )
-        for l in sorted({l for f in figures for l in f.get("closest_pins", {}).get(depth, {})}, reverse=True):
+        for l in sorted({l for rows in closest for l in rows}, reverse=True):
             cells = []
-            for f in figures:
-                row = f.get("closest_pins", {}).get(depth, {}).get(l)
+            for rows in closest:
+                row = rows.get(l)
                 cells.append(
                     ("—" if row is None else f"{row['min']:.2f} / {row['median']:.2f}; {100 * row['lost']:.0f}").rjust(
                         WIDTH
