@@ -229,8 +229,9 @@ def test_skin_bending_takes_the_membrane_from_the_calibration():
 
 
 def test_pretension_lever_and_bending_modulus_are_scenario_settings_in_their_units():
-    """`physics: {skin_tension_n_m, pin_lever_mm, skin_bending_mpa}` set the skin's
-    pretension (N/m), the pins' lever (mm → m) and the shell's bending modulus (MPa → Pa);
+    """`physics: {skin_tension_n_m, pin_lever_mm, skin_bending_mpa, pins_in_gel}` set the
+    skin's pretension (N/m), the pins' lever (mm → m), the shell's bending modulus (MPa →
+    Pa) and whether the tips move with the gel (default: posts);
     a pretension without the skin membrane or a bending modulus without the shell is
     refused, naming the field, and a value out of bounds names its field too."""
     from twin.core.errors import UserError
@@ -242,8 +243,10 @@ def test_pretension_lever_and_bending_modulus_are_scenario_settings_in_their_uni
             {**spec, "physics": {"membrane_young_mpa": 0.6, "skin_tension_n_m": 50.0, "pin_lever_mm": 4.0}}
         )
     )
-    assert params.skin_tension == 50.0 and params.pin_lever == pytest.approx(4e-3)
-    assert params.material[-3:] == (50.0, pytest.approx(4e-3), None)
+    assert params.skin_tension == 50.0 and params.pin_lever == pytest.approx(4e-3) and not params.pins_in_gel
+    assert params.material[-4:] == (50.0, pytest.approx(4e-3), None, False)
+    in_gel = dome_params(scenario_from_dict({**spec, "physics": {"pin_lever_mm": 3.0, "pins_in_gel": True}}))
+    assert in_gel.pins_in_gel and in_gel.material[-1] is True
     with pytest.raises(UserError, match=r"physics\.skin_tension_n_m.*membrane_young_mpa"):
         dome_params(scenario_from_dict({**spec, "physics": {"skin_tension_n_m": 50.0}}))
     shell = {"membrane_young_mpa": 0.6, "skin_bending": True, "skin_bending_mpa": 4.0}

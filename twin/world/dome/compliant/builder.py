@@ -75,8 +75,15 @@ class CompliantSettings(PhysicsSettings):
         8,
         "mm",
         "the lever the skin's turn swings a pin tip by (twin.world.dome.compliant.compliance.post_tips; "
-        "default the pins' 2 mm length)",
+        "default the pins' 2 mm length); with pins_in_gel, how far below the skin the tips move with the gel",
         None,
+    )
+
+    pins_in_gel: bool | None = Field(
+        default=None,
+        description="the pin tips move with the gel pin_lever_mm below the skin "
+        "(twin.world.dome.compliant.compliance.pin_tips_in_gel) instead of as posts turning with it "
+        "(default false)",
     )
 
     def changes(self) -> dict[str, Any]:
@@ -92,6 +99,7 @@ class CompliantSettings(PhysicsSettings):
             "skin_tension": self.skin_tension_n_m,
             "bending_young": None if self.skin_bending_mpa is None else self.skin_bending_mpa * 1e6,
             "pin_lever": None if self.pin_lever_mm is None else self.pin_lever_mm * 1e-3,
+            "pins_in_gel": self.pins_in_gel,
         }
         return {k: v for k, v in changes.items() if v is not None}
 

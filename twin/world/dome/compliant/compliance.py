@@ -58,7 +58,8 @@ gel before any contact, the gel's pressure 2T/R (Laplace) holding it: a normal
 displacement w then costs ½ T ∫ (|∇w|² − 2w²/R²) dA (`tension_stiffness`; the spherical
 harmonic of degree l costs T (l(l+1) − 2)/R² per unit area, rigid translations nothing,
 tested). The pins are levers on the skin (`post_tips`): the geometry's pin length is the
-lever its turn swings the tip by, which `DomeCompliance(pin_lever=…)` replaces.
+lever its turn swings the tip by, which `DomeCompliance(pin_lever=…)` replaces; or, with
+`pins_in_gel`, their tips move with the gel that far below the skin (`pin_tips_in_gel`).
 
 Everything in the tool frame (m): apex at the origin, +z out of the tip.
 """
@@ -99,12 +100,16 @@ class CapSurface:
 
     points (N, 3) m, normals (N, 3) outward unit, tangents (N, 2, 3) unit (meridian
     direction away from the apex, then azimuthal), area (m²) per node, polar and
-    azimuth (N,) rad.
+    azimuth (N,) rad. `pins_in_gel`: the pin tips move with the gel at their own depth
+    (`pin_tips_in_gel`) instead of as posts turning with the skin (`post_tips`); the
+    surface carries it, as its geometry carries the pins' lever, so the cached matrices
+    are keyed by it.
     """
 
     geometry: TacTipGeometry
     spacing: float
     extent_deg: float
+    pins_in_gel: bool = False
 
     @cached_property
     def count(self) -> int:
@@ -309,12 +314,30 @@ def post_tip_kernel(
     poisson: float,
     shear_modulus: float,
     step: float | None = None,
+    in_gel: bool = False,
 ) -> np.ndarray:
     """(127, 3, Ns, 3) m/N: displacement of each pin tip per unit force at each source, on
-    the half-space gel (`disc_averaged_kernel`; `post_tips`)."""
-    return post_tips(
-        geometry, lambda points: disc_averaged_kernel(points, sources, frames, radius, poisson, shear_modulus), step
-    )
+    the half-space gel (`disc_averaged_kernel`): posts turning with the skin (`post_tips`),
+    or, `in_gel`, tips moving with the gel (`pin_tips_in_gel`)."""
+
+    def gel_at(points: np.ndarray) -> np.ndarray:
+        return disc_averaged_kernel(points, sources, frames, radius, poisson, shear_modulus)
+
+    return pin_tips_in_gel(geometry, gel_at) if in_gel else post_tips(geometry, gel_at, step)
+
+
+def pin_tips_in_gel(geometry: TacTipGeometry, gel_at: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+    """(127, 3, Ns, 3) m/N: displacement of each pin tip per unit force at each of Ns
+    sources, the tips moving with the gel around them (`gel_at(points)`: (P, 3, Ns, 3)
+    m/N) at the geometry's pin length (the lever) below the skin's inner surface, along
+    its inward normal. The gel is continuous, so two tips cannot pass each other as two
+    posts turning apart can: a post's tip swings by its length times the skin's turn, and
+    where the skin's slope changes sign, at a contact's border, neighbouring tips swing
+    towards each other."""
+    bases = geometry.pin_base_points()
+    centre = np.array([0.0, 0.0, geometry.sphere_centre_z])
+    inward = (centre - bases) / geometry.skin_inner_radius
+    return gel_at(bases + geometry.pin_length * inward)
 
 
 def post_tips(
@@ -487,7 +510,15 @@ def half_space_columns(
     block[nodes, :, np.arange(len(nodes)), :] = self_compliance(
         surface.normals[nodes], surface.area, poisson, shear_modulus
     )
-    pins = post_tip_kernel(surface.geometry, surface.points[nodes], frames[nodes], radius, poisson, shear_modulus)
+    pins = post_tip_kernel(
+        surface.geometry,
+        surface.points[nodes],
+        frames[nodes],
+        radius,
+        poisson,
+        shear_modulus,
+        in_gel=surface.pins_in_gel,
+    )
     return (
         np.ascontiguousarray(np.transpose(block, (2, 3, 0, 1))),
         np.ascontiguousarray(np.transpose(pins, (2, 3, 0, 1))),
@@ -598,7 +629,9 @@ def _band_pressure(surface: CapSurface, poisson: float, held_deg: float) -> tupl
     )
     band_on_band = float(np.einsum("ia,iajb,jb->", band_forces, band, band_forces))
     pins_h = np.einsum(
-        "paqb,qb->pa", post_tip_kernel(surface.geometry, points, frames, radius, poisson, 1.0), band_forces
+        "paqb,qb->pa",
+        post_tip_kernel(surface.geometry, points, frames, radius, poisson, 1.0, in_gel=surface.pins_in_gel),
+        band_forces,
     )
     return h, pins_h, 2.0 * float(np.sum(cap_forces * h)) + band_on_band
 
@@ -667,9 +700,9 @@ def _skinned(
     gel = disc_averaged_kernel(sheet.points, sheet.points, sheet.frames, radius, poisson, shear_modulus)
     gel[np.arange(count), :, np.arange(count), :] = self_compliance(sheet.normals, surface.area, poisson, shear_modulus)
     gel = gel.reshape(3 * count, 3 * count)  # displacement per force
-    pins = post_tip_kernel(surface.geometry, sheet.points, sheet.frames, radius, poisson, shear_modulus).reshape(
-        -1, 3 * count
-    )
+    pins = post_tip_kernel(
+        surface.geometry, sheet.points, sheet.frames, radius, poisson, shear_modulus, in_gel=surface.pins_in_gel
+    ).reshape(-1, 3 * count)
     if enclosed:  # the gel's pressure on the whole free skin, as `_sealed_gel`, here without condensing
         h, pins_h, volume_compliance = _pressure_response(gel.T, pins.T, (surface.area * sheet.normals).ravel())
         _keep_gel_volume(
@@ -729,7 +762,8 @@ class DomeCompliance:
     Pa; None: `membrane_young`), where the base holds it
     (`skin_held_deg`, deg from the apex) and its pretension `skin_tension` (N/m; needs the
     membrane); `pin_lever` (m): the lever the skin's turn swings a pin tip by (None: the
-    geometry's pin length).
+    geometry's pin length); `pins_in_gel`: the tips move with the gel that far below the
+    skin (`pin_tips_in_gel`) instead.
     """
 
     def __init__(
@@ -744,6 +778,7 @@ class DomeCompliance:
         skin_tension: float = 0.0,
         pin_lever: float | None = None,
         bending_young: float | None = None,
+        pins_in_gel: bool = False,
     ) -> None:
         if not (young > 0 and 0.0 <= poisson <= 0.5 and membrane_young >= 0):
             raise ValueError(
@@ -763,6 +798,7 @@ class DomeCompliance:
             raise ValueError(f"pin lever: need 0 <= pin_lever < the skin's inner radius, got {pin_lever} m")
         if pin_lever is not None:  # the lever is the post's length in post_tips; the surface's key carries it
             surface = dataclasses.replace(surface, geometry=dataclasses.replace(surface.geometry, pin_length=pin_lever))
+        surface = dataclasses.replace(surface, pins_in_gel=pins_in_gel)
         if not surface.extent_deg <= skin_held_deg <= 90.0:
             raise ValueError(
                 f"the base holds the skin between the cap's rim ({surface.extent_deg:g}°) and the "

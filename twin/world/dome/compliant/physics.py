@@ -100,6 +100,9 @@ class CompliantParams:
     pin_lever (m): the lever the skin's turn swings a pin tip by (twin.world.dome.
       compliant.compliance.post_tips); None (the default) = the geometry's pin length,
       2 mm. Longer: the pins amplify the skin's slope more against its displacement.
+    pins_in_gel: the pin tips move with the gel at the lever's depth below the skin
+      (twin.world.dome.compliant.compliance.pin_tips_in_gel) instead of as posts turning
+      with the skin, so neighbouring tips cannot pass each other. Off by default.
     """
 
     #: the largest Poisson's ratio (–) the model takes (the incompressible gel's ν = 0.5 is the model's own)
@@ -124,14 +127,16 @@ class CompliantParams:
     skin_tension: float = 0.0
     pin_lever: float | None = None
     bending_young: float | None = None
+    pins_in_gel: bool = False
 
     def with_(self, **changes) -> CompliantParams:
         return replace(self, **changes)
 
     @property
-    def material(self) -> tuple[float, float, bool, float, bool, float, float, float | None, float | None]:
+    def material(self) -> tuple[float, float, bool, float, bool, float, float, float | None, float | None, bool]:
         """`DomeCompliance`'s arguments after the surface: young, poisson, enclosed,
-        membrane_young, skin_bending, skin_held_deg, skin_tension, pin_lever, bending_young."""
+        membrane_young, skin_bending, skin_held_deg, skin_tension, pin_lever, bending_young,
+        pins_in_gel."""
         return (
             self.young,
             self.poisson,
@@ -142,6 +147,7 @@ class CompliantParams:
             self.skin_tension,
             self.pin_lever,
             self.bending_young,
+            self.pins_in_gel,
         )
 
 
@@ -510,6 +516,7 @@ def dome_compliance(
     skin_tension: float = 0.0,
     pin_lever: float | None = None,
     bending_young: float | None = None,
+    pins_in_gel: bool = False,
 ) -> DomeCompliance:
     """The influence matrices for this surface and material, shared within the process
     (the sealed gel's loaded from the cache, or computed, at the first contact). Eight
@@ -525,4 +532,5 @@ def dome_compliance(
         skin_tension,
         pin_lever,
         bending_young,
+        pins_in_gel,
     )
