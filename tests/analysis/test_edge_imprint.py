@@ -326,6 +326,12 @@ def test_compare_and_evaluate_print_the_edge_figures(run: Run, tmp_path: Path, c
     assert "A: rig" in header and "B: twin" in header
     figures = json.loads((tmp_path / "cmp" / "comparison.json").read_text())["edge_figures"]
     assert figures["a"]["signal_profile"]["3.0"]["-2.0"] == pytest.approx(E.signal_profile(run)[3.0][-2.0])
+    # the reach profile where the user asks (the runs span l = -2.5 ... 2.5 mm)
+    assert main(["compare", str(a), str(b), "--out", str(tmp_path / "cmp_reach"), "--reach-at", "-1", "2"]) == 0
+    reach = [line for line in capsys.readouterr().out.splitlines() if line.startswith("  reach at l")]
+    assert [line.split(" mm")[0] for line in reach] == ["  reach at l +2", "  reach at l -1"]
+    assert main(["compare", str(a), str(b), "--out", str(tmp_path / "cmp_bad"), "--reach-at", "nan"]) == 2
+    capsys.readouterr()
     # a lab camera's resolution beside the twin's: never paired pin by pin, even on shared targets
     lab = _write(sheared_run(300, seed=6), tmp_path / "lab", "lab")
     meta = json.loads((lab / "run.json").read_text())

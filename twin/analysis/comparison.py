@@ -13,7 +13,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 from skimage.metrics import structural_similarity
 
-from twin.analysis.edge_imprint import edge_figures
+from twin.analysis.edge_imprint import REACH_AT_MM, edge_figures
 from twin.analysis.evaluation import along_edge_drag_px, orientation_signal_px
 from twin.core.errors import UserError
 from twin.runs.record import Run, jsonable, load_run
@@ -113,6 +113,7 @@ def compare_runs(
     model_path: Path | None = None,
     slides_a: Path | None = None,
     slides_b: Path | None = None,
+    reach_at: tuple[float, ...] = REACH_AT_MM,
 ) -> dict:
     """Pair the runs' samples by target pose and write comparison.json to `out` (the plots:
     twin.tools.comparison_report).
@@ -124,7 +125,7 @@ def compare_runs(
     weigh, side by side for a sim and a real sensor. Two tap runs (plain or sheared, e.g. an
     imported lab recording beside the twin's taps) also get the edge figures
     (twin.analysis.edge_imprint; `slides_a`, `slides_b`: a plain tap run's slides run for
-    the along-edge drag), and compare by those alone when they share no target pose in
+    the along-edge drag; `reach_at`: the lateral positions of the reach profile, mm), and compare by those alone when they share no target pose in
     contact (both start with a no-contact frame at one pose) or differ in resolution (a
     lab camera's 256×256 beside the twin's 640×480: pins compare through the figures)."""
     a, b = load_run(dir_a), load_run(dir_b)
@@ -164,7 +165,7 @@ def compare_runs(
         result["along_edge_drag_px"] = {"a": along_edge_drag_px(a), "b": along_edge_drag_px(b)}
     if edge_taps:  # what each sensor's taps carry of the edge, and how a slide drags its pins
         result["edge_figures"] = {
-            tag: edge_figures(run, None if slides is None else load_run(slides))
+            tag: edge_figures(run, None if slides is None else load_run(slides), reach_at)
             for tag, run, slides in (("a", a, slides_a), ("b", b, slides_b))
         }
         in_contact = [(i, j) for i, j in pair_samples(a, b) if not a.samples[i]["labels"].get("no_contact")]

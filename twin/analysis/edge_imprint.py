@@ -47,6 +47,8 @@ from twin.sensing.perception import pca_fit, pins_to_vectors
 SHEARED_TERMS = ("theta_deg", "slide_along_mm", "slide_lateral_mm", "twist_deg", "depth_offset_mm", "lateral_in_bin_mm")
 SLIDE_TERMS = ("slide_along_mm", "slide_lateral_mm", "twist_deg")
 REACH_BINS = 10
+#: the lateral positions (mm) of the reach profile unless asked for others: 4 mm onto and off the object
+REACH_AT_MM = (-4.0, 4.0)
 #: a 60° turn must map every rest pin within this fraction of a pin spacing of another
 SYMMETRY_TOLERANCE = 0.35
 
@@ -402,10 +404,11 @@ def reach_profile(run: Run, lateral_mm: float, half_width_mm: float = 0.5, bins:
     return (total / total.max()).tolist()
 
 
-def edge_figures(taps: Run, slides: Run | None = None, reach_at: tuple[float, ...] = (-4.0, 4.0)) -> dict:
+def edge_figures(taps: Run, slides: Run | None = None, reach_at: tuple[float, ...] = REACH_AT_MM) -> dict:
     """Every figure of this module for one sensor: a tap run (plain or sheared) and, for
     plain taps, a slides run for the along-edge drag (its slides at their first lateral
-    position). Keys: signal_profile, reach (l → ten bins), closest_pins, pcs_explained,
+    position). `reach_at`: the l (mm) of the reach profiles; those with no tap within 0.5 mm
+    are left out. Keys: signal_profile, reach (l → ten bins), closest_pins, pcs_explained,
     pcs_turned, drag_over_signal and along_edge (l → figures; sheared taps, or plain taps
     with slides)."""
     pcs = tap_pcs(taps)

@@ -175,7 +175,11 @@ def _warn_unfinished(notes: list[str]) -> None:
 def _cmd_evaluate(args: argparse.Namespace) -> int:
 
     result = _command_module("twin.tools.evaluation_report").evaluate_and_report(
-        Path(args.train), Path(args.test), output_folder(Path(args.out), "twin evaluate --out"), seed=args.seed
+        Path(args.train),
+        Path(args.test),
+        output_folder(Path(args.out), "twin evaluate --out"),
+        seed=args.seed,
+        **_reach_at(args),
     )
     _warn_unfinished(result["unfinished"])
     if "heldout_by_lateral_mm" in result:
@@ -221,6 +225,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         model_path=Path(args.model) if args.model else None,
         slides_a=Path(args.slides_a) if args.slides_a else None,
         slides_b=Path(args.slides_b) if args.slides_b else None,
+        **_reach_at(args),
     )
     _warn_unfinished(r["unfinished"])
     if not r["n_pairs"]:
@@ -349,6 +354,25 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 #: argument types: a seed as the scenario schema bounds it, local processes, a count, seconds
 SEED = bounded_int(0, 2**32 - 1, "")
+
+
+def _add_reach_at(p: argparse.ArgumentParser) -> None:
+    """The edge figures' `--reach-at L [L ...]`: where the reach profile is taken."""
+    p.add_argument(
+        "--reach-at",
+        nargs="+",
+        type=bounded_float(-20.0, 20.0, "mm"),
+        default=None,
+        metavar="L",
+        help="lateral positions (mm, + off the object) of the edge figures' reach profile (default: -4 4)",
+    )
+
+
+def _reach_at(args: argparse.Namespace) -> dict:
+    """`--reach-at` as the report functions' keyword, when given (their default otherwise)."""
+    return {} if args.reach_at is None else {"reach_at": tuple(args.reach_at)}
+
+
 WORKERS = bounded_int(1, 4096, "processes")
 COUNT = bounded_int(1, 10**9, "")
 TIMEOUT = bounded_float(0, 1e6, "s", open_lo=True)
@@ -445,6 +469,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--out", required=True)
     p.add_argument("--seed", type=SEED, default=0)
+    _add_reach_at(p)
     p.set_defaults(func=_cmd_evaluate)
 
     p = sub.add_parser("serve-robot", help="answer the IRB120's RAPID socket protocol with the simulated arm")
@@ -499,6 +524,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="a plain tap run A's slides run: its along-edge drag in the edge figures",
     )
     p.add_argument("--slides-b", default=None, metavar="RUN", help="the same for run B")
+    _add_reach_at(p)
     p.set_defaults(func=_cmd_compare)
 
     p = sub.add_parser(

@@ -11,6 +11,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from twin.analysis.comparison import compare_runs, displacements, paired_runs, pin_differences
+from twin.analysis.edge_imprint import REACH_AT_MM
 from twin.runs.record import Run, load_run
 
 
@@ -22,11 +23,19 @@ def compare_and_report(
     model_path: Path | None = None,
     slides_a: Path | None = None,
     slides_b: Path | None = None,
+    reach_at: tuple[float, ...] = REACH_AT_MM,
 ) -> dict:
     """`twin compare`: comparison.json (twin.analysis.comparison.compare_runs) and its plots in
     `out` (no plots for runs compared by their edge figures alone, which share no sample)."""
     result = compare_runs(
-        dir_a, dir_b, out, max_ssim_frames=max_ssim_frames, model_path=model_path, slides_a=slides_a, slides_b=slides_b
+        dir_a,
+        dir_b,
+        out,
+        max_ssim_frames=max_ssim_frames,
+        model_path=model_path,
+        slides_a=slides_a,
+        slides_b=slides_b,
+        reach_at=reach_at,
     )
     if not result["n_pairs"]:
         return result

@@ -10,7 +10,7 @@ from pathlib import Path
 import matplotlib
 import matplotlib.pyplot as plt
 
-from twin.analysis.edge_imprint import edge_figures
+from twin.analysis.edge_imprint import REACH_AT_MM, edge_figures
 from twin.analysis.evaluation import DIRECTIONS, PAPER_TABLE_I, evaluate, pca_projections
 from twin.runs.record import jsonable, load_run
 
@@ -98,17 +98,19 @@ def write_pca_figures(train_dir: Path, test_dir: Path, out: Path) -> list[Path]:
     return paths
 
 
-def evaluate_and_report(train_dir: Path, test_dir: Path, out: Path, seed: int = 0) -> dict:
+def evaluate_and_report(
+    train_dir: Path, test_dir: Path, out: Path, seed: int = 0, reach_at: tuple[float, ...] = REACH_AT_MM
+) -> dict:
     """`twin evaluate`: the evaluation's results and models in `out`
     (twin.analysis.evaluation.evaluate), and for a slides run the PCA figures. A sheared-tap
     training run (an imported lab recording, or the twin's) also gets its edge figures
     (twin.analysis.edge_imprint: the drag separated from the orientation) in
-    out/edge_figures.json and the result's "edge_figures"."""
+    out/edge_figures.json and the result's "edge_figures" (its reach profiles at `reach_at`, mm)."""
     result = evaluate(train_dir, test_dir, out, seed=seed)
     if "table_i_rms_orientation_deg" in result:
         write_pca_figures(train_dir, test_dir, out)
     train = load_run(train_dir)
     if train.meta["scenario"]["protocol"]["kind"] == "sheared_taps":
-        result["edge_figures"] = edge_figures(train)
+        result["edge_figures"] = edge_figures(train, reach_at=reach_at)
         (out / "edge_figures.json").write_text(json.dumps(jsonable(result["edge_figures"]), indent=1))
     return result
