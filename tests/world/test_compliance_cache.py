@@ -15,7 +15,7 @@ from twin.world.dome.compliant.compliance import (
     DomeCompliance,
     disc_averaged_kernel,
     half_space_columns,
-    post_tip_kernel,
+    pin_tip_kernel,
     sealed_gel,
     self_compliance,
     skinned,
@@ -83,7 +83,7 @@ def test_the_free_skin_to_the_equator_is_sealed_with_the_cap():
     whole = disc_averaged_kernel(points, points, frames, radius, 0.5, 1.0)  # [point, a, source, b]
     whole[np.arange(count), :, np.arange(count), :] = self_compliance(frames[:, 0], SURFACE.area, 0.5, 1.0)
     whole = whole.reshape(3 * count, 3 * count)
-    pins = post_tip_kernel(SURFACE.geometry, points, frames, radius, 0.5, 1.0).reshape(-1, 3 * count)
+    pins = pin_tip_kernel(SURFACE, points, frames, radius, 0.5, 1.0).reshape(-1, 3 * count)
     pressure = (SURFACE.area * frames[:, 0]).ravel()
     h = 0.5 * (whole @ pressure + whole.T @ pressure)
     sealed = whole - np.outer(h, h) / (pressure @ h)

@@ -6,7 +6,7 @@ Model: the skin + gel under the contact is a linear elastic solid whose response
 point force on its surface is that of an elastic half-space tangent to the dome at the
 force's node — the Boussinesq (normal) and Cerruti (tangential) solutions (K. L. Johnson,
 *Contact Mechanics*, 1985, eqs. 3.20–3.21), including their subsurface form, which gives
-the gel's displacement at a pin's base (the pins: `post_tip_kernel`). This is how Kalker's CONTACT describes
+the gel's displacement at a pin's base (the pins: `pin_tip_kernel`). This is how Kalker's CONTACT describes
 elastic bodies; it is exact for Hertz and Cattaneo–Mindlin (the verification tests) and
 costs no finite-element precomputation: every matrix entry is closed form.
 
@@ -306,24 +306,34 @@ def self_compliance(outward: np.ndarray, area: float, poisson: float, shear_modu
     return tangential * (np.eye(3)[None] - nn) + normal * nn
 
 
-def post_tip_kernel(
-    geometry: TacTipGeometry,
+def pin_tip_kernel(
+    surface: CapSurface,
     sources: np.ndarray,
     frames: np.ndarray,
     radius: float,
     poisson: float,
     shear_modulus: float,
     step: float | None = None,
-    in_gel: bool = False,
 ) -> np.ndarray:
     """(127, 3, Ns, 3) m/N: displacement of each pin tip per unit force at each source, on
-    the half-space gel (`disc_averaged_kernel`): posts turning with the skin (`post_tips`),
-    or, `in_gel`, tips moving with the gel (`pin_tips_in_gel`)."""
+    the half-space gel (`disc_averaged_kernel`), by the surface's pin model: posts turning
+    with the skin (`post_tips`), or tips moving with the gel (`pins_in_gel`:
+    `pin_tips_in_gel`), the lever being its geometry's pin length."""
 
     def gel_at(points: np.ndarray) -> np.ndarray:
         return disc_averaged_kernel(points, sources, frames, radius, poisson, shear_modulus)
 
-    return pin_tips_in_gel(geometry, gel_at) if in_gel else post_tips(geometry, gel_at, step)
+    if surface.pins_in_gel:
+        return pin_tips_in_gel(surface.geometry, gel_at)
+    return post_tips(surface.geometry, gel_at, step)
+
+
+def _pin_bases(geometry: TacTipGeometry) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(127, 3) where the pins leave the skin's inner surface, (127, 3) its outward unit
+    normals there and (3,) the sphere's centre (m, tool frame)."""
+    bases = geometry.pin_base_points()
+    centre = np.array([0.0, 0.0, geometry.sphere_centre_z])
+    return bases, (bases - centre) / geometry.skin_inner_radius, centre
 
 
 def pin_tips_in_gel(geometry: TacTipGeometry, gel_at: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
@@ -334,10 +344,8 @@ def pin_tips_in_gel(geometry: TacTipGeometry, gel_at: Callable[[np.ndarray], np.
     posts turning apart can: a post's tip swings by its length times the skin's turn, and
     where the skin's slope changes sign, at a contact's border, neighbouring tips swing
     towards each other."""
-    bases = geometry.pin_base_points()
-    centre = np.array([0.0, 0.0, geometry.sphere_centre_z])
-    inward = (centre - bases) / geometry.skin_inner_radius
-    return gel_at(bases + geometry.pin_length * inward)
+    bases, normals, _ = _pin_bases(geometry)
+    return gel_at(bases - geometry.pin_length * normals)
 
 
 def post_tips(
@@ -361,9 +369,7 @@ def post_tips(
     1.5 mm 1.2 px; RMS over all pins 0.24 and 0.21 px).
     """
     step = geometry.skin_thickness if step is None else step
-    bases = geometry.pin_base_points()
-    centre = np.array([0.0, 0.0, geometry.sphere_centre_z])
-    normals = (bases - centre) / geometry.skin_inner_radius
+    bases, normals, centre = _pin_bases(geometry)
     helper = np.where(np.abs(normals[:, 2:3]) < 0.9, np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0]))
     t1 = _unit(np.cross(helper, normals))
     t2 = np.cross(normals, t1)
@@ -510,15 +516,7 @@ def half_space_columns(
     block[nodes, :, np.arange(len(nodes)), :] = self_compliance(
         surface.normals[nodes], surface.area, poisson, shear_modulus
     )
-    pins = post_tip_kernel(
-        surface.geometry,
-        surface.points[nodes],
-        frames[nodes],
-        radius,
-        poisson,
-        shear_modulus,
-        in_gel=surface.pins_in_gel,
-    )
+    pins = pin_tip_kernel(surface, surface.points[nodes], frames[nodes], radius, poisson, shear_modulus)
     return (
         np.ascontiguousarray(np.transpose(block, (2, 3, 0, 1))),
         np.ascontiguousarray(np.transpose(pins, (2, 3, 0, 1))),
@@ -630,7 +628,7 @@ def _band_pressure(surface: CapSurface, poisson: float, held_deg: float) -> tupl
     band_on_band = float(np.einsum("ia,iajb,jb->", band_forces, band, band_forces))
     pins_h = np.einsum(
         "paqb,qb->pa",
-        post_tip_kernel(surface.geometry, points, frames, radius, poisson, 1.0, in_gel=surface.pins_in_gel),
+        pin_tip_kernel(surface, points, frames, radius, poisson, 1.0),
         band_forces,
     )
     return h, pins_h, 2.0 * float(np.sum(cap_forces * h)) + band_on_band
@@ -700,9 +698,7 @@ def _skinned(
     gel = disc_averaged_kernel(sheet.points, sheet.points, sheet.frames, radius, poisson, shear_modulus)
     gel[np.arange(count), :, np.arange(count), :] = self_compliance(sheet.normals, surface.area, poisson, shear_modulus)
     gel = gel.reshape(3 * count, 3 * count)  # displacement per force
-    pins = post_tip_kernel(
-        surface.geometry, sheet.points, sheet.frames, radius, poisson, shear_modulus, in_gel=surface.pins_in_gel
-    ).reshape(-1, 3 * count)
+    pins = pin_tip_kernel(surface, sheet.points, sheet.frames, radius, poisson, shear_modulus).reshape(-1, 3 * count)
     if enclosed:  # the gel's pressure on the whole free skin, as `_sealed_gel`, here without condensing
         h, pins_h, volume_compliance = _pressure_response(gel.T, pins.T, (surface.area * sheet.normals).ravel())
         _keep_gel_volume(

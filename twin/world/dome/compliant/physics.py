@@ -14,7 +14,7 @@ every increment of the path:
   contact and Coulomb friction whose stick/slip state and tractions carry over from the
   previous increment — the path dependence the paper is about;
 * the pins are posts on the skin: each base moves with the gel and each post turns with
-  the skin's surface (twin.world.dome.compliant.compliance.post_tip_kernel), so a flattened patch
+  the skin's surface (twin.world.dome.compliant.compliance.pin_tip_kernel), so a flattened patch
   swings its pins' tips outwards and a sheared patch carries them along.
 
 A move is cut into increments of at most `step_length` of tool travel and
