@@ -46,6 +46,12 @@ DOME_MATERIAL: dict[str, tuple[str, float, float, str]] = {
         "compliant dome: where the base holds the skin, from the apex (90 = the "
         "equator; at least the contact cap's 65)",
     ),
+    "skin_bending_mpa": (
+        "MPa",
+        0.01,
+        50.0,
+        "compliant dome with skin_bending: the skin shell's bending modulus (its membrane modulus unless set)",
+    ),
 }
 
 

@@ -25,6 +25,31 @@ def _fmt(v: float | None, digits: int = 3) -> str:
     return "–" if v is None else f"{v:.{digits}f}"
 
 
+def _edge_figure_lines(figures: dict | None) -> list[str]:
+    """The edge figures' table, recorded beside the twin before and after (misses in tolerances)."""
+    if not figures:
+        return []
+    lines = [
+        "",
+        f"Edge figures (weight {figures['weight']:g}). Miss: over the tolerance (0.1 for the signal ratio, a "
+        "factor 4/3 for the others) and, fitted, over √(tolerance² + spread²), the spread the recorded figure's "
+        "over bootstrap resamples of its frames (the signal's in its units, the others' in log units; "
+        "twin.analysis.calibration_fit.figures):",
+        "",
+        "| run | figure | l (mm) | recorded | spread | before | miss | after | miss | fitted miss |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for b, a in zip(figures["before"], figures["after"]):
+        lines.append(
+            f"| {a['run']} | {a['figure']} | {a['lateral_mm']:+g} | {a['recorded']:.3g} | {a['spread']:.2f} | "
+            f"{_fmt(b['twin'], 3)} | {b['miss_tolerance']:+.1f} | {_fmt(a['twin'], 3)} | {a['miss_tolerance']:+.1f} | "
+            f"{a['miss']:+.1f} |"
+        )
+    within = [sum(abs(row["miss_tolerance"]) <= 1.0 for row in figures[k]) for k in ("before", "after")]
+    lines += ["", f"Within their tolerance: {within[0]} of {len(figures['after'])} before, {within[1]} after."]
+    return lines
+
+
 def report_markdown(r: dict) -> str:
     """The report as markdown: status, pin RMS before/after, fitted values ± std, speed."""
     lines = [
@@ -72,6 +97,7 @@ def report_markdown(r: dict) -> str:
         for name, v in rest["values"].items():
             flag = " (**at a bound**: widen it)" if name in rest["at_bound"] else ""
             lines.append(f"| {name} | {rest['twin'][name]:.4g} | {v:.4g}{flag} | {rest['std'][name]:.2g} |")
+    lines += _edge_figure_lines(r.get("edge_figures"))
     lines += [
         "",
         "| parameter | default | fitted | ± std | resolution | VIF | bounds | identifiable |",

@@ -33,6 +33,7 @@ class Data:
     weights: np.ndarray  # (N,) per-frame weight of its group
     sim_index: list[np.ndarray] = field(default_factory=list)  # per run: recorded sample -> simulated row
     unfinished: list[str] = field(default_factory=list)  # a line per run that did not finish (Run.unfinished_note)
+    records: list[Run] = field(default_factory=list)  # the runs as read
 
 
 def _group(scenario: Scenario, sample: dict) -> int:
@@ -87,6 +88,7 @@ def load_data(run_dirs: list[Path], scenario: Scenario, weights: Weights) -> Dat
         chunks,
         np.array([getattr(weights, g) for g in GROUPS])[group],
         unfinished=[n for n in (run.unfinished_note() for run in records) if n],
+        records=records,
     )
     # pair each recorded sample with its simulated row by target pose (twin compare's pairing)
     for r, run in enumerate(records):

@@ -1,6 +1,6 @@
 """A calibration's model of the recorded pins: physics candidates simulated in parallel
-(cached), the camera solved by least squares for each, the whitened residuals, χ² and
-the pin RMS (px)."""
+(cached), the camera solved by least squares for each, the whitened residuals (the pins',
+then the edge figures' where weighted), χ² and the pin RMS (px)."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from twin.analysis.calibration_fit.data import GROUPS, Data
+from twin.analysis.calibration_fit.figures import EdgeFigureTarget
 from twin.analysis.calibration_fit.space import Space
 from twin.core.errors import PhysicsError, UserError
 from twin.core.resources import searching
@@ -55,8 +56,24 @@ class Evaluator:
         #: parallel slots to fill: the local workers, or (with a Ray cluster) --workers as its CPU count
         self.parallelism = pool.workers
         self.valid = np.isfinite(data.pins).all(axis=2)  # (N, 127)
-        #: the sample of each entry of the residual vector (x and y of each valid pin)
-        self.row_sample = np.repeat(np.nonzero(self.valid)[0], 2)
+        #: the pins in the residual vector: found, in a frame of non-zero weight
+        self.weighed = self.valid & (data.weights > 0)[:, None]
+        weight = space.settings.weights.edge_figures
+        #: the edge figures' target where they are weighted (sheared-tap runs only), else None
+        settings = space.settings
+        self.figures = (
+            EdgeFigureTarget.of(
+                data.records, data.run_index, weight, settings.edge_figure_resamples, settings.optimiser.seed
+            )
+            if weight > 0
+            else None
+        )
+        #: the cluster of each entry of the residual vector: the sample of each pin's x and y,
+        #: then one of its own for each edge figure
+        self.row_sample = np.repeat(np.nonzero(self.weighed)[0], 2)
+        if self.figures is not None:
+            n_figures = sum(len(f) for f in self.figures.recorded)
+            self.row_sample = np.concatenate([self.row_sample, len(data.pins) + np.arange(n_figures)])
         self.rest = data.group == GROUPS.index("rest")
         self.fit_rest = space.settings.rest_pins and bool(self.rest.any())
         #: rest offsets (127, 2) px to use instead of the closed form (held-out runs: the fit's layout)
@@ -122,12 +139,23 @@ class Evaluator:
                 offsets = base.rest_offsets_px(self.space.scenario.sensor.camera.width)
         return proj + offsets, offsets
 
-    def residuals(self, tips: np.ndarray, values: dict[str, float], priors: bool = True) -> np.ndarray:
-        """Whitened residual vector: √w (recorded − predicted) / noise_px, then the priors."""
+    def residuals(
+        self, tips: np.ndarray, values: dict[str, float], priors: bool = True, figures: bool = True
+    ) -> np.ndarray:
+        """Whitened residual vector: √w (recorded − predicted) / noise_px of the weighed pins,
+        then (`figures`, where weighted) the edge figures' misses, then (`priors`) the priors."""
         pred, _ = self.predict(tips, values)
         r = (self.data.pins - pred) * (np.sqrt(self.data.weights)[:, None, None] / self.space.settings.noise_px)
-        r = r[self.valid].ravel()
-        return np.concatenate([r, self.space.prior_residuals(values)]) if priors else r
+        blocks = [r[self.weighed].ravel()]
+        if figures and self.figures is not None:
+            blocks.append(self.figures.residuals(pred))
+        if priors:
+            blocks.append(self.space.prior_residuals(values))
+        return np.concatenate(blocks)
+
+    def figure_table(self, tips: np.ndarray, values: dict[str, float]) -> list[dict] | None:
+        """The edge figures, recorded and twin, with their misses (None where not weighted)."""
+        return None if self.figures is None else self.figures.table(self.predict(tips, values)[0])
 
     def solve_camera(self, tips: np.ndarray, physics: dict[str, float], start: dict[str, float]) -> dict[str, float]:
         """The physics values plus the least-squares camera values for these pin tips."""
@@ -135,8 +163,8 @@ class Evaluator:
         if not names:
             return dict(physics)
 
-        def fun(unit: np.ndarray) -> np.ndarray:
-            return self.residuals(tips, {**physics, **self.space.from_unit(names, unit)})
+        def fun(unit: np.ndarray) -> np.ndarray:  # the pins alone: the figures are ratios, all but blind to the camera
+            return self.residuals(tips, {**physics, **self.space.from_unit(names, unit)}, figures=False)
 
         x0 = np.clip(self.space.to_unit(names, start), 0.0, 1.0)
         sol = least_squares(fun, x0, bounds=(0.0, 1.0), x_scale="jac", diff_step=1e-6, xtol=1e-10, ftol=1e-10)

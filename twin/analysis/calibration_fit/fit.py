@@ -21,8 +21,14 @@ The model of a recorded pin (px) in sample i, pin k:
   pins (the least-squares solution for given θ). Without no-contact frames it stays 0 and
   the report says so.
 
-Objective: χ² = Σ w_i |pin_ik − recorded_ik|² / σ² + Σ ((θ − θ_default)/prior_std)², with σ
-= settings.noise_px and per-frame weights w by group (rest, contact, sliding). The
+Objective: χ² = Σ w_i |pin_ik − recorded_ik|² / σ² + w_e Σ_f miss_f² + Σ ((θ − θ_default)/prior_std)²,
+with σ = settings.noise_px, per-frame weights w by group (rest, contact, sliding), and
+w_e = weights.edge_figures: on sheared-tap runs, the misses of the edge figures of the
+twin's predicted pins against the recorded ones, each over its tolerance
+(twin.analysis.calibration_fit.figures; a frame of zero weight still counts there). A
+pin-level misfit shared by every frame (the camera's, or the model's) can outweigh what
+the physics parameters do to the edge; with the contact weights at 0 the camera is fitted
+to the no-contact frames and the physics to the figures alone. The
 expensive, noisy physics parameters are searched by CMA-ES (`cma`; one alone, which pycma
 cannot search, by a shrinking grid: BracketSearch); for each candidate the cheap, smooth
 camera parameters are solved by least squares (scipy, trust region) — a separable
@@ -150,6 +156,7 @@ def _calibrate(
     # "before" is the twin as the scenario has it: its rest layout, not one fitted to these runs
     ev.fit_rest, fit_rest = False, ev.fit_rest
     before = ev.rms(before_tips, before_values)
+    figures_before = ev.figure_table(before_tips, before_values)
     ev.fit_rest = fit_rest
     rest_camera = _camera_from_rest(ev, before_tips)
     state = optimise(ev, out, search_key(run_dirs, scenario, settings), progress)
@@ -177,6 +184,7 @@ def _calibrate(
         )
     calibration = space.calibration(final, offsets if ev.fit_rest else None)
     after = ev.rms(final_tips, final)
+    figures_after = ev.figure_table(final_tips, final)
     elsewhere = (
         _predicted_elsewhere(held_out, space, pool, before_values, final, offsets if ev.fit_rest else None)
         if held_out
@@ -207,6 +215,9 @@ def _calibrate(
         "before": before,
         "after": after,
         "camera_from_rest": rest_camera,
+        "edge_figures": None
+        if figures_after is None
+        else {"weight": settings.weights.edge_figures, "before": figures_before, "after": figures_after},
         "held_out": elsewhere,
         "uncertainty": errors,
         "generations": state["generation"],

@@ -32,6 +32,7 @@ PHYSICS = (
     "material.poisson",
     "material.membrane_young_mpa",
     "material.skin_held_deg",
+    "material.skin_bending_mpa",
     "friction",
     "tcp.x_mm",
     "tcp.y_mm",
@@ -67,6 +68,11 @@ class Weights(_Strict):
     rest: float = Field(ge=0)
     contact: float = Field(ge=0)
     sliding: float = Field(ge=0)
+    edge_figures: float = Field(
+        ge=0,
+        description="sheared-tap runs: the weight of the edge figures' misses (twin.analysis.calibration_fit."
+        "figures); 0 = not computed",
+    )
 
 
 class OptimiserSettings(_Strict):
@@ -90,6 +96,9 @@ class CalibrationSettings(_Strict):
         description="camera parameters whose start is first fitted to the no-contact frames' pins (no rest offsets)"
     )
     weights: Weights
+    edge_figure_resamples: int = Field(
+        ge=0, le=1000, description="bootstrap resamples for the recorded edge figures' spread (0 = none)"
+    )
     noise_px: float = Field(gt=0, le=50)
     identifiable_fraction: float = Field(gt=0, le=10)
     max_variance_inflation: float = Field(ge=1)

@@ -11,30 +11,37 @@ from twin.core.sensor import N_PINS
 
 def jacobian(ev: Evaluator, values: dict[str, float], tips: np.ndarray) -> np.ndarray:
     """d(whitened data residuals)/d(parameter) for every fitted parameter (central differences:
-    physics by simulation, 5 % of the range; camera 1e-4 of the range)."""
+    physics by simulation, 5 % of the range; camera 1e-4 of the range). A step that would
+    leave the parameter's bounds stops at the bound (a point at a bound gets the one-sided
+    difference): beyond them a candidate may not be simulated at all (a modulus below its least)."""
     space = ev.space
+    p = space.settings.parameters
+
+    def steps(n: str, h: float) -> tuple[float, float]:
+        return min(values[n] + h, p[n].upper), max(values[n] - h, p[n].lower)
+
     cols = []
-    physics_steps = {n: 0.05 * space.range[n] for n in space.physics}
+    physics_steps = {n: steps(n, 0.05 * space.range[n]) for n in space.physics}
     plus_minus = []
     for n in space.physics:
-        for sign in (1, -1):
-            plus_minus.append({m: values[m] for m in space.physics} | {n: values[n] + sign * physics_steps[n]})
+        for value in physics_steps[n]:
+            plus_minus.append({m: values[m] for m in space.physics} | {n: value})
     sims = ev.simulate(plus_minus) if plus_minus else []
     r0 = ev.residuals(tips, values, priors=False)
     for n in space.fitted:
         if n in space.physics:
             i = space.physics.index(n)
             plus, minus = sims[2 * i], sims[2 * i + 1]
-            # one side beyond what the physics can simulate: the one-sided difference; both: no column
-            rp = r0 if plus is None else ev.residuals(plus, values, priors=False)
-            rm = r0 if minus is None else ev.residuals(minus, values, priors=False)
-            steps = (plus is not None) + (minus is not None)
-            cols.append((rp - rm) / (steps * physics_steps[n]) if steps else np.zeros_like(r0))
+            high, low = physics_steps[n]
+            # a side the physics cannot simulate: the one-sided difference from the point; both: no column
+            rp, high = (r0, values[n]) if plus is None else (ev.residuals(plus, values, priors=False), high)
+            rm, low = (r0, values[n]) if minus is None else (ev.residuals(minus, values, priors=False), low)
+            cols.append((rp - rm) / (high - low) if high > low else np.zeros_like(r0))
         else:
-            h = 1e-4 * space.range[n]
-            rp = ev.residuals(tips, {**values, n: values[n] + h}, priors=False)
-            rm = ev.residuals(tips, {**values, n: values[n] - h}, priors=False)
-            cols.append((rp - rm) / (2 * h))
+            high, low = steps(n, 1e-4 * space.range[n])
+            rp = ev.residuals(tips, {**values, n: high}, priors=False)
+            rm = ev.residuals(tips, {**values, n: low}, priors=False)
+            cols.append((rp - rm) / (high - low))
     return np.column_stack(cols) if cols else np.zeros((0, 0))
 
 

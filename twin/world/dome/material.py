@@ -16,7 +16,12 @@ _TO_DOME: dict[str, tuple[str, float]] = {
     "poisson": ("poisson", 1.0),
     "membrane_young_mpa": ("membrane_young", 1e6),
     "skin_held_deg": ("skin_held_deg", 1.0),
+    "skin_bending_mpa": ("bending_young", 1e6),
 }
+#: model fields unset (None) until given, and the field whose value they take meanwhile
+_FALLBACK = {"bending_young": "membrane_young"}
+#: material names that mean something only when the model has an effect switched on
+_NEEDS = {"skin_bending_mpa": "skin_bending"}
 assert set(_TO_DOME) == set(DOME_MATERIAL)
 
 Params = DomeParameters
@@ -25,7 +30,16 @@ Params = DomeParameters
 def material_names(params: Params) -> list[str]:
     """The material names this dome model has."""
     have = {f.name for f in fields(params)}
-    return [name for name, (field, _) in _TO_DOME.items() if field in have]
+    return [
+        name
+        for name, (field, _) in _TO_DOME.items()
+        if field in have and (name not in _NEEDS or getattr(params, _NEEDS[name]))
+    ]
+
+
+def _value(params: Params, field: str) -> float:
+    value = getattr(params, field)
+    return getattr(params, _FALLBACK[field]) if value is None else value
 
 
 def apply_dome_material(params: Params, material: Mapping[str, float]) -> Params:
@@ -33,6 +47,8 @@ def apply_dome_material(params: Params, material: Mapping[str, float]) -> Params
     a name this dome model does not have or a value it cannot take."""
     names = material_names(params)
     for name in material:
+        if name in _NEEDS and name not in names and hasattr(params, _NEEDS[name]):
+            raise UserError(f"dome material {name!r} needs physics.{_NEEDS[name]}: true in the scenario")
         if name not in names:
             raise UserError(
                 f"dome material {name!r} has no meaning for the {type(params).__name__} dome model "
@@ -48,4 +64,4 @@ def apply_dome_material(params: Params, material: Mapping[str, float]) -> Params
 
 def dome_material_of(params: Params) -> dict[str, float]:
     """The material values (units of DOME_MATERIAL) of `params`: the defaults a calibration starts from."""
-    return {name: getattr(params, _TO_DOME[name][0]) / _TO_DOME[name][1] for name in material_names(params)}
+    return {name: _value(params, _TO_DOME[name][0]) / _TO_DOME[name][1] for name in material_names(params)}

@@ -1,0 +1,162 @@
+"""`twin calibrate` with the edge figures in its objective (settings weights.edge_figures):
+the misses' tolerances, a friction recovered from the figures alone on sheared taps
+rendered with camera noise and tracked, and what it refuses (exit 2)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import yaml
+
+from twin.analysis.calibration_fit.figures import (
+    FACTOR_TOLERANCE,
+    MISSING_MISS,
+    SIGNAL_TOLERANCE,
+    figure_spread,
+    figure_values,
+    miss,
+)
+from twin.analysis.calibration_fit.settings import load_settings
+from twin.core.scenario import scenario_from_dict
+from twin.runs.record import load_run
+from twin.runs.run import run_scenario
+from twin.tools.calibration_report import calibrate_and_report
+from twin.tools.cli import main
+
+TWIN = {
+    "name": "figures_twin",
+    "object": {"name": "rectangle"},
+    "fidelity": "fast",
+    "seed": 0,
+    "effects": ["contact", "friction"],
+    # 90 taps over three lateral bins (-1, 0, +1 mm): each has the 20 frames a bin's fit needs
+    "protocol": {"kind": "sheared_taps", "depth_mm": 3.0, "taps": 90, "seed": 2, "lateral_range_mm": [-1.5, 1.5]},
+}
+#: the "real" sensor: friction 0.3, rendered with camera noise and tracked, another seed
+REAL = {
+    **TWIN,
+    "name": "figures_real",
+    "sensor": {"calibration": {"friction": 0.3}},
+    "seed": 5,
+    "effects": ["contact", "friction", "render", "camera_noise"],
+}
+#: friction from the figures alone: the contact frames' pins are not weighed
+FIGURES_ONLY = {
+    "parameters": {
+        "camera.focal_px": {"fit": False},
+        "camera.k1": {"fit": False},
+        "material.young_kpa": {"fit": False},
+        "tcp.z_mm": {"fit": False},
+        "friction": {"fit": True, "lower": 0.1, "upper": 1.2},
+    },
+    "weights": {"contact": 0.0, "edge_figures": 1.0},
+    "optimiser": {"popsize": 6, "max_generations": 6, "tol_bracket": 0.02, "seed": 3},
+}
+
+
+def test_a_miss_is_counted_in_tolerances() -> None:
+    """A signal ratio 0.1 off is one tolerance; a factor of 4/3 either way is one; a figure
+    below its floor counts as the floor; one the twin lacks is MISSING_MISS."""
+    assert miss("signal", 0.75, 0.65) == pytest.approx(0.1 / SIGNAL_TOLERANCE)
+    assert miss("signal", 0.55, 0.65) == pytest.approx(-1.0)
+    assert miss("theta_pc23", 4.0 * 4 / 3, 4.0) == pytest.approx(1.0)
+    assert miss("drag/signal", 3.0, 3.0 * FACTOR_TOLERANCE**2) == pytest.approx(-2.0)
+    assert miss("theta_pc23", 0.0, 0.05) == 0.0  # both below the 0.1 deg/mm floor
+    assert miss("theta_pc23", 0.4, 0.0) == pytest.approx(math.log(4.0) / math.log(FACTOR_TOLERANCE))
+    assert miss("theta_pc23", None, 2.0) == MISSING_MISS
+    # a recorded figure's spread widens the tolerance in quadrature: √(0.1² + 0.03) = 0.2
+    assert miss("signal", 0.75, 0.65, math.sqrt(0.03)) == pytest.approx(0.5)
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory) -> dict:
+    root = tmp_path_factory.mktemp("figures")
+    (root / "twin.yaml").write_text(yaml.safe_dump(TWIN))
+    real = run_scenario(scenario_from_dict(REAL), root / "real", workers=1, progress=False)
+    return {"root": root, "real": real, "scenario": scenario_from_dict(TWIN, str(root / "twin.yaml"))}
+
+
+def test_the_figures_alone_recover_the_friction(recorded, tmp_path) -> None:
+    """The twin starts at friction 0.7 against a "real" 0.3: the drag's share of the pins
+    grows with friction (drag / signal 0.5–0.8 at 0.15, 1.8–2.8 at 0.7 on these taps), so
+    the figures pin it down although no contact frame's pins are fitted (0.299 when
+    written; held to 0.05)."""
+    (tmp_path / "settings.yaml").write_text(yaml.safe_dump(FIGURES_ONLY))
+    r = calibrate_and_report(
+        [recorded["real"]],
+        recorded["scenario"],
+        tmp_path / "cal",
+        load_settings(tmp_path / "settings.yaml"),
+        workers=1,
+        progress=False,
+    )
+    assert r["status"] == "converged"
+    u = r["uncertainty"]["parameters"]["friction"]
+    assert abs(u["value"] - 0.3) < 0.05, u
+    assert u["identifiable"], u
+    figures = r["edge_figures"]
+    assert figures["weight"] == 1.0
+    assert {row["figure"] for row in figures["after"]} == {"signal", "drag/signal", "theta_pc23"}
+    before = sum(row["miss"] ** 2 for row in figures["before"])
+    after = sum(row["miss"] ** 2 for row in figures["after"])
+    assert after < before / 4, (before, after)
+    assert "| 0 | drag/signal | -1 |" in (tmp_path / "cal" / "report.md").read_text()
+
+
+def test_the_recorded_spread_is_seeded_and_off_at_zero_resamples(recorded) -> None:
+    """The bootstrap spread of a run's figures: the same seed gives the same spread, every
+    figure has one, and without resamples it is 0 (the tolerance alone)."""
+    run = load_run(recorded["real"])
+    spread = figure_spread(run, 8, seed=4)
+    assert spread == figure_spread(run, 8, seed=4)
+    assert set(spread) == set(figure_values(run)) and all(v > 0 for v in spread.values())
+    assert set(figure_spread(run, 0, seed=4).values()) == {0.0}
+
+
+def test_figures_off_cost_nothing_and_need_sheared_taps(recorded, tmp_path, capsys) -> None:
+    """With weights.edge_figures at 0 (the shipped settings) no figure is computed or
+    reported; weighted on a run that is not sheared taps, calibrate exits 2 naming the
+    field and the run's protocol."""
+    from twin.analysis.calibration_fit.data import load_data
+    from twin.analysis.calibration_fit.evaluator import Evaluator
+    from twin.analysis.calibration_fit.space import Space
+    from twin.runs.parallel import WorkerPool
+
+    settings = load_settings(None)
+    assert settings.weights.edge_figures == 0.0
+    data = load_data([recorded["real"]], recorded["scenario"], settings.weights)
+    with WorkerPool(1) as pool:
+        assert Evaluator(Space(recorded["scenario"], settings), data, pool).figures is None
+
+    taps = {**TWIN, "name": "plain_taps", "protocol": {"kind": "taps", "lateral_mm": [0], "depths_mm": [2]}}
+    (tmp_path / "taps.yaml").write_text(yaml.safe_dump(taps))
+    run = run_scenario(scenario_from_dict(taps), tmp_path / "taps", workers=1, progress=False)
+    (tmp_path / "settings.yaml").write_text(yaml.safe_dump(FIGURES_ONLY))
+    args = ["calibrate", str(run), "--scenario", str(tmp_path / "taps.yaml"), "--out", str(tmp_path / "cal")]
+    assert main([*args, "--settings", str(tmp_path / "settings.yaml"), "--workers", "1", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "weights.edge_figures' needs sheared-tap runs" in err and "'taps'" in err
+
+
+def test_the_jacobian_stays_inside_the_bounds(recorded, tmp_path) -> None:
+    """At a parameter's bound the uncertainty's difference is one-sided: no candidate is
+    simulated beyond it (a bending modulus stepped below its least would not even load)."""
+    from twin.analysis.calibration_fit.data import load_data
+    from twin.analysis.calibration_fit.evaluator import Evaluator
+    from twin.analysis.calibration_fit.space import Space
+    from twin.analysis.calibration_fit.uncertainty import jacobian
+    from twin.runs.parallel import WorkerPool
+
+    bounded = {**FIGURES_ONLY["parameters"], "friction": {"fit": True, "lower": 0.3, "upper": 1.2}}
+    (tmp_path / "settings.yaml").write_text(yaml.safe_dump({**FIGURES_ONLY, "parameters": bounded}))
+    settings = load_settings(tmp_path / "settings.yaml")
+    data = load_data([recorded["real"]], recorded["scenario"], settings.weights)
+    with WorkerPool(1) as pool:
+        ev = Evaluator(Space(recorded["scenario"], settings), data, pool)
+        at_bound = {"friction": 0.3}
+        column = jacobian(ev, at_bound, ev.simulate_one(at_bound, "the test point"))
+        simulated = sorted(dict(k)["friction"] for k in ev._cache)
+    assert simulated == [0.3, pytest.approx(0.3 + 0.05 * 0.9)]
+    assert column.shape == (len(ev.row_sample), 1) and np.abs(column).max() > 0
