@@ -123,6 +123,11 @@ def report_markdown(r: dict) -> str:
         "Jacobian column on the others'. Identifiable: std below the identifiable fraction of the range, "
         "resolution below the range and VIF at most the limit (twin.analysis.calibration_fit.uncertainty).",
     ]
+    if r.get("edge_figures"):
+        lines.append(
+            "With the edge figures weighted, each figure is a cluster of its own, and the resolution is counted in "
+            "the whitened residuals, pins and figures together."
+        )
     sv = r["uncertainty"]["singular_values"]
     if sv:
         lines += [

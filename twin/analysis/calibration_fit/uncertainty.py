@@ -125,7 +125,9 @@ def uncertainty(ev: Evaluator, values: dict[str, float], tips: np.ndarray) -> di
         data_std = float(np.sqrt(max(data_var[i], 0.0))) if column > 1e-12 else float("inf")
         std = float(np.sqrt(max(post_var[i], 0.0))) if column > 1e-12 else float("inf")
         # how much the pin RMS (px, Euclidean per pin) changes per unit of the parameter
-        per_unit = column * settings.noise_px * np.sqrt(2.0 / max(1, r.size))
+        # over the residuals the rest layout does not absorb, as the fit's RMS is (its dof): a figures-only
+        # fit's one no-contact frame would otherwise dilute a column of 32 figures by √(286 / 32)
+        per_unit = column * settings.noise_px * np.sqrt(2.0 / max(1, r.size - n_offsets))
         resolution = float(fit_rms / max(per_unit, 1e-300))
         why = []
         if not data_std < settings.identifiable_fraction * space.range[n]:
