@@ -58,9 +58,9 @@ class Evaluator:
         self.valid = np.isfinite(data.pins).all(axis=2)  # (N, 127)
         #: the pins in the residual vector: found, in a frame of non-zero weight
         self.weighed = self.valid & (data.weights > 0)[:, None]
-        weight = space.settings.weights.edge_figures
-        #: the edge figures' target where they are weighted (sheared-tap runs only), else None
         settings = space.settings
+        weight = settings.weights.edge_figures
+        #: the edge figures' target where they are weighted (sheared-tap runs only), else None
         self.figures = (
             EdgeFigureTarget.of(
                 data.records, data.run_index, weight, settings.edge_figure_resamples, settings.optimiser.seed
@@ -163,7 +163,9 @@ class Evaluator:
         if not names:
             return dict(physics)
 
-        def fun(unit: np.ndarray) -> np.ndarray:  # the pins alone: the figures are ratios, all but blind to the camera
+        # the pins alone (the figures, a second of analysis each, would make every least-squares step one);
+        # the objective then takes the figures at the camera solved here
+        def fun(unit: np.ndarray) -> np.ndarray:
             return self.residuals(tips, {**physics, **self.space.from_unit(names, unit)}, figures=False)
 
         x0 = np.clip(self.space.to_unit(names, start), 0.0, 1.0)

@@ -24,8 +24,9 @@ The model of a recorded pin (px) in sample i, pin k:
 Objective: χ² = Σ w_i |pin_ik − recorded_ik|² / σ² + w_e Σ_f miss_f² + Σ ((θ − θ_default)/prior_std)²,
 with σ = settings.noise_px, per-frame weights w by group (rest, contact, sliding), and
 w_e = weights.edge_figures: on sheared-tap runs, the misses of the edge figures of the
-twin's predicted pins against the recorded ones, each over its tolerance
-(twin.analysis.calibration_fit.figures; a frame of zero weight still counts there). A
+twin's predicted pins against the recorded ones, each over its tolerance and the recorded
+figure's spread (twin.analysis.calibration_fit.figures; a frame of zero weight still
+counts there), taken at the camera the pins solve. A
 pin-level misfit shared by every frame (the camera's, or the model's) can outweigh what
 the physics parameters do to the edge; with the contact weights at 0 the camera is fitted
 to the no-contact frames and the physics to the figures alone. The
