@@ -354,6 +354,9 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 #: argument types: a seed as the scenario schema bounds it, local processes, a count, seconds
 SEED = bounded_int(0, 2**32 - 1, "")
+WORKERS = bounded_int(1, 4096, "processes")
+COUNT = bounded_int(1, 10**9, "")
+TIMEOUT = bounded_float(0, 1e6, "s", open_lo=True)
 
 
 def _add_reach_at(p: argparse.ArgumentParser) -> None:
@@ -371,11 +374,6 @@ def _add_reach_at(p: argparse.ArgumentParser) -> None:
 def _reach_at(args: argparse.Namespace) -> dict:
     """`--reach-at` as the report functions' keyword, when given (their default otherwise)."""
     return {} if args.reach_at is None else {"reach_at": tuple(args.reach_at)}
-
-
-WORKERS = bounded_int(1, 4096, "processes")
-COUNT = bounded_int(1, 10**9, "")
-TIMEOUT = bounded_float(0, 1e6, "s", open_lo=True)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -67,11 +67,12 @@ def miss(figure: str, twin: float | None, recorded: float, spread: float = 0.0) 
     return (_scale(figure, twin) - _scale(figure, recorded)) / math.hypot(_tolerance(figure), spread)
 
 
-def figure_spread(run: Run, resamples: int, seed: int) -> Figures:
+def figure_spread(run: Run, resamples: int, seed: int, values: Figures | None = None) -> Figures:
     """Each figure's standard deviation (in its miss's units) over `resamples` bootstrap
     resamples of the run's frames (its no-contact frames kept); 0 for every figure when
-    `resamples` is 0, and for a figure that some resample lacks, the spread of those that have it."""
-    values = figure_values(run)
+    `resamples` is 0, and for a figure that some resample lacks, the spread of those that have it.
+    `values`: the run's own figures (`figure_values`), where the caller has them."""
+    values = figure_values(run) if values is None else values
     if resamples == 0:
         return dict.fromkeys(values, 0.0)
     rest = [s for s in run.samples if s["labels"].get("no_contact")]
@@ -118,7 +119,9 @@ class EdgeFigureTarget:
                 )
             recorded.append(figures)
         rows = [np.nonzero(run_index == r)[0] for r in range(len(records))]
-        spread = [figure_spread(run, resamples, seed + r) for r, run in enumerate(records)]
+        spread = [
+            figure_spread(run, resamples, seed + r, figures) for r, (run, figures) in enumerate(zip(records, recorded))
+        ]
         return cls(records, rows, recorded, spread, weight)
 
     def simulated_runs(self, pins_px: np.ndarray) -> list[Run]:
@@ -141,6 +144,7 @@ class EdgeFigureTarget:
         for r, (run, recorded, spread) in enumerate(zip(runs, self.recorded, self.spread)):
             twin = figure_values(run)
             for (figure, l), value in sorted(recorded.items()):
+                simulated = twin.get((figure, l))
                 out.append(
                     {
                         "run": r,
@@ -148,9 +152,9 @@ class EdgeFigureTarget:
                         "lateral_mm": l,
                         "recorded": value,
                         "spread": spread[figure, l],
-                        "twin": twin.get((figure, l)),
-                        "miss": miss(figure, twin.get((figure, l)), value, spread[figure, l]),
-                        "miss_tolerance": miss(figure, twin.get((figure, l)), value),
+                        "twin": simulated,
+                        "miss": miss(figure, simulated, value, spread[figure, l]),
+                        "miss_tolerance": miss(figure, simulated, value),
                     }
                 )
         return out
