@@ -79,6 +79,16 @@ BAD = {
         "vulkan",
     ),
     "unknown_dome": ("name: x\nobject: {name: rectangle}\ndome: rubber\n", "dome", "rubber"),
+    "sway_on_flex": (
+        "name: x\nobject: {name: rectangle}\nphysics: {tip_sway_mm_per_n: 0.3}\n",
+        "physics.tip_sway_mm_per_n",
+        "flex",
+    ),
+    "negative_sway": (
+        "name: x\nobject: {name: rectangle}\ndome: compliant\nphysics: {tip_sway_mm_per_n: -0.5}\n",
+        "physics.tip_sway_mm_per_n",
+        "-0.5",
+    ),
     "skin_held_on_flex": (
         "name: x\nobject: {name: rectangle}\nphysics: {skin_held_deg: 80}\n",
         "physics.skin_held_deg",

@@ -8,7 +8,8 @@ MuJoCo rays, forces from twin.world.dome.compliant.contact.
   Hertz assumes a ≪ R: the twin's dome is a real sphere, so the check is at small δ.
 * Cattaneo–Mindlin: tangential load Q at constant P (ν = 0.5: normal and tangential
   decouple), stick radius c = a (1 − Q/μP)^1/3, tangential displacement and the unloading
-  branch of the hysteresis loop (formulas in `_mindlin_*`).
+  branch of the hysteresis loop (formulas in `_mindlin_*`); with the tip's sway, a spring
+  in series.
 * Without friction a slide ends where a static press ends; with friction it does not.
 * Mesh refinement: the default spacing's pins against half the spacing.
 * The skin membrane on its sphere: Laplace's law for a uniform radial displacement.
@@ -173,6 +174,35 @@ def test_cattaneo_mindlin_stick_zone_and_hysteresis():
     middle = len(steps) // 2
     assert unloading[len(unloading) - middle][1] < loading[middle - 1][1] - 0.1 * q_star
     assert d_star < full_slip
+
+
+def test_the_tip_sway_is_a_spring_in_series_with_mindlin():
+    """The tip's sway s (m/N) moves the whole tip by s·Q under a tangential load Q, in
+    series with the contact: the tool displacement is Mindlin's plus s·Q (Johnson eq. 7.42),
+    Q within 2 % of Q*; in full slip (Q = μP) every pin sits s·Q further along than
+    without the sway, within 0.5 % of s·Q. With s = 2 mm/N the sway takes about half the
+    tool's motion. Measured: Q within 0.08 % of Q*, the pins within 0.014 % of s·Q (0.74 mm)."""
+    sway = 2e-3  # m/N
+    env = _env(spacing_mm=0.75, enclosed=False, skin={"tip_sway_mm_per_n": sway * 1e3})
+    plain = _env(spacing_mm=0.75, enclosed=False)
+    env.move_to(Pose(0, 0, 1.0, 0, 0, 0))
+    radius, pressure, _, _ = _contact(env)
+    p_total = env.observe_frame().contact_force
+    a = _hertz_radius(radius, pressure)
+    q_star = 0.8 * MU * p_total
+    d_star = float(_mindlin_loading(np.array(q_star), p_total, a)) + sway * q_star
+    for d in np.linspace(0.0, d_star, 7)[1:]:
+        env.move_to(Pose(d * 1e3, 0, 1.0, 0, 0, 0))
+        q = -env.observe_frame().contact_force_tool[0]
+        expected = _invert(lambda x: _mindlin_loading(x, p_total, a) + sway * x, d, 0.0, MU * p_total)
+        assert q == pytest.approx(expected, abs=0.02 * q_star), (d, q, expected)
+    for e in (env, plain):
+        e.move_to(Pose(0, 0, 1.0, 0, 0, 0))
+        e.move_to(Pose(4.0, 0, 1.0, 0, 0, 0))
+    q = env.physics.contact_force_tool()[:2]
+    assert np.linalg.norm(q) == pytest.approx(MU * p_total, rel=0.02)
+    shift = env.physics.converged_pins()[:, :2] - plain.physics.converged_pins()[:, :2]
+    assert np.abs(shift - sway * q).max() <= 0.005 * sway * np.linalg.norm(q), (shift.mean(axis=0), sway * q)
 
 
 def test_frictionless_slide_ends_where_a_press_ends():

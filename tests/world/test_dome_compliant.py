@@ -157,7 +157,7 @@ def test_no_contact_effect_solves_nothing():
 def test_a_calibrated_material_maps_only_onto_parameters_the_model_has():
     """Both models take the modulus in kPa and a skin membrane in MPa; the flex grid locks
     at ν = 0.5, refused by name; the compliant dome takes ν = 0.5 and where its skin is
-    held (deg), which the flex grid refuses by name."""
+    held (deg) and its tip's sway (mm/N), which the flex grid refuses by name."""
     from twin.core.errors import UserError
     from twin.world.dome.flex import FIDELITY_LEVELS
     from twin.world.dome.material import apply_dome_material, dome_material_of
@@ -168,10 +168,14 @@ def test_a_calibrated_material_maps_only_onto_parameters_the_model_has():
         "poisson": 0.5,
         "membrane_young_mpa": 0.0,
         "skin_held_deg": 90.0,
+        "tip_sway_mm_per_n": 0.0,
     }
     assert apply_dome_material(compliant, {"young_kpa": 50.0, "poisson": 0.5}).young == pytest.approx(5e4)
     assert apply_dome_material(compliant, {"membrane_young_mpa": 0.3}).membrane_young == pytest.approx(3e5)
     assert apply_dome_material(compliant, {"skin_held_deg": 70.0}).skin_held_deg == 70.0
+    assert apply_dome_material(compliant, {"tip_sway_mm_per_n": 0.3}).tip_sway == pytest.approx(3e-4)
+    with pytest.raises(UserError, match="tip_sway_mm_per_n"):  # the flex grid's tip is its own MuJoCo body
+        apply_dome_material(FIDELITY_LEVELS["default"], {"tip_sway_mm_per_n": 0.3})
     with pytest.raises(UserError, match="unknown_kpa"):
         apply_dome_material(compliant, {"unknown_kpa": 0.3})
     with pytest.raises(UserError, match="skin_held_deg"):  # the flex grid has no skin that a base holds

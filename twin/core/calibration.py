@@ -52,6 +52,12 @@ DOME_MATERIAL: dict[str, tuple[str, float, float, str]] = {
         50.0,
         "compliant dome with skin_bending: the skin shell's bending modulus (its membrane modulus unless set)",
     ),
+    "tip_sway_mm_per_n": (
+        "mm/N",
+        0.0,
+        5.0,
+        "compliant dome: how far the tip moves as a whole against the camera per newton of tangential contact force",
+    ),
 }
 
 

@@ -85,6 +85,12 @@ class CompliantSettings(PhysicsSettings):
         "(twin.world.dome.compliant.compliance.pin_tips_in_gel) instead of as posts turning with it "
         "(default false)",
     )
+    tip_sway_mm_per_n: float | None = bounded(
+        *DOME_MATERIAL["tip_sway_mm_per_n"][1:3],
+        "mm/N",
+        DOME_MATERIAL["tip_sway_mm_per_n"][3] + " (twin.world.dome.compliant.compliance.sway_block; default 0)",
+        None,
+    )
 
     def changes(self) -> dict[str, Any]:
         """The settings given, as CompliantParams fields (SI)."""
@@ -100,6 +106,7 @@ class CompliantSettings(PhysicsSettings):
             "bending_young": None if self.skin_bending_mpa is None else self.skin_bending_mpa * 1e6,
             "pin_lever": None if self.pin_lever_mm is None else self.pin_lever_mm * 1e-3,
             "pins_in_gel": self.pins_in_gel,
+            "tip_sway": None if self.tip_sway_mm_per_n is None else self.tip_sway_mm_per_n * 1e-3,
         }
         return {k: v for k, v in changes.items() if v is not None}
 

@@ -61,6 +61,17 @@ tested). The pins are levers on the skin (`post_tips`): the geometry's pin lengt
 lever its turn swings the tip by, which `DomeCompliance(pin_lever=…)` replaces; or, with
 `pins_in_gel`, their tips move with the gel that far below the skin (`pin_tips_in_gel`).
 
+The tip's sway (`tip_sway`, m/N, off by default): the half-space and the skin held at
+its base move the cap and the pins only near the forces, while a real tip also moves as
+a whole against the camera under the net tangential force — its base, the skin's skirt
+down to the mount and the gel's body yielding sideways. The sway is that compliance in
+series with the rest: under nodal forces f every cap node and pin tip moves by
+s (Σf_x, Σf_y, 0) besides C f (`sway_block`, `sway_shift`; tool x, y across the tip's
+axis). It adds a rank-two term to the compliance, symmetric and positive semi-definite,
+and leaves the cached matrices as they are. A rigid shift of the pins turns no
+orientation read from their shape: it adds drag without turning θ_PC23
+(twin.analysis.edge_imprint.TapPCs).
+
 Everything in the tool frame (m): apex at the origin, +z out of the tip.
 """
 
@@ -878,6 +889,21 @@ class DomeCompliance:
         self.fill(cols)
         pins = self._pins.reshape(3 * self.surface.count, -1)
         return _row_combination(pins, _dofs(cols), forces.ravel()).reshape(-1, 3)
+
+
+def sway_block(frames: np.ndarray, sway: float) -> np.ndarray:
+    """(3m, 3m) m/N: what the tip's sway `sway` (m/N) adds to the compliance among nodes in
+    their frames (m, 3, 3), rows the frame's axes in the tool frame: entry (3i + a, 3j + b)
+    is sway · Σ_k∈{x,y} frames[i, a, k] frames[j, b, k]."""
+    across = np.ascontiguousarray(frames[:, :, :2]).reshape(-1, 2)
+    return sway * (across @ across.T)
+
+
+def sway_shift(forces: np.ndarray, sway: float) -> np.ndarray:
+    """(3,) m: how far the tip's sway `sway` (m/N) moves every node and pin tip under nodal
+    forces (m, 3) N, tool frame: sway · (Σf_x, Σf_y, 0)."""
+    total = forces.sum(axis=0)
+    return sway * np.array([total[0], total[1], 0.0])
 
 
 @compiled

@@ -49,7 +49,7 @@ from twin.core.errors import PhysicsError
 from twin.core.poses import invert_transform, make_transform
 from twin.core.sensor import TacTipGeometry
 from twin.world.dome.base import Frame, physics_error
-from twin.world.dome.compliant.compliance import CapSurface, DomeCompliance
+from twin.world.dome.compliant.compliance import CapSurface, DomeCompliance, sway_block, sway_shift
 from twin.world.dome.compliant.contact import ContactNotConverged, solve_increment, unknowns_matrix
 
 
@@ -103,6 +103,9 @@ class CompliantParams:
     pins_in_gel: the pin tips move with the gel at the lever's depth below the skin
       (twin.world.dome.compliant.compliance.pin_tips_in_gel) instead of as posts turning
       with the skin, so neighbouring tips cannot pass each other. Off by default.
+    tip_sway (m/N): the tip moves as a whole against the camera by this much per newton
+      of net tangential contact force (twin.world.dome.compliant.compliance.sway_block),
+      in series with the rest. 0 (the default) = none.
     """
 
     #: the largest Poisson's ratio (–) the model takes (the incompressible gel's ν = 0.5 is the model's own)
@@ -128,6 +131,7 @@ class CompliantParams:
     pin_lever: float | None = None
     bending_young: float | None = None
     pins_in_gel: bool = False
+    tip_sway: float = 0.0
 
     def with_(self, **changes) -> CompliantParams:
         return replace(self, **changes)
@@ -442,6 +446,8 @@ class CompliantPhysics:
             self.iterations += solution.iterations
             forces = np.einsum("ni,nij->nj", solution.forces, f)  # tool frame
             displacement = self.compliance.surface_displacement(candidates, forces)
+            if p.tip_sway:
+                displacement = displacement + sway_shift(forces, p.tip_sway)
             after = gaps - np.einsum("nj,nj->n", frames[:, 0], displacement)
             penetrating = after < -p.max_penetration
             penetrating[candidates] = False
@@ -456,6 +462,8 @@ class CompliantPhysics:
         self.forces[candidates] = forces
         self.displacement = displacement
         self._pins = self.rest_pins + self.compliance.pin_displacement(candidates, forces)
+        if p.tip_sway:
+            self._pins += sway_shift(forces, p.tip_sway)
         self.step_seconds += time.perf_counter() - t0
         self._check(after)
 
@@ -480,7 +488,10 @@ class CompliantPhysics:
         kept = self._local
         if kept is not None and np.array_equal(kept[0], nodes) and np.array_equal(kept[1], frames):
             return kept[2]
-        local = unknowns_matrix(self.compliance.local_block(nodes, frames))
+        local = self.compliance.local_block(nodes, frames)
+        if self.params.tip_sway:
+            local = local + sway_block(frames, self.params.tip_sway)
+        local = unknowns_matrix(local)
         self._local = (nodes.copy(), frames.copy(), local)
         return local
 
