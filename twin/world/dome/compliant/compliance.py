@@ -68,9 +68,10 @@ down to the mount and the gel's body yielding sideways. The sway is that complia
 series with the rest: under nodal forces f every cap node and pin tip moves by
 s (Σf_x, Σf_y, 0) besides C f (`sway_block`, `sway_shift`; tool x, y across the tip's
 axis). It adds a rank-two term to the compliance, symmetric and positive semi-definite,
-and leaves the cached matrices as they are. A rigid shift of the pins turns no
-orientation read from their shape: it adds drag without turning θ_PC23
-(twin.analysis.edge_imprint.TapPCs).
+and leaves the cached matrices as they are. The rigid shift itself turns no orientation
+read from the pins' shape (twin.analysis.edge_imprint.TapPCs); the sway turns θ_PC23 only
+through where the moved tip meets the object, so it adds more drag per turn than
+friction does (docs/dome/compliant.md).
 
 Everything in the tool frame (m): apex at the origin, +z out of the tip.
 """
