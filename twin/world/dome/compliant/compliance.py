@@ -62,9 +62,9 @@ lever its turn swings the tip by, which `DomeCompliance(pin_lever=…)` replaces
 `pins_in_gel`, their tips move with the gel that far below the skin (`pin_tips_in_gel`).
 
 The tip's sway (`tip_sway`, m/N, off by default): the half-space and the skin held at
-its base move the cap and the pins only near the forces, while a real tip also moves as
-a whole against the camera under the net tangential force — its base, the skin's skirt
-down to the mount and the gel's body yielding sideways. The sway is that compliance in
+its base move the cap and the pins most near the forces and less with distance, while a
+real tip also moves as a whole against the camera under the net tangential force — its
+base, the skin's skirt down to the mount and the gel's body yielding sideways. The sway is that compliance in
 series with the rest: under nodal forces f every cap node and pin tip moves by
 s (Σf_x, Σf_y, 0) besides C f (`sway_block`, `sway_shift`; tool x, y across the tip's
 axis). It adds a rank-two term to the compliance, symmetric and positive semi-definite,
