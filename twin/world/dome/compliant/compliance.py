@@ -68,7 +68,8 @@ base, the skin's skirt down to the mount and the gel's body yielding sideways. T
 series with the rest: under nodal forces f every cap node and pin tip moves by
 s (Σf_x, Σf_y, 0) besides C f (`sway_block`, `sway_shift`; tool x, y across the tip's
 axis). It adds a rank-two term to the compliance, symmetric and positive semi-definite,
-and leaves the cached matrices as they are. The rigid shift itself turns no orientation
+and leaves the cached matrices as they are: `local_block`, `surface_displacement` and
+`pin_displacement` add it for the sway they are given. The rigid shift itself turns no orientation
 read from the pins' shape (twin.analysis.edge_imprint.TapPCs); the sway turns θ_PC23 only
 through where the moved tip meets the object, so it adds more drag per turn than
 friction does (docs/dome/compliant.md).
@@ -873,23 +874,29 @@ class DomeCompliance:
         n = 3 * self.surface.count
         return np.ascontiguousarray(self._surface.reshape(n, n)[np.ix_(_dofs(cols), _dofs(rows))].T)
 
-    def local_block(self, nodes: np.ndarray, frames: np.ndarray) -> np.ndarray:
+    def local_block(self, nodes: np.ndarray, frames: np.ndarray, sway: float = 0.0) -> np.ndarray:
         """(3m, 3m) m/N: `block(nodes, nodes)` with each node's displacement and force in its
-        own frame (frames (m, 3, 3), rows the frame's axes in the tool frame)."""
+        own frame (frames (m, 3, 3), rows the frame's axes in the tool frame), plus the tip's
+        `sway` (m/N, `sway_block`)."""
         self.fill(nodes)
-        return _rotated_block(self._surface, nodes, np.ascontiguousarray(frames, dtype=float))
+        local = _rotated_block(self._surface, nodes, np.ascontiguousarray(frames, dtype=float))
+        return local + sway_block(frames, sway) if sway else local
 
-    def surface_displacement(self, cols: np.ndarray, forces: np.ndarray) -> np.ndarray:
-        """(N, 3) m: every node's displacement under forces (len(cols), 3) N at `cols`."""
+    def surface_displacement(self, cols: np.ndarray, forces: np.ndarray, sway: float = 0.0) -> np.ndarray:
+        """(N, 3) m: every node's displacement under forces (len(cols), 3) N at `cols`, the
+        tip swaying by `sway` (m/N, `sway_shift`)."""
         self.fill(cols)
         n = 3 * self.surface.count
-        return _row_combination(self._surface.reshape(n, n), _dofs(cols), forces.ravel()).reshape(-1, 3)
+        moved = _row_combination(self._surface.reshape(n, n), _dofs(cols), forces.ravel()).reshape(-1, 3)
+        return moved + sway_shift(forces, sway) if sway else moved
 
-    def pin_displacement(self, cols: np.ndarray, forces: np.ndarray) -> np.ndarray:
-        """(127, 3) m: the pin tips' displacement under forces (len(cols), 3) N at `cols`."""
+    def pin_displacement(self, cols: np.ndarray, forces: np.ndarray, sway: float = 0.0) -> np.ndarray:
+        """(127, 3) m: the pin tips' displacement under forces (len(cols), 3) N at `cols`, the
+        tip swaying by `sway` (m/N, `sway_shift`)."""
         self.fill(cols)
         pins = self._pins.reshape(3 * self.surface.count, -1)
-        return _row_combination(pins, _dofs(cols), forces.ravel()).reshape(-1, 3)
+        moved = _row_combination(pins, _dofs(cols), forces.ravel()).reshape(-1, 3)
+        return moved + sway_shift(forces, sway) if sway else moved
 
 
 def sway_block(frames: np.ndarray, sway: float) -> np.ndarray:

@@ -49,7 +49,7 @@ from twin.core.errors import PhysicsError
 from twin.core.poses import invert_transform, make_transform
 from twin.core.sensor import TacTipGeometry
 from twin.world.dome.base import Frame, physics_error
-from twin.world.dome.compliant.compliance import CapSurface, DomeCompliance, sway_block, sway_shift
+from twin.world.dome.compliant.compliance import CapSurface, DomeCompliance
 from twin.world.dome.compliant.contact import ContactNotConverged, solve_increment, unknowns_matrix
 
 
@@ -445,9 +445,7 @@ class CompliantPhysics:
             self.solve_seconds += time.perf_counter() - t1
             self.iterations += solution.iterations
             forces = np.einsum("ni,nij->nj", solution.forces, f)  # tool frame
-            displacement = self.compliance.surface_displacement(candidates, forces)
-            if p.tip_sway:
-                displacement = displacement + sway_shift(forces, p.tip_sway)
+            displacement = self.compliance.surface_displacement(candidates, forces, p.tip_sway)
             after = gaps - np.einsum("nj,nj->n", frames[:, 0], displacement)
             penetrating = after < -p.max_penetration
             penetrating[candidates] = False
@@ -461,9 +459,7 @@ class CompliantPhysics:
         self.forces = np.zeros_like(self.forces)
         self.forces[candidates] = forces
         self.displacement = displacement
-        self._pins = self.rest_pins + self.compliance.pin_displacement(candidates, forces)
-        if p.tip_sway:
-            self._pins += sway_shift(forces, p.tip_sway)
+        self._pins = self.rest_pins + self.compliance.pin_displacement(candidates, forces, p.tip_sway)
         self.step_seconds += time.perf_counter() - t0
         self._check(after)
 
@@ -488,10 +484,7 @@ class CompliantPhysics:
         kept = self._local
         if kept is not None and np.array_equal(kept[0], nodes) and np.array_equal(kept[1], frames):
             return kept[2]
-        local = self.compliance.local_block(nodes, frames)
-        if self.params.tip_sway:
-            local = local + sway_block(frames, self.params.tip_sway)
-        local = unknowns_matrix(local)
+        local = unknowns_matrix(self.compliance.local_block(nodes, frames, self.params.tip_sway))
         self._local = (nodes.copy(), frames.copy(), local)
         return local
 
