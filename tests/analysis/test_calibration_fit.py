@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 import yaml
 
+from twin.analysis.calibration_fit.data import load_data
 from twin.analysis.calibration_fit.search import BracketSearch
 from twin.analysis.calibration_fit.settings import load_settings
 from twin.analysis.calibration_fit.uncertainty import robust_variances, variance_inflation
@@ -284,6 +285,22 @@ def test_a_partial_run_is_calibrated_with_a_warning(real, tmp_path, capsys) -> N
     assert f"warning: {cut}: run did not finish (interrupted; 2 samples)" in capsys.readouterr().err
 
 
+def test_a_sample_without_pins_is_replayed_not_fitted(real, tmp_path, capsys) -> None:
+    """A lab recording's missing frame: the tap happened, so the replay keeps it (the
+    sensor's path is the recorded one), and its pins, which nobody saw, are not fitted."""
+    taps, rest = real["runs"]
+    gap = _copy_run(taps, tmp_path / "gap", edit_sample=lambda s: s.update(pins_px=None, frame=None))
+    weights = load_settings(None).weights
+    whole, with_gap = (load_data([t, rest], real["scenario"], weights) for t in (taps, gap))
+    assert [[m.pose.as_array().tolist() for m in c] for _, c in with_gap.chunks] == [
+        [m.pose.as_array().tolist() for m in c] for _, c in whole.chunks
+    ]
+    assert np.isnan(with_gap.pins[1]).all() and np.isfinite(whole.pins[1]).all()
+    assert np.array_equal(np.delete(with_gap.pins, 1, axis=0), np.delete(whole.pins, 1, axis=0))
+    assert main(_calibrate_args(real, [gap, rest], tmp_path / "cal", _settings(tmp_path, FOCAL_ONLY))) == 0
+    assert "gap: 1 sample(s) without pins (samples 1: " in capsys.readouterr().err
+
+
 def test_a_planted_checkpoint_is_never_unpickled(real, tmp_path, capsys) -> None:
     out = tmp_path / "cal"
     out.mkdir()
@@ -325,9 +342,11 @@ def test_bad_input_exits_2_naming_run_or_field(real, tmp_path, capsys) -> None:
     other = _copy_run(taps, tmp_path / "other", edit_meta=lambda m: m["scenario"]["object"].update(name="flower"))
     assert main(["calibrate", str(rest), str(other), "--out", str(tmp_path / "o1"), *base]) == 2
     assert "other: recorded with scenario field 'object'" in capsys.readouterr().err
-    no_pins = _copy_run(taps, tmp_path / "no_pins", edit_sample=lambda s: s.update(pins_px=None, frame=None))
+    no_pins = _copy_run(taps, tmp_path / "no_pins")
+    rows = [json.loads(line) for line in (no_pins / "samples.jsonl").read_text().splitlines()]
+    (no_pins / "samples.jsonl").write_text("".join(json.dumps({**r, "pins_px": None}) + "\n" for r in rows))
     assert main(["calibrate", str(no_pins), "--out", str(tmp_path / "o2"), *base]) == 2
-    assert "no_pins: sample 1 has no pins" in capsys.readouterr().err
+    assert "no_pins: no sample has pins (field 'pins_px' is null in every one)" in capsys.readouterr().err
     bounds = _settings(tmp_path, {"parameters": {"camera.focal_px": {"lower": 470.0, "upper": 480.0}}})
     assert main(["calibrate", str(taps), "--out", str(tmp_path / "o3"), "--settings", str(bounds), *base]) == 2
     assert "parameters.camera.focal_px': default 451.374 lies outside the bounds [470, 480]" in capsys.readouterr().err

@@ -294,7 +294,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         progress=not args.quiet,
         held_out=[Path(r) for r in args.held_out or []],
     )
-    _warn_unfinished(r["unfinished"])
+    _warn_unfinished(r["unfinished"] + r["without_pins"])
     print(f"{r['status']} ({r['stop_reason']}); pin RMS {r['before']['overall']:.3f} -> {r['after']['overall']:.3f} px")
     if r["held_out"]:
         h = r["held_out"]

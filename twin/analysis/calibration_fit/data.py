@@ -34,6 +34,7 @@ class Data:
     sim_index: list[np.ndarray] = field(default_factory=list)  # per run: recorded sample -> simulated row
     unfinished: list[str] = field(default_factory=list)  # a line per run that did not finish (Run.unfinished_note)
     records: list[Run] = field(default_factory=list)  # the runs as read
+    without_pins: list[str] = field(default_factory=list)  # a line per run with samples that have no pins (NaN here)
 
 
 def _group(scenario: Scenario, sample: dict) -> int:
@@ -44,8 +45,11 @@ def _group(scenario: Scenario, sample: dict) -> int:
 
 def load_data(run_dirs: list[Path], scenario: Scenario, weights: Weights) -> Data:
     """Read and check the runs against the calibration scenario (UserError naming the run
-    and field: another object, placement, work frame or camera; no samples; no pins)."""
+    and field: another object, placement, work frame or camera; no samples; no sample with
+    pins). A sample without pins (an imported recording's missing frame) is replayed, so the
+    sensor's path is the recorded one, and its pins are NaN: not fitted."""
     pins, group, run_index, chunks, records = [], [], [], [], []
+    without_pins: list[str] = []
     cam = scenario.sensor.camera
     for r, path in enumerate(run_dirs):
         run = load_run(path)
@@ -64,12 +68,15 @@ def load_data(run_dirs: list[Path], scenario: Scenario, weights: Weights) -> Dat
             )
         if not run.samples:
             raise UserError(f"{path}: the run has no samples")
-        for i, s in enumerate(run.samples):
-            if s.get("pins_px") is None:
-                raise UserError(
-                    f"{path}: sample {i} has no pins (field 'pins_px' is null; frame "
-                    f"{s.get('frame')!r}): records without frames or pins cannot be fitted"
-                )
+        without = [i for i, s in enumerate(run.samples) if s.get("pins_px") is None]
+        if len(without) == len(run.samples):
+            raise UserError(f"{path}: no sample has pins (field 'pins_px' is null in every one): nothing to fit")
+        if without:  # a lab recording's missing frame: the tap happened, so it is replayed for the path
+            shown = ", ".join(map(str, without[:5])) + (", …" if len(without) > 5 else "")
+            without_pins.append(
+                f"{path}: {len(without)} sample(s) without pins (samples {shown}: frames missing or unreadable), "
+                "replayed for the sensor's path but not fitted"
+            )
         recorded_pins = run.pins_px
         for i, s in enumerate(run.samples):  # a pin the tracker did not find holds its guess: not fitted
             if s.get("found") is not None:
@@ -89,6 +96,7 @@ def load_data(run_dirs: list[Path], scenario: Scenario, weights: Weights) -> Dat
         np.array([getattr(weights, g) for g in GROUPS])[group],
         unfinished=[n for n in (run.unfinished_note() for run in records) if n],
         records=records,
+        without_pins=without_pins,
     )
     # pair each recorded sample with its simulated row by target pose (twin compare's pairing)
     for r, run in enumerate(records):

@@ -231,6 +231,7 @@ def _calibrate(
         "workers": pool.workers,
         "cluster": pool.cluster,
         "unfinished": data.unfinished,
+        "without_pins": data.without_pins,
     }
     (out / "report.json").write_text(json.dumps(result, indent=1, default=float))
     return result
