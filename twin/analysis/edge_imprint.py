@@ -22,12 +22,15 @@ Plain tap runs (discrete l, θ over a turn) give the spread directly. Sheared-ta
 per lateral bin (1 mm wide, centred on whole mm) with a linear model of each pin
 coordinate in θ, the slide along and across the edge, the twist, the depth offset and l
 within the bin; the signal and the drag are the spreads of the fitted θ and slide terms
-over the run's samples. A run whose angles span less than a turn (a lab set's ±45°) has
-its PCs taken over its frames turned by the pin grid's six-fold symmetry (a 60° turn of
-the rest pins about their centre maps the grid onto itself), so PC2–PC3 can turn with θ,
-each frame's uniform shift (its mean pin displacement) taken out first: turned, a rigid
-shift would itself become a rotating pair and take PC1 and PC2, and the drag (mostly a
-rigid shift) would then lie in an arbitrary part of that pair.
+over the run's samples, less what the fit's own error adds to them (an estimated
+gradient's noise inflates its spread; onto the object with ~100 taps a bin that can be
+most of the raw figure, with the DigiTac set's ~450 a few percent). A run whose angles
+span less than a turn (a lab set's ±45°) has its PCs taken over its frames turned by the
+pin grid's six-fold symmetry (a 60° turn of the rest pins about their centre maps the
+grid onto itself), so PC2–PC3 can turn with θ, each frame's uniform shift (its mean pin
+displacement) taken out first: turned, a rigid shift would itself become a rotating pair
+and take PC1 and PC2, and the drag (mostly a rigid shift) would then lie in an arbitrary
+part of that pair.
 Only samples with every pin found and in contact count.
 """
 
@@ -40,6 +43,7 @@ from scipy.spatial import cKDTree
 
 from twin.analysis.evaluation import orientation_signal_px
 from twin.core.errors import UserError
+from twin.core.sensor import N_PINS
 from twin.runs.record import Run
 from twin.sensing.perception import pca_fit, pins_to_vectors
 
@@ -73,7 +77,7 @@ class BinFit:
     lateral_mm: float
     n: int
     gradients: dict[str, np.ndarray]  # term -> (254,) px per unit of the term
-    spread_px: dict[str, float]  # term -> RMS over samples and pins of the term's deviation (px)
+    spread_px: dict[str, float]  # term -> RMS over samples and pins of the term's fitted deviation, less its noise (px)
     mean_z: np.ndarray  # (254,) px: the bin's mean frame
     residual_px: float  # RMS pin distance left unexplained
     tap_z: np.ndarray  # (n, 254) px: the bin's frames with the fitted slide and twist taken out
@@ -82,6 +86,27 @@ class BinFit:
 def _pin_rms(vectors: np.ndarray) -> float:
     """RMS over rows and pins of the pin distances in (n, 254) vectors (px)."""
     return float(np.sqrt(np.mean(np.sum(vectors.reshape(len(vectors), -1, 2) ** 2, axis=-1))))
+
+
+class _TermNoise:
+    """The least-squares noise in a fitted term's spread. A term's fitted gradient carries
+    the fit's error, so the spread of (values × gradient) over the samples is larger than
+    the true one on average by the error's share: for terms S, Σ_j s_j² tr(X_Sᵀ X_S (DᵀD)⁻¹_SS)
+    over (samples × pins) px², s_j² the unexplained variance of pin coordinate j and D the
+    design. The spreads here have it taken out (floored at 0)."""
+
+    def __init__(self, design: np.ndarray, unexplained: np.ndarray) -> None:
+        dof = max(len(design) - design.shape[1], 1)
+        self.variance_px2 = float(np.sum(unexplained**2)) / dof  # Σ_j s_j²
+        self.inverse = np.linalg.pinv(design.T @ design)
+
+    def spread_px(self, x: np.ndarray, coef: np.ndarray, terms: list[int]) -> float:
+        """RMS over samples and pins of the terms' fitted deviation, less its noise (px);
+        `terms` index the columns of the centred values `x` (coef's rows 1 + term)."""
+        xs, cols = x[:, terms], [1 + k for k in terms]
+        raw2 = float(np.sum((xs @ coef[cols]) ** 2))
+        bias2 = float(np.trace(xs.T @ xs @ self.inverse[np.ix_(cols, cols)])) * self.variance_px2
+        return float(np.sqrt(max(raw2 - bias2, 0.0) / (len(x) * N_PINS)))
 
 
 def sheared_fits(run: Run, width_mm: float = 1.0, min_samples: int = 20) -> list[BinFit]:
@@ -101,11 +126,14 @@ def sheared_fits(run: Run, width_mm: float = 1.0, min_samples: int = 20) -> list
             continue
         x = np.column_stack([values[t][m] for t in SHEARED_TERMS])
         x = x - x.mean(axis=0)
-        coef, *_ = np.linalg.lstsq(np.column_stack([np.ones(m.sum()), x]), z[m], rcond=None)
+        design = np.column_stack([np.ones(m.sum()), x])
+        coef, *_ = np.linalg.lstsq(design, z[m], rcond=None)
+        unexplained = z[m] - design @ coef
+        noise = _TermNoise(design, unexplained)
         gradients = {t: coef[1 + k] for k, t in enumerate(SHEARED_TERMS)}
-        spread = {t: _pin_rms(np.outer(x[:, k], coef[1 + k])) for k, t in enumerate(SHEARED_TERMS)}
-        spread["slides"] = _pin_rms(x[:, 1:4] @ coef[2:5])
-        residual = _pin_rms(z[m] - coef[0] - x @ coef[1:])
+        spread = {t: noise.spread_px(x, coef, [k]) for k, t in enumerate(SHEARED_TERMS)}
+        spread["slides"] = noise.spread_px(x, coef, [1, 2, 3])
+        residual = _pin_rms(unexplained)
         fits.append(
             BinFit(
                 float(c) + 0.0,
