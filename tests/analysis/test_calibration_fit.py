@@ -323,7 +323,9 @@ class _Planted:
         return (Path(self.path).touch, ())
 
 
-def _copy_run(src: Path, dst: Path, edit_meta=None, edit_sample=None) -> Path:
+def _copy_run(src: Path, dst: Path, edit_meta=None, edit_sample=None, every_sample: bool = False) -> Path:
+    """A copy of a recorded run, `edit_sample` applied to its sample 1 (to every sample with
+    `every_sample`)."""
     shutil.copytree(src, dst)
     if edit_meta:
         meta = json.loads((dst / "run.json").read_text())
@@ -331,7 +333,8 @@ def _copy_run(src: Path, dst: Path, edit_meta=None, edit_sample=None) -> Path:
         (dst / "run.json").write_text(json.dumps(meta))
     if edit_sample:
         rows = [json.loads(line) for line in (dst / "samples.jsonl").read_text().splitlines()]
-        edit_sample(rows[1])
+        for row in rows if every_sample else rows[1:2]:
+            edit_sample(row)
         (dst / "samples.jsonl").write_text("\n".join(json.dumps(r) for r in rows) + "\n")
     return dst
 
@@ -342,9 +345,7 @@ def test_bad_input_exits_2_naming_run_or_field(real, tmp_path, capsys) -> None:
     other = _copy_run(taps, tmp_path / "other", edit_meta=lambda m: m["scenario"]["object"].update(name="flower"))
     assert main(["calibrate", str(rest), str(other), "--out", str(tmp_path / "o1"), *base]) == 2
     assert "other: recorded with scenario field 'object'" in capsys.readouterr().err
-    no_pins = _copy_run(taps, tmp_path / "no_pins")
-    rows = [json.loads(line) for line in (no_pins / "samples.jsonl").read_text().splitlines()]
-    (no_pins / "samples.jsonl").write_text("".join(json.dumps({**r, "pins_px": None}) + "\n" for r in rows))
+    no_pins = _copy_run(taps, tmp_path / "no_pins", edit_sample=lambda s: s.update(pins_px=None), every_sample=True)
     assert main(["calibrate", str(no_pins), "--out", str(tmp_path / "o2"), *base]) == 2
     assert "no_pins: no sample has pins (field 'pins_px' is null in every one)" in capsys.readouterr().err
     bounds = _settings(tmp_path, {"parameters": {"camera.focal_px": {"lower": 470.0, "upper": 480.0}}})

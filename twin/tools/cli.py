@@ -167,7 +167,7 @@ def _cmd_view(args: argparse.Namespace) -> int:
     return 0
 
 
-def _warn_unfinished(notes: list[str]) -> None:
+def _warn(notes: list[str]) -> None:
     for note in notes:
         print(f"warning: {note}", file=sys.stderr)
 
@@ -181,7 +181,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         seed=args.seed,
         **_reach_at(args),
     )
-    _warn_unfinished(result["unfinished"])
+    _warn(result["unfinished"])
     if "heldout_by_lateral_mm" in result:
         print(_command_module("twin.tools.evaluation_report").format_heldout(result["heldout_by_lateral_mm"]))
         for name in result["lateral_rms_mm"]:
@@ -227,7 +227,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         slides_b=Path(args.slides_b) if args.slides_b else None,
         **_reach_at(args),
     )
-    _warn_unfinished(r["unfinished"])
+    _warn(r["unfinished"])
     if not r["n_pairs"]:
         print(
             "no paired samples (no target pose in contact shared, or another camera resolution): compared by "
@@ -294,7 +294,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         progress=not args.quiet,
         held_out=[Path(r) for r in args.held_out or []],
     )
-    _warn_unfinished(r["unfinished"] + r["without_pins"])
+    _warn(r["unfinished"] + r["without_pins"])
     print(f"{r['status']} ({r['stop_reason']}); pin RMS {r['before']['overall']:.3f} -> {r['after']['overall']:.3f} px")
     if r["held_out"]:
         h = r["held_out"]
