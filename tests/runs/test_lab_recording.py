@@ -211,6 +211,19 @@ def test_replay_takes_an_imported_runs_taps_in_order(twin_sheared_run: Path, tmp
     )
     np.testing.assert_allclose(load_run(tmp_path / "replay").targets, load_run(tmp_path / "imp").targets[:3], atol=1e-5)
 
+    # --without-slides: the same frames' poses, reached without the slide and twist
+    still = tmp_path / "still"
+    argv = ["run", str(tmp_path / "replay.yaml"), "--taps-from", str(tmp_path / "imp"), "--first-taps", "2"]
+    assert main([*argv, "--without-slides", "--out", str(still), "--workers", "1", "--quiet"]) == 0
+    replay, imported = load_run(still), load_run(tmp_path / "imp")
+    np.testing.assert_allclose(replay.targets, imported.targets[:3], atol=1e-5)
+    for key in ("lateral_mm", "theta_deg", "depth_mm"):
+        np.testing.assert_allclose(replay.label(key)[1:], imported.label(key)[1:3], atol=1e-5)
+    assert np.abs(imported.label("slide_along_mm")[1:3]).max() > 0.1  # the recording's taps do slide
+    for key in ("slide_along_mm", "slide_lateral_mm", "twist_deg"):
+        assert np.all(replay.label(key)[1:] == 0.0), key
+    assert main(["run", str(tmp_path / "replay.yaml"), "--without-slides", "--out", str(tmp_path / "x")]) == 2
+
 
 def test_bad_targets_name_the_file_row_and_column(tmp_path: Path, capsys) -> None:
     path = tmp_path / "targets.csv"

@@ -43,13 +43,14 @@ from scipy.spatial import cKDTree
 
 from twin.analysis.evaluation import orientation_signal_px
 from twin.core.errors import UserError
+from twin.core.scenario import SHEARED_TAP_MOTION
 from twin.core.sensor import N_PINS
 from twin.runs.record import Run
 from twin.sensing.perception import pca_fit, pins_to_vectors
 
 #: the linear model's terms for sheared taps (after the constant), per lateral bin
 SHEARED_TERMS = ("theta_deg", "slide_along_mm", "slide_lateral_mm", "twist_deg", "depth_offset_mm", "lateral_in_bin_mm")
-SLIDE_TERMS = ("slide_along_mm", "slide_lateral_mm", "twist_deg")
+SLIDE_TERMS = SHEARED_TAP_MOTION
 REACH_BINS = 10
 #: the lateral positions (mm) of the reach profile unless asked for others: 4 mm onto and off the object
 REACH_AT_MM = (-4.0, 4.0)

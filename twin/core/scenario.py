@@ -161,6 +161,10 @@ class ShearedTap(StrictModel):
     twist_deg: float = bounded(-45, 45, "deg", "in-contact turn before the frame", 0.0)
 
 
+#: a sheared tap's in-contact motion before its frame (ShearedTap's fields, mm, mm, deg)
+SHEARED_TAP_MOTION = ("slide_along_mm", "slide_lateral_mm", "twist_deg")
+
+
 class ShearedTapProtocol(_EdgeProtocol):
     """Taps sheared before their frame, like the lab's edge sets (twin.runs.lab_recording):
     press at the slid-back pose, slide and twist in contact to the tap's pose, record.

@@ -52,7 +52,7 @@ from tqdm import tqdm
 from twin.core.environment import Observation
 from twin.core.errors import UserError
 from twin.core.poses import Pose
-from twin.core.scenario import Scenario, ShearedTapProtocol, scenario_from_dict
+from twin.core.scenario import SHEARED_TAP_MOTION, Scenario, ShearedTapProtocol, scenario_from_dict
 from twin.runs.protocols import sheared_tap_moves
 from twin.runs.record import RunRecorder, load_run
 from twin.sensing.tracker import PinTracker, camera_for_frame
@@ -226,10 +226,13 @@ def import_lab_recording(
     return summary
 
 
-def with_taps_from(scenario: Scenario, run_dir: Path, first: int | None = None) -> Scenario:
+def with_taps_from(
+    scenario: Scenario, run_dir: Path, first: int | None = None, without_slides: bool = False
+) -> Scenario:
     """`scenario` (a sheared-taps one) with the taps of a recorded sheared-taps run (an
     imported lab recording), in order, the first `first` of them when given: the twin
-    replays the recording sample by sample."""
+    replays the recording sample by sample. `without_slides`: each tap at its pose without
+    its in-contact slide and twist, the imprint the slides are measured against."""
     if scenario.protocol.kind != "sheared_taps":
         raise UserError(
             f"{scenario.source}: --taps-from needs a sheared_taps protocol, this one is {scenario.protocol.kind!r}"
@@ -238,5 +241,7 @@ def with_taps_from(scenario: Scenario, run_dir: Path, first: int | None = None) 
     if recorded.get("kind") != "sheared_taps" or not recorded.get("given"):
         raise UserError(f"{run_dir}: not a run of given sheared taps (an imported lab recording)")
     given = recorded["given"][:first]
+    if without_slides:
+        given = [{**tap, **dict.fromkeys(SHEARED_TAP_MOTION, 0.0)} for tap in given]
     protocol = {**scenario.protocol.model_dump(), "given": given, "taps": len(given)}
     return scenario.with_changes(protocol=protocol)

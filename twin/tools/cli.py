@@ -90,8 +90,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
     scenario = None if args.scenario is None else _checked_scenario(args.scenario)
     if scenario is not None and args.backend:
         scenario = scenario.with_changes(backend=args.backend)
+    if args.without_slides and not args.taps_from:
+        raise UserError("twin run: --without-slides replays a recording's taps; give --taps-from RUN")
     if scenario is not None and args.taps_from:
-        scenario = with_taps_from(scenario, Path(args.taps_from), args.first_taps)
+        scenario = with_taps_from(scenario, Path(args.taps_from), args.first_taps, args.without_slides)
     if scenario is not None and args.hardware_config:
         scenario = scenario.with_changes(hardware_config=str(Path(args.hardware_config).resolve()))
     if args.resume is not None:
@@ -417,6 +419,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--first-taps", type=COUNT, default=None, metavar="N", help="with --taps-from: only the first N taps"
+    )
+    p.add_argument(
+        "--without-slides",
+        action="store_true",
+        help="with --taps-from: each tap without its in-contact slide and twist (the unslid imprint at its pose)",
     )
     p.set_defaults(func=_cmd_run)
 
