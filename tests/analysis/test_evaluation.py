@@ -150,11 +150,13 @@ def test_the_along_edge_cells_weigh_the_drag_against_the_taps_orientation_signal
     at l = −6 (2 / 4 mm deep), a drag of 14.4 px, and 0.0 px without friction."""
     import json
 
-    from twin.analysis.evaluation import along_edge_drag_px, orientation_signal_px
+    from twin.analysis.evaluation import along_edge_drag_px, along_edge_reading, orientation_signal_px
+    from twin.core.poses import wrap_deg
     from twin.core.resources import scenario_path
     from twin.core.scenario import load_scenario
     from twin.runs.record import load_run
     from twin.runs.run import run_scenario
+    from twin.runs.training import train_from_run
     from twin.tools.cli import main
 
     def record(name: str, out: str, friction: float | None = None, **protocol) -> Path:
@@ -187,3 +189,21 @@ def test_the_along_edge_cells_weigh_the_drag_against_the_taps_orientation_signal
     result = json.loads((tmp_path / "eval" / "table_i.json").read_text())
     assert result["orientation_signal_px"]["2.0"]["0.0"] == pytest.approx(signal[2.0][0.0])
     assert all(v > 1.0 for v in result["along_edge_drag_px"].values()), result["along_edge_drag_px"]
+
+    # Where the slides sit in the taps' PC2–PC3 plane, the plane θ is read from. Without
+    # friction sliding along the edge is pressing: the sliding frames are the pressed ones.
+    # With friction the drag outweighs the pressed frames' radius there, and each
+    # direction's frames turn towards its own slide: 90° and 270° read nearly 180° apart
+    # (149° here; pressed frames would read alike, 0° apart).
+    assert "the along-edge slides in the taps' PC2–PC3 plane" in printed
+    model = train_from_run(load_run(taps), "pca", 0)
+    still = along_edge_reading(model, load_run(taps), load_run(frictionless))
+    for d in (90, 270):
+        pressed, sliding = still[d]["pressed"], still[d]["sliding"]
+        assert sliding["radius_px"] == pytest.approx(pressed["radius_px"], rel=0.01), still
+        assert abs(wrap_deg(sliding["offset_deg"] - pressed["offset_deg"])) < 1.0, still
+    dragged = result["along_edge_reading"]
+    assert dragged["lateral_mm"] == -6.0 and set(dragged["taps"]) == {"2.0", "4.0"}
+    for d in ("90", "270"):
+        assert dragged[d]["sliding"]["radius_px"] > 5.0 * dragged[d]["pressed"]["radius_px"], dragged
+    assert abs(wrap_deg(dragged["90"]["sliding"]["offset_deg"] - dragged["270"]["sliding"]["offset_deg"])) > 120.0

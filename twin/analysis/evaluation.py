@@ -15,9 +15,10 @@ from pathlib import Path
 import numpy as np
 
 from twin.core.errors import UserError
+from twin.core.poses import wrap_deg
 from twin.runs.record import Run, jsonable, load_run
 from twin.runs.training import train_from_run
-from twin.sensing.perception import angle_error_deg, pca_fit, pins_to_vectors
+from twin.sensing.perception import PerceptionModel, angle_error_deg, pca_fit, pins_to_vectors
 
 DIRECTIONS = (0, 45, 90, 135, 180, 225, 270, 315)
 #: Table I of the paper (RMS orientation error, deg): direction → (On, Off); 90°/270° On only.
@@ -125,6 +126,48 @@ def along_edge_drag_px(slides: Run) -> dict[int, float | None]:
     return drag
 
 
+def _offset_deg(plane_px: np.ndarray, theta_deg: np.ndarray) -> dict[str, float]:
+    """Frames in the PC2–PC3 plane (M, 2) px against their true θ: "radius_px" (RMS),
+    "offset_deg" (the circular mean of θ_PC23 − θ) and "spread_deg" (RMS about it)."""
+    diff = np.radians(np.degrees(np.arctan2(plane_px[:, 1], plane_px[:, 0])) - theta_deg)
+    offset = float(np.degrees(np.angle(np.mean(np.exp(1j * diff)))))
+    return {
+        "radius_px": float(np.sqrt(np.mean(np.sum(plane_px**2, axis=1)))),
+        "offset_deg": offset,
+        "spread_deg": float(np.sqrt(np.mean(wrap_deg(np.degrees(diff) - offset) ** 2))),
+    }
+
+
+def along_edge_reading(model: PerceptionModel, taps: Run, slides: Run) -> dict | None:
+    """Where the along-edge slides (90°, 270°) sit in the taps' PC2–PC3 plane, the plane the
+    PCA + GP reads θ from: for the taps at the slides' lateral position, per depth, and for
+    each direction's unslid first samples ("pressed") and sliding ones ("sliding"), the
+    frames' RMS radius (px, about the model's origin) and θ_PC23 − θ (deg, circular mean,
+    with the RMS about it). Frames read as the taps do where their offset is the taps'; a
+    drag that outweighs the taps' radius there turns it to the slide's own direction, the
+    two directions' 180° apart. {"lateral_mm", "taps": {depth: figures}, 90: {"pressed",
+    "sliding"}, 270: ...}; None without along-edge slides."""
+    direction, sample = slides.label("direction_deg"), slides.label("sample_in_slide")
+    along = np.isin(direction, (90, 270))
+    if not along.any():
+        return None
+    lateral = float(slides.label("lateral_mm")[along & (sample == 0)][0])
+    reading: dict = {"lateral_mm": lateral, "taps": {}}
+    t_lateral, t_depth, t_theta = taps.label("lateral_mm"), taps.label("depth_mm"), taps.label("theta_deg")
+    for depth in sorted(set(t_depth[np.isclose(t_lateral, lateral)].tolist())):
+        m = np.isclose(t_lateral, lateral) & (t_depth == depth)
+        reading["taps"][float(depth)] = _offset_deg(model.pc23_px(taps.pins_px[m], taps.resolution), t_theta[m])
+    theta = slides.label("theta_deg")
+    for d in (90, 270):
+        phases = {"pressed": (direction == d) & (sample == 0), "sliding": (direction == d) & (sample > 0)}
+        if all(m.any() for m in phases.values()):
+            reading[d] = {
+                name: _offset_deg(model.pc23_px(slides.pins_px[m], slides.resolution), theta[m])
+                for name, m in phases.items()
+            }
+    return reading
+
+
 def evaluate(train_dir: Path, test_dir: Path, out: Path, seed: int = 0) -> dict:
     """Train on `train_dir` (tap run), test on `test_dir`: a slides run (Table I) or a
     held-out tap run (errors per lateral position); write the results (json, csv) and the
@@ -159,6 +202,7 @@ def evaluate(train_dir: Path, test_dir: Path, out: Path, seed: int = 0) -> dict:
         "variance_explained_3pc": float(np.sum(pca.variance_explained[:3])),
         "orientation_signal_px": orientation_signal_px(train),
         "along_edge_drag_px": along_edge_drag_px(test),
+        "along_edge_reading": along_edge_reading(pca, train, test),
         "paper": {
             "table_i": PAPER_TABLE_I,
             "variance_explained_3pc": PAPER_VARIANCE_3PC,

@@ -513,6 +513,11 @@ class PerceptionModel:
         """(M, 127, 2) pins (px, model resolution) → (M, 3) PCA projections p (px)."""
         return (pins_to_vectors(pins_px) - self.pca_mean) @ self.pca_components.T
 
+    def pc23_px(self, pins_px: np.ndarray, resolution: tuple[int, int] | None = None) -> np.ndarray:
+        """(M, 2) px: frames' coordinates in the PC2–PC3 plane about the origin p0, whose
+        angle is θ_PC23 (pins at `resolution`, default the model's)."""
+        return (self.project(self._scaled_pins(pins_px, resolution)) - self.origin_p)[:, 1:3]
+
     def spherical(self, pins_px: np.ndarray) -> np.ndarray:
         """(M, 127, 2) pins → (M, 3) v = (ρ px, θ_PC23 rad, φ rad)."""
         return spherical_coordinates(self.project(pins_px) - self.origin_p, self.depth_shift)

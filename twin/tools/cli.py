@@ -201,6 +201,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     print(f"variance explained by 3 PCs: {100 * result['variance_explained_3pc']:.1f} % (paper: 88.3 %)")
     print(_command_module("twin.tools.evaluation_report").format_orientation_signal(result["orientation_signal_px"]))
     print(_command_module("twin.tools.evaluation_report").format_along_edge_drag(result["along_edge_drag_px"]))
+    print(_command_module("twin.tools.evaluation_report").format_along_edge_reading(result["along_edge_reading"]))
     print(f"wrote {args.out}/table_i.csv, table_i.json and the PCA figures")
     return 0
 

@@ -68,6 +68,26 @@ def format_along_edge_drag(drag: dict[int, float | None], who: str = "the along-
     )
 
 
+def format_along_edge_reading(reading: dict | None) -> str:
+    """`along_edge_reading` as text: a line for the taps at the slides' lateral position and
+    one per along-edge direction."""
+    if reading is None:
+        return "no along-edge slides: no reading of them in the taps' PC2–PC3 plane"
+
+    def figures(f: dict) -> str:
+        return f"θ_PC23 − θ {f['offset_deg']:+.1f}° ± {f['spread_deg']:.1f}, radius {f['radius_px']:.2f} px"
+
+    lines = [f"the along-edge slides in the taps' PC2–PC3 plane (l {reading['lateral_mm']:+g} mm; θ is read from it):"]
+    for depth, f in reading["taps"].items():
+        lines.append(f"  taps {float(depth):g} mm deep: {figures(f)}")
+    for d in (90, 270):
+        if d in reading:
+            lines.append(
+                f"  {d}° pressed: {figures(reading[d]['pressed'])};  sliding: {figures(reading[d]['sliding'])}"
+            )
+    return "\n".join(lines)
+
+
 def write_pca_figures(train_dir: Path, test_dir: Path, out: Path) -> list[Path]:
     """Figs. 5–6: the sliding set on its own PCs (PC1–PC2, PC4–PC5) and on the tap set's
     PC2–PC3, one panel per sliding direction, coloured by the true orientation
