@@ -160,3 +160,47 @@ def test_the_jacobian_stays_inside_the_bounds(recorded, tmp_path) -> None:
         simulated = sorted(dict(k)["friction"] for k in ev._cache)
     assert simulated == [0.3, pytest.approx(0.3 + 0.05 * 0.9)]
     assert column.shape == (len(ev.row_sample), 1) and np.abs(column).max() > 0
+
+
+def test_the_still_signal_is_the_replay_without_slides(recorded) -> None:
+    """With settings edge_signal: still the twin's signal figure is that of the recorded
+    taps replayed at their poses without their slides and twists (as `twin run` records
+    them with the protocol's slides off), on the recorded run's usable frames; the other
+    figures are the sheared replay's, as without it."""
+    from twin.analysis.calibration_fit.data import load_data
+    from twin.analysis.calibration_fit.evaluator import Evaluator
+    from twin.analysis.calibration_fit.space import Space
+    from twin.analysis.edge_imprint import signal_profile, usable
+    from twin.runs.parallel import WorkerPool
+    from twin.runs.record import Run
+
+    settings = load_settings(None).model_copy(update={"edge_signal": "still"})
+    settings = settings.model_copy(update={"weights": settings.weights.model_copy(update={"edge_figures": 1.0})})
+    scenario = recorded["scenario"]
+    tables = {}
+    for still in (False, True):
+        data = load_data([recorded["real"]], scenario, settings.weights, still_replays=still)
+        with WorkerPool(1) as pool:
+            ev = Evaluator(Space(scenario, settings), data, pool)
+            values = dict(ev.space.defaults)
+            tips = ev.simulate_one(values, "the twin as the scenario has it")
+            tables[still] = {(r["figure"], r["lateral_mm"]): r["twin"] for r in ev.figure_table(tips, values)}
+        assert data.still_of == ([0] if still else []) and len(tips) == (2 if still else 1) * len(data.pins)
+
+    protocol = scenario.protocol.without_slides().model_dump()
+    still_dir = run_scenario(
+        scenario.with_changes(protocol=protocol), recorded["root"] / "still", workers=1, progress=False
+    )
+    still_run = load_run(still_dir)
+    assert np.all(still_run.label("slide_along_mm")[1:] == 0.0) and np.all(still_run.label("twist_deg")[1:] == 0.0)
+    real = load_run(recorded["real"])
+    np.testing.assert_allclose(still_run.label("lateral_mm"), real.label("lateral_mm"))
+    keep = usable(real) | np.array([bool(s["labels"].get("no_contact")) for s in real.samples])
+    (expected,) = signal_profile(
+        Run(still_run.path, still_run.meta, [s for s, k in zip(still_run.samples, keep) if k])
+    ).values()
+    signal = {l: v for (f, l), v in tables[True].items() if f == "signal"}
+    assert signal and signal == pytest.approx({l: v for l, v in expected.items() if l != 0.0}, abs=1e-6)
+    assert signal != pytest.approx({l: v for (f, l), v in tables[False].items() if f == "signal"}, abs=1e-3)
+    others = {k: v for k, v in tables[True].items() if k[0] != "signal"}
+    assert others == pytest.approx({k: v for k, v in tables[False].items() if k[0] != "signal"})

@@ -189,6 +189,14 @@ class ShearedTapProtocol(_EdgeProtocol):
         description="the taps in order (an imported lab recording's: twin run --taps-from RUN); none = draw `taps`",
     )
 
+    def without_slides(self) -> ShearedTapProtocol:
+        """The same taps at the same poses, without their in-contact slide and twist (drawn
+        taps: the same draw, the slides and twists drawn from ±0)."""
+        if self.given is None:
+            return self.model_copy(update={"slide_mm": 0.0, "twist_deg": 0.0})
+        still = dict.fromkeys(SHEARED_TAP_MOTION, 0.0)
+        return self.model_copy(update={"given": [tap.model_copy(update=still) for tap in self.given]})
+
     @model_validator(mode="after")
     def _ranges_in_order(self) -> ShearedTapProtocol:
         for name in ("lateral_range_mm", "angle_range_deg"):

@@ -52,7 +52,7 @@ from tqdm import tqdm
 from twin.core.environment import Observation
 from twin.core.errors import UserError
 from twin.core.poses import Pose
-from twin.core.scenario import SHEARED_TAP_MOTION, Scenario, ShearedTapProtocol, scenario_from_dict
+from twin.core.scenario import Scenario, ShearedTapProtocol, scenario_from_dict
 from twin.runs.protocols import sheared_tap_moves
 from twin.runs.record import RunRecorder, load_run
 from twin.sensing.tracker import PinTracker, camera_for_frame
@@ -241,7 +241,5 @@ def with_taps_from(
     if recorded.get("kind") != "sheared_taps" or not recorded.get("given"):
         raise UserError(f"{run_dir}: not a run of given sheared taps (an imported lab recording)")
     given = recorded["given"][:first]
-    if without_slides:
-        given = [{**tap, **dict.fromkeys(SHEARED_TAP_MOTION, 0.0)} for tap in given]
-    protocol = {**scenario.protocol.model_dump(), "given": given, "taps": len(given)}
-    return scenario.with_changes(protocol=protocol)
+    replay = scenario.with_changes(protocol={**scenario.protocol.model_dump(), "given": given, "taps": len(given)})
+    return replay.with_changes(protocol=replay.protocol.without_slides().model_dump()) if without_slides else replay

@@ -1,6 +1,7 @@
 """The recorded pins a calibration fits: runs read and checked against the calibration
 scenario, grouped (rest, contact, sliding) and weighted, and paired with the replayed
-chunks that simulate them."""
+chunks that simulate them; on request, also each sheared-tap run's taps replayed without
+their slides (the edge figures' signal, twin.analysis.calibration_fit.figures)."""
 
 from __future__ import annotations
 
@@ -35,6 +36,17 @@ class Data:
     unfinished: list[str] = field(default_factory=list)  # a line per run that did not finish (Run.unfinished_note)
     records: list[Run] = field(default_factory=list)  # the runs as read
     without_pins: list[str] = field(default_factory=list)  # a line per run with samples that have no pins (NaN here)
+    #: per still replay (after the runs in `sim_index`): the run it replays without slides
+    still_of: list[int] = field(default_factory=list)
+
+    def still_rows(self, run: int) -> np.ndarray | None:
+        """Rows of the simulated pins (after the N recorded samples') of `run`'s still replay,
+        in its samples' order; None without one."""
+        if run not in self.still_of:
+            return None
+        k = self.still_of.index(run)
+        first = len(self.pins) + sum(len(self.records[r].samples) for r in self.still_of[:k])
+        return first + np.arange(len(self.records[run].samples))
 
 
 def _group(scenario: Scenario, sample: dict) -> int:
@@ -43,11 +55,13 @@ def _group(scenario: Scenario, sample: dict) -> int:
     return GROUPS.index("sliding" if scenario.protocol.kind in ("slides", "contour") else "contact")
 
 
-def load_data(run_dirs: list[Path], scenario: Scenario, weights: Weights) -> Data:
+def load_data(run_dirs: list[Path], scenario: Scenario, weights: Weights, still_replays: bool = False) -> Data:
     """Read and check the runs against the calibration scenario (UserError naming the run
     and field: another object, placement, work frame or camera; no samples; no sample with
     pins). A sample without pins (an imported recording's missing frame) is replayed, so the
-    sensor's path is the recorded one, and its pins are NaN: not fitted."""
+    sensor's path is the recorded one, and its pins are NaN: not fitted. `still_replays`:
+    each sheared-tap run is also replayed without its slides and twists (simulated after
+    all the runs' samples, `Data.still_rows`)."""
     pins, group, run_index, chunks, records = [], [], [], [], []
     without_pins: list[str] = []
     cam = scenario.sensor.camera
@@ -98,9 +112,17 @@ def load_data(run_dirs: list[Path], scenario: Scenario, weights: Weights) -> Dat
         records=records,
         without_pins=without_pins,
     )
-    # pair each recorded sample with its simulated row by target pose (twin compare's pairing)
-    for r, run in enumerate(records):
-        targets = [m.pose.as_array() for rr, c in chunks if rr == r for m in c if m.record]
+    if still_replays:
+        for r, run in enumerate(records):
+            recorded = scenario_from_dict(run.meta["scenario"], str(run.path / "run.json"))
+            if recorded.protocol.kind == "sheared_taps":
+                still = recorded.with_changes(protocol=recorded.protocol.without_slides().model_dump())
+                data.chunks.extend((len(records) + len(data.still_of), c) for c in replay_chunks(run, still))
+                data.still_of.append(r)
+    # pair each recorded sample with its simulated row by target pose (twin compare's pairing);
+    # a still replay reaches the same poses
+    for r, run in enumerate(records + [records[k] for k in data.still_of]):
+        targets = [m.pose.as_array() for rr, c in data.chunks if rr == r for m in c if m.record]
         simulated = Run(run.path, run.meta, [{"target": t} for t in targets])
         pairs = dict(pair_samples(run, simulated))
         missing = [i for i in range(len(run.samples)) if i not in pairs]

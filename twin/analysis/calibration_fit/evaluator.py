@@ -63,7 +63,12 @@ class Evaluator:
         #: the edge figures' target where they are weighted (sheared-tap runs only), else None
         self.figures = (
             EdgeFigureTarget.of(
-                data.records, data.run_index, weight, settings.edge_figure_resamples, settings.optimiser.seed
+                data.records,
+                data.run_index,
+                weight,
+                settings.edge_figure_resamples,
+                settings.optimiser.seed,
+                [data.still_rows(r) for r in range(len(data.records))],
             )
             if weight > 0
             else None
@@ -80,7 +85,8 @@ class Evaluator:
         self.fixed_offsets: np.ndarray | None = None
 
     def simulate(self, candidates: list[dict[str, float]]) -> list[np.ndarray | None]:
-        """Pin tips (N, 127, 3) m for each physics candidate, in recorded-sample order (a
+        """Pin tips (N, 127, 3) m for each physics candidate, in recorded-sample order, then
+        those of the still replays where the data has them (`Data.still_rows`; a
         candidate simulated before is not simulated again); None for one whose simulation
         failed its physics checks (recorded in `failures`). A candidate is read for the
         physics parameters the dome model has (`Space.modelled`), at their defaults where
@@ -123,7 +129,8 @@ class Evaluator:
         return out
 
     def predict(self, tips: np.ndarray, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
-        """(predicted pins (N, 127, 2) px, rest offsets (127, 2) px) for pin tips and values."""
+        """(predicted pins (N, 127, 2) px, rest offsets (127, 2) px) for pin tips and values
+        (the rows of `simulate`'s tips: still replays' after the N recorded samples')."""
         camera = self.space.calibration(values).camera_model(self.space.scenario.camera_model().nominal())
         proj = camera.project_tool_points(tips.reshape(-1, 3)).reshape(tips.shape[0], N_PINS, 2)
         offsets = np.zeros((N_PINS, 2))
@@ -131,7 +138,7 @@ class Evaluator:
             offsets = self.fixed_offsets
         elif self.fit_rest:
             w = (self.data.weights[self.rest][:, None] * self.valid[self.rest])[..., None]
-            diff = np.nan_to_num(self.data.pins[self.rest] - proj[self.rest])
+            diff = np.nan_to_num(self.data.pins[self.rest] - proj[: len(self.rest)][self.rest])
             offsets = (w * diff).sum(axis=0) / np.maximum(w.sum(axis=0), 1e-12)
         else:
             base = self.space.scenario.calibration()
@@ -145,7 +152,8 @@ class Evaluator:
         """Whitened residual vector: √w (recorded − predicted) / noise_px of the weighed pins,
         then (`figures`, where weighted) the edge figures' misses, then (`priors`) the priors."""
         pred, _ = self.predict(tips, values)
-        r = (self.data.pins - pred) * (np.sqrt(self.data.weights)[:, None, None] / self.space.settings.noise_px)
+        recorded = pred[: len(self.data.pins)]
+        r = (self.data.pins - recorded) * (np.sqrt(self.data.weights)[:, None, None] / self.space.settings.noise_px)
         blocks = [r[self.weighed].ravel()]
         if figures and self.figures is not None:
             blocks.append(self.figures.residuals(pred))
@@ -187,7 +195,9 @@ class Evaluator:
             camera = space.calibration({**values, **space.from_unit(names, unit)}).camera_model(
                 space.scenario.camera_model().nominal()
             )
-            return pins - camera.project_tool_points(tips[self.rest].reshape(-1, 3)).reshape(pins.shape)
+            return pins - camera.project_tool_points(tips[: len(self.rest)][self.rest].reshape(-1, 3)).reshape(
+                pins.shape
+            )
 
         priors = [(n, values[n], space.settings.parameters[n].prior_std) for n in names]
         priors = [(n, v, std) for n, v, std in priors if std]
@@ -223,6 +233,7 @@ class Evaluator:
     def rms(self, tips: np.ndarray, values: dict[str, float]) -> dict:
         """Pin RMS (px, Euclidean per pin) overall, per group and per run."""
         pred, _ = self.predict(tips, values)
+        pred = pred[: len(self.data.pins)]
         err2 = np.sum((self.data.pins - pred) ** 2, axis=2)
 
         def rms(mask: np.ndarray) -> float | None:

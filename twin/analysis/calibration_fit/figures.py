@@ -16,7 +16,12 @@ ratio 4 mm off the object reads 1.06 to 1.45 by which fifth is taken. So each mi
 the tolerance and the recorded figure's spread together, √(tolerance² + spread²), the
 spread its standard deviation over bootstrap resamples of the run's frames (seeded).
 The twin's figures come from the same frames as the recorded ones (a frame whose recorded
-pins were not all found is left out of both)."""
+pins were not all found is left out of both). With settings `edge_signal: still` the twin's
+signal comes from the same taps replayed without their slides and twists: onto the object
+its sheared signal is buried in the slides' scatter (±0.26 of the ratio at l = −4 with
+500 taps a bin, where the still one is known to ±0.02), and the two agree within that
+scatter; the recorded sheared signal hardly differs from the one read at zero slide
+(docs/real-sensor.md, 2026-11-29)."""
 
 from __future__ import annotations
 
@@ -27,6 +32,7 @@ import numpy as np
 
 from twin.analysis.edge_imprint import along_edge_turn_sheared, drag_over_signal, is_sheared, signal_profile
 from twin.core.errors import UserError
+from twin.core.scenario import SHEARED_TAP_MOTION
 from twin.runs.record import Run
 
 SIGNAL_TOLERANCE = 0.1
@@ -96,13 +102,22 @@ class EdgeFigureTarget:
     recorded: list[Figures]
     spread: list[Figures]  # per run: each recorded figure's bootstrap spread (its miss's units)
     weight: float
+    still_rows: list[np.ndarray | None]  # per run: the rows of its still replay in the pins given, or None
 
     @classmethod
     def of(
-        cls, records: list[Run], run_index: np.ndarray, weight: float, resamples: int, seed: int
+        cls,
+        records: list[Run],
+        run_index: np.ndarray,
+        weight: float,
+        resamples: int,
+        seed: int,
+        still_rows: list[np.ndarray | None] | None = None,
     ) -> EdgeFigureTarget:
         """The recorded figures and their spread over `resamples` bootstrap resamples (seeded);
-        UserError naming a run that is not sheared taps or has no lateral bin to compare."""
+        UserError naming a run that is not sheared taps or has no lateral bin to compare.
+        `still_rows`: per run, where its still replay's pins are (the twin's signal then
+        comes from them)."""
         recorded = []
         for run in records:
             if not is_sheared(run):
@@ -122,15 +137,23 @@ class EdgeFigureTarget:
         spread = [
             figure_spread(run, resamples, seed + r, figures) for r, (run, figures) in enumerate(zip(records, recorded))
         ]
-        return cls(records, rows, recorded, spread, weight)
+        return cls(records, rows, recorded, spread, weight, still_rows or [None] * len(records))
 
-    def simulated_runs(self, pins_px: np.ndarray) -> list[Run]:
-        """Each recorded run with its pins replaced by `pins_px` (N, 127, 2) px, its rest pins
-        by their mean over its no-contact frames."""
-        runs = []
-        for run, rows in zip(self.records, self.rows):
-            pins = pins_px[rows]
-            samples = [{**s, "pins_px": p} for s, p in zip(run.samples, pins)]
+    def simulated_runs(self, pins_px: np.ndarray, still: bool = False) -> list[Run | None]:
+        """Each recorded run with its pins replaced by those of `pins_px` (px) at its rows,
+        its rest pins by their mean over its no-contact frames. `still`: its still replay
+        instead, the slide and twist labels 0 (None for a run without one)."""
+        runs: list[Run | None] = []
+        for run, rows, still_rows in zip(self.records, self.rows, self.still_rows):
+            if still and still_rows is None:
+                runs.append(None)
+                continue
+            pins = pins_px[still_rows if still else rows]
+            zero = dict.fromkeys(SHEARED_TAP_MOTION, 0.0) if still else {}
+            samples = [
+                {**s, "pins_px": p, "labels": {**s["labels"], **{k: v for k, v in zero.items() if k in s["labels"]}}}
+                for s, p in zip(run.samples, pins)
+            ]
             rest = [k for k, s in enumerate(run.samples) if s["labels"].get("no_contact")]
             meta = {**run.meta, "rest_pins_px": pins[rest].mean(axis=0) if rest else run.meta.get("rest_pins_px")}
             runs.append(Run(run.path, meta, samples))
@@ -140,9 +163,13 @@ class EdgeFigureTarget:
         """One row per recorded figure: run, figure, l (mm), recorded, its spread (the miss's
         units), twin, miss (over √(tolerance² + spread²)), miss_tolerance (over the tolerance alone)."""
         out = []
-        runs = self.simulated_runs(pins_px)
-        for r, (run, recorded, spread) in enumerate(zip(runs, self.recorded, self.spread)):
+        runs, stills = self.simulated_runs(pins_px), self.simulated_runs(pins_px, still=True)
+        for r, (run, still, recorded, spread) in enumerate(zip(runs, stills, self.recorded, self.spread)):
             twin = figure_values(run)
+            if still is not None:
+                twin = {k: v for k, v in twin.items() if k[0] != "signal"}
+                for row in signal_profile(still).values():
+                    twin.update({("signal", l): v for l, v in row.items() if l != 0.0})
             for (figure, l), value in sorted(recorded.items()):
                 simulated = twin.get((figure, l))
                 out.append(

@@ -26,7 +26,8 @@ with σ = settings.noise_px, per-frame weights w by group (rest, contact, slidin
 w_e = weights.edge_figures: on sheared-tap runs, the misses of the edge figures of the
 twin's predicted pins against the recorded ones, each over its tolerance and the recorded
 figure's spread (twin.analysis.calibration_fit.figures; a frame of zero weight still
-counts there), taken at the camera the pins solve. A
+counts there), taken at the camera the pins solve; with settings edge_signal: still the
+twin's signal ratios come from its replay of the same taps without their slides. A
 pin-level misfit shared by every frame (the camera's, or the model's) can outweigh what
 the physics parameters do to the edge; with the contact weights at 0 the camera is fitted
 to the no-contact frames and the physics to the figures alone. The
@@ -148,7 +149,8 @@ def _calibrate(
     wall = time.perf_counter()
     if scenario.backend != "sim":
         scenario = scenario.with_changes(backend="sim")
-    data = load_data([Path(r) for r in run_dirs], scenario, settings.weights)
+    still = settings.edge_signal == "still" and settings.weights.edge_figures > 0
+    data = load_data([Path(r) for r in run_dirs], scenario, settings.weights, still_replays=still)
     space = Space(scenario, settings)
     out.mkdir(parents=True, exist_ok=True)
     ev = Evaluator(space, data, pool)
@@ -218,7 +220,12 @@ def _calibrate(
         "camera_from_rest": rest_camera,
         "edge_figures": None
         if figures_after is None
-        else {"weight": settings.weights.edge_figures, "before": figures_before, "after": figures_after},
+        else {
+            "weight": settings.weights.edge_figures,
+            "signal_from": settings.edge_signal,
+            "before": figures_before,
+            "after": figures_after,
+        },
         "held_out": elsewhere,
         "uncertainty": errors,
         "generations": state["generation"],

@@ -5,6 +5,7 @@ over the shipped one."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
@@ -99,6 +100,10 @@ class CalibrationSettings(_Strict):
     weights: Weights
     edge_figure_resamples: int = Field(
         ge=0, le=1000, description="bootstrap resamples for the recorded edge figures' spread (0 = none)"
+    )
+    edge_signal: Literal["sheared", "still"] = Field(
+        description="where the twin's edge signal figure comes from: its replay of the recorded sheared "
+        "taps, or the same taps replayed without their slides and twists (twin.analysis.calibration_fit.figures)"
     )
     noise_px: float = Field(gt=0, le=50)
     identifiable_fraction: float = Field(gt=0, le=10)
