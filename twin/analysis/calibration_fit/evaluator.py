@@ -55,6 +55,8 @@ class Evaluator:
         self.cache_size = 32
         #: parallel slots to fill: the local workers, or (with a Ray cluster) --workers as its CPU count
         self.parallelism = pool.workers
+        #: N: the recorded samples; simulated tips hold theirs first, then any still replay's
+        self.n_recorded = len(data.pins)
         self.valid = np.isfinite(data.pins).all(axis=2)  # (N, 127)
         #: the pins in the residual vector: found, in a frame of non-zero weight
         self.weighed = self.valid & (data.weights > 0)[:, None]
@@ -138,7 +140,7 @@ class Evaluator:
             offsets = self.fixed_offsets
         elif self.fit_rest:
             w = (self.data.weights[self.rest][:, None] * self.valid[self.rest])[..., None]
-            diff = np.nan_to_num(self.data.pins[self.rest] - proj[: len(self.rest)][self.rest])
+            diff = np.nan_to_num(self.data.pins[self.rest] - proj[: self.n_recorded][self.rest])
             offsets = (w * diff).sum(axis=0) / np.maximum(w.sum(axis=0), 1e-12)
         else:
             base = self.space.scenario.calibration()
@@ -152,7 +154,7 @@ class Evaluator:
         """Whitened residual vector: √w (recorded − predicted) / noise_px of the weighed pins,
         then (`figures`, where weighted) the edge figures' misses, then (`priors`) the priors."""
         pred, _ = self.predict(tips, values)
-        recorded = pred[: len(self.data.pins)]
+        recorded = pred[: self.n_recorded]
         r = (self.data.pins - recorded) * (np.sqrt(self.data.weights)[:, None, None] / self.space.settings.noise_px)
         blocks = [r[self.weighed].ravel()]
         if figures and self.figures is not None:
@@ -195,7 +197,7 @@ class Evaluator:
             camera = space.calibration({**values, **space.from_unit(names, unit)}).camera_model(
                 space.scenario.camera_model().nominal()
             )
-            return pins - camera.project_tool_points(tips[: len(self.rest)][self.rest].reshape(-1, 3)).reshape(
+            return pins - camera.project_tool_points(tips[: self.n_recorded][self.rest].reshape(-1, 3)).reshape(
                 pins.shape
             )
 
@@ -233,7 +235,7 @@ class Evaluator:
     def rms(self, tips: np.ndarray, values: dict[str, float]) -> dict:
         """Pin RMS (px, Euclidean per pin) overall, per group and per run."""
         pred, _ = self.predict(tips, values)
-        pred = pred[: len(self.data.pins)]
+        pred = pred[: self.n_recorded]
         err2 = np.sum((self.data.pins - pred) ** 2, axis=2)
 
         def rms(mask: np.ndarray) -> float | None:
