@@ -17,11 +17,12 @@ the tolerance and the recorded figure's spread together, √(tolerance² + sprea
 spread its standard deviation over bootstrap resamples of the run's frames (seeded).
 The twin's figures come from the same frames as the recorded ones (a frame whose recorded
 pins were not all found is left out of both). With settings `edge_signal: still` the twin's
-signal comes from the same taps replayed without their slides and twists: onto the object
-its sheared signal is buried in the slides' scatter (±0.26 of the ratio at l = −4 with
-500 taps a bin, where the still one is known to ±0.02), and the two agree within that
-scatter; the recorded sheared signal hardly differs from the one read at zero slide
-(docs/real-sensor.md, 2026-11-29)."""
+signal onto the object (l < 0) comes from the same taps replayed without their slides and
+twists: there its sheared signal is buried in the slides' scatter (±0.26 of the ratio at
+l = −4 with 500 taps a bin, the still one ±0.02) and the two agree within it. Off the
+object the sheared one is kept: it is precise there (±0.04–0.06 px with 400 taps a bin),
+and the slides raise it above the still one by 0.16–0.23 px at l = +1 … +5, so a still
+figure there would not be the real's kind (docs/real-sensor.md, 2026-11-29)."""
 
 from __future__ import annotations
 
@@ -167,9 +168,9 @@ class EdgeFigureTarget:
         for r, (run, still, recorded, spread) in enumerate(zip(runs, stills, self.recorded, self.spread)):
             twin = figure_values(run)
             if still is not None:
-                twin = {k: v for k, v in twin.items() if k[0] != "signal"}
+                twin = {k: v for k, v in twin.items() if not (k[0] == "signal" and k[1] < 0.0)}
                 for row in signal_profile(still).values():
-                    twin.update({("signal", l): v for l, v in row.items() if l != 0.0})
+                    twin.update({("signal", l): v for l, v in row.items() if l < 0.0})
             for (figure, l), value in sorted(recorded.items()):
                 simulated = twin.get((figure, l))
                 out.append(

@@ -27,7 +27,8 @@ w_e = weights.edge_figures: on sheared-tap runs, the misses of the edge figures 
 twin's predicted pins against the recorded ones, each over its tolerance and the recorded
 figure's spread (twin.analysis.calibration_fit.figures; a frame of zero weight still
 counts there), taken at the camera the pins solve; with settings edge_signal: still the
-twin's signal ratios come from its replay of the same taps without their slides. A
+twin's signal ratios onto the object come from its replay of the same taps without their
+slides. A
 pin-level misfit shared by every frame (the camera's, or the model's) can outweigh what
 the physics parameters do to the edge; with the contact weights at 0 the camera is fitted
 to the no-contact frames and the physics to the figures alone. The

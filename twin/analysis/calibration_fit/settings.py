@@ -103,7 +103,8 @@ class CalibrationSettings(_Strict):
     )
     edge_signal: Literal["sheared", "still"] = Field(
         description="where the twin's edge signal figure comes from: its replay of the recorded sheared "
-        "taps, or the same taps replayed without their slides and twists (twin.analysis.calibration_fit.figures)"
+        "taps, or onto the object (l < 0) the same taps replayed without their slides and twists "
+        "(twin.analysis.calibration_fit.figures)"
     )
     noise_px: float = Field(gt=0, le=50)
     identifiable_fraction: float = Field(gt=0, le=10)
