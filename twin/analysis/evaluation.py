@@ -153,9 +153,10 @@ def along_edge_reading(model: PerceptionModel, taps: Run, slides: Run) -> dict |
         return None
     lateral = float(slides.label("lateral_mm")[along & (sample == 0)][0])
     reading: dict = {"lateral_mm": lateral, "taps": {}}
-    t_lateral, t_depth, t_theta = taps.label("lateral_mm"), taps.label("depth_mm"), taps.label("theta_deg")
-    for depth in sorted(set(t_depth[np.isclose(t_lateral, lateral)].tolist())):
-        m = np.isclose(t_lateral, lateral) & (t_depth == depth)
+    at = np.isclose(taps.label("lateral_mm"), lateral)
+    t_depth, t_theta = taps.label("depth_mm"), taps.label("theta_deg")
+    for depth in sorted(set(t_depth[at].tolist())):
+        m = at & (t_depth == depth)
         reading["taps"][float(depth)] = _offset_deg(model.pc23_px(taps.pins_px[m], taps.resolution), t_theta[m])
     theta = slides.label("theta_deg")
     for d in (90, 270):

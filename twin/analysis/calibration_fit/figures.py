@@ -150,9 +150,12 @@ class EdgeFigureTarget:
                 runs.append(None)
                 continue
             pins = pins_px[still_rows if still else rows]
-            zero = dict.fromkeys(SHEARED_TAP_MOTION, 0.0) if still else {}
             samples = [
-                {**s, "pins_px": p, "labels": {**s["labels"], **{k: v for k, v in zero.items() if k in s["labels"]}}}
+                {
+                    **s,
+                    "pins_px": p,
+                    "labels": {k: 0.0 if still and k in SHEARED_TAP_MOTION else v for k, v in s["labels"].items()},
+                }
                 for s, p in zip(run.samples, pins)
             ]
             rest = [k for k, s in enumerate(run.samples) if s["labels"].get("no_contact")]
