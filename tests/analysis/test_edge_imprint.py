@@ -244,6 +244,54 @@ def test_taps_over_a_full_turn_are_not_turned_and_keep_their_shifts() -> None:
     np.testing.assert_array_equal(pcs.explained, explained)
 
 
+def test_a_full_turns_signal_shift_share_is_the_rotating_shifts_energy() -> None:
+    """Frames rest + b·n(θ) + sin θ·r/ρ over a turn in 20° steps: about their mean over θ,
+    the shift's energy is N·b² a frame and the pattern's sin²θ·Σ|r/ρ|² (N pins, its mean over
+    the turn ½·N), and they are orthogonal (r has no mean), so the share is b² / (b² + ½).
+    The three PCs hold all of it (the shift's pair and the pattern), so their shift shares
+    weighted by their variances are that share too."""
+    thetas = np.arange(-180.0, 180.0, 20.0)
+    pins = np.stack(
+        [
+            REST + EDGE_SHIFT_PX * np.array([np.cos(t), np.sin(t)]) + np.sin(t) * CENTRED / RHO
+            for t in np.radians(thetas)
+        ]
+    )
+    samples = [
+        {"pins_px": p.tolist(), "found": None, "labels": {"theta_deg": t, "lateral_mm": -2.0, "depth_mm": 3.0}}
+        for p, t in zip(pins, thetas)
+    ]
+    run = Run(Path("synthetic"), {"scenario": {"protocol": {"kind": "taps"}}, "rest_pins_px": REST.tolist()}, samples)
+    share = EDGE_SHIFT_PX**2 / (EDGE_SHIFT_PX**2 + 0.5)
+    assert E.signal_shift_share(run) == {3.0: {-2.0: pytest.approx(share, rel=1e-9)}}
+    pcs = E.tap_pcs(run)
+    in_pcs = sum(v * E.translation_share(c) for v, c in zip(pcs.explained, pcs.components)) / pcs.explained.sum()
+    assert in_pcs == pytest.approx(share, rel=1e-6)
+
+
+def test_a_sheared_runs_signal_shift_share_is_not_the_frames_jitter() -> None:
+    """Sheared taps whose θ field is a pattern r/ρ with no rigid shift (share 0) and whose
+    frames each jitter rigidly by 1.5 px (a drag the model leaves unexplained). The jitter's
+    error in the fitted θ gradient is a rigid shift of about 1.5 / (std θ · √n) px/deg,
+    which as a raw share reads ~3 % in every bin. Less the fit's noise the share is 0 on
+    average over 60 bins: its scatter is that of a 2-dof χ² about its mean, so the mean is
+    within 3 / √60 = 0.39 of the raw mean of 0."""
+    raw, shares = [], []
+    for seed in range(12):
+        jitter = np.random.default_rng(100 + seed)
+
+        def displacement(tap, jitter=jitter) -> np.ndarray:
+            return tap.theta_deg / 45.0 * CENTRED / RHO + jitter.normal(0.0, 1.5, 2)
+
+        run = _sheared(displacement, 1500, 200 + seed, 0.05)
+        for f in E.sheared_fits(run):
+            raw.append(E.translation_share(f.gradients["theta_deg"]))
+            shares.append(f.signal_shift_share)
+    assert len(shares) == 60 and min(raw) > 0.0
+    assert abs(np.mean(shares)) < 0.39 * np.mean(raw)
+    assert np.mean(raw) > 0.01
+
+
 def test_reach_profile_finds_the_edge_side_in_the_image() -> None:
     """Pins move as far as they lie towards the object, whose side in the image turns with
     θ as −(θ + 30°) (camera rolled and mirrored): the fitted direction is that, and the
@@ -337,10 +385,13 @@ def test_compare_and_evaluate_print_the_edge_figures(run: Run, tmp_path: Path, c
     assert main(["compare", str(a), str(b), "--out", str(tmp_path / "cmp")]) == 0
     printed = capsys.readouterr().out
     assert "no paired samples" in printed and "drag / orientation signal" in printed
+    assert "orientation signal in a rigid shift of the pins, %" in printed
     header = next(line for line in printed.splitlines() if line.startswith("edge figures"))
     assert "A: rig" in header and "B: twin" in header
     figures = json.loads((tmp_path / "cmp" / "comparison.json").read_text())["edge_figures"]
     assert figures["a"]["signal_profile"]["3.0"]["-2.0"] == pytest.approx(E.signal_profile(run)[3.0][-2.0])
+    shift_share = E.signal_shift_share(run)[3.0][-2.0]
+    assert figures["a"]["signal_shift_share"]["3.0"]["-2.0"] == pytest.approx(shift_share)
     # the reach profile where the user asks (the runs span l = -2.5 ... 2.5 mm)
     assert main(["compare", str(a), str(b), "--out", str(tmp_path / "cmp_reach"), "--reach-at", "-1", "2"]) == 0
     reach = [line for line in capsys.readouterr().out.splitlines() if line.startswith("  reach at l")]

@@ -82,6 +82,7 @@ class BinFit:
     mean_z: np.ndarray  # (254,) px: the bin's mean frame
     residual_px: float  # RMS pin distance left unexplained
     tap_z: np.ndarray  # (n, 254) px: the bin's frames with the fitted slide and twist taken out
+    signal_shift_share: float  # the θ gradient's energy in a rigid shift of the pins, less its noise
 
 
 def _pin_rms(vectors: np.ndarray) -> float:
@@ -99,6 +100,8 @@ class _TermNoise:
     def __init__(self, design: np.ndarray, unexplained: np.ndarray) -> None:
         dof = max(len(design) - design.shape[1], 1)
         self.variance_px2 = float(np.sum(unexplained**2)) / dof  # Σ_j s_j²
+        # the same for the rigid shift's two coordinates, × N_PINS: its share of that noise
+        self.shift_variance_px2 = N_PINS * float(np.sum(_uniform_shift(unexplained) ** 2)) / dof
         self.inverse = np.linalg.pinv(design.T @ design)
 
     def spread_px(self, x: np.ndarray, coef: np.ndarray, terms: list[int]) -> float:
@@ -108,6 +111,21 @@ class _TermNoise:
         raw2 = float(np.sum((xs @ coef[cols]) ** 2))
         bias2 = float(np.trace(xs.T @ xs @ self.inverse[np.ix_(cols, cols)])) * self.variance_px2
         return float(np.sqrt(max(raw2 - bias2, 0.0) / (len(x) * N_PINS)))
+
+    def shift_share(self, gradient: np.ndarray, term: int) -> float:
+        """`translation_share` of a fitted gradient (coef row 1 + term), its noise taken out
+        of both energies (the fit's error in the gradient has the residuals' covariance ×
+        (DᵀD)⁻¹ on the diagonal; a rigid jitter of the frames lands in the shift). Not
+        floored, so that it is unbiased: below 0 it is 0 within its noise."""
+        c = float(self.inverse[1 + term, 1 + term])
+        shift = N_PINS * float(np.sum(_uniform_shift(gradient[None]) ** 2)) - c * self.shift_variance_px2
+        energy = float(gradient @ gradient) - c * self.variance_px2
+        return shift / energy if energy > 0 else float("nan")
+
+
+def _uniform_shift(vectors: np.ndarray) -> np.ndarray:
+    """(n, 2) px: the mean pin displacement (x, y) of each of the (n, 254) vectors."""
+    return vectors.reshape(len(vectors), -1, 2).mean(axis=1)
 
 
 def sheared_fits(run: Run, width_mm: float = 1.0, min_samples: int = 20) -> list[BinFit]:
@@ -144,6 +162,7 @@ def sheared_fits(run: Run, width_mm: float = 1.0, min_samples: int = 20) -> list
                 z[m].mean(axis=0),
                 residual,
                 z[m] - x[:, 1:4] @ coef[2:5],
+                noise.shift_share(coef[1], 0),
             )
         )
     return fits
@@ -160,6 +179,30 @@ def signal_profile(run: Run) -> dict[float, dict[float, float]]:
     else:
         rows = orientation_signal_px(_subset(run, usable(run)))
     return {d: {l: v / row[0.0] for l, v in row.items()} for d, row in rows.items() if row.get(0.0)}
+
+
+def signal_shift_share(run: Run) -> dict[float, dict[float, float]]:
+    """{depth_mm: {lateral_mm: share}}: how much of the edge's orientation signal is a rigid
+    shift of all the pins (the imprint moving as a whole, its direction turning with the
+    edge): 0 for an imprint that only changes the pins' pattern, 1 for one that only shifts
+    them. Over a turn, such a shift becomes part of the taps' PC2–PC3 pair, and a slide's
+    drag, mostly a rigid shift, then lands in the plane the orientation is read from. Plain
+    taps per depth: the frames' deviations from their mean over the angles at each l; sheared
+    taps as one row at their nominal depth: the fitted θ gradient, less the fit's noise."""
+    if is_sheared(run):
+        depth = float(run.meta["scenario"]["protocol"]["depth_mm"])
+        return {depth: {f.lateral_mm: f.signal_shift_share for f in sheared_fits(run)}}
+    ok = usable(run)
+    pins, depth, lateral = run.pins_px[ok], run.label("depth_mm")[ok], run.label("lateral_mm")[ok]
+    table: dict[float, dict[float, float]] = {}
+    for d in sorted(set(depth.tolist())):
+        for l in sorted(set(lateral[depth == d].tolist()), reverse=True):
+            group = pins_to_vectors(pins[(depth == d) & (lateral == l)])
+            if len(group) > 1:
+                deviation = group - group.mean(axis=0)
+                shift = N_PINS * float(np.sum(_uniform_shift(deviation) ** 2))
+                table.setdefault(float(d), {})[float(l)] = shift / float(np.sum(deviation**2))
+    return table
 
 
 def drag_over_signal(run: Run) -> dict[float, dict[str, float]]:
@@ -344,8 +387,7 @@ def along_edge_turn_slides(
 
 def translation_share(field: np.ndarray) -> float:
     """The share of a displacement field's energy (254,) in a rigid shift of all the pins."""
-    mean = field.reshape(-1, 2).mean(axis=0)
-    return float(len(field) // 2 * mean @ mean / (field @ field))
+    return N_PINS * float(np.sum(_uniform_shift(field[None]) ** 2)) / float(field @ field)
 
 
 # ------------------------------------------------------------------ closest pins
@@ -437,7 +479,7 @@ def edge_figures(taps: Run, slides: Run | None = None, reach_at: tuple[float, ..
     """Every figure of this module for one sensor: a tap run (plain or sheared) and, for
     plain taps, a slides run for the along-edge drag (its slides at their first lateral
     position). `reach_at`: the l (mm) of the reach profiles; those with no tap within 0.5 mm
-    are left out. Keys: signal_profile, reach (l → ten bins), closest_pins, pcs_explained,
+    are left out. Keys: signal_profile, signal_shift_share, reach (l → ten bins), closest_pins, pcs_explained,
     pcs_turned, drag_over_signal and along_edge (l → figures; sheared taps, or plain taps
     with slides)."""
     pcs = tap_pcs(taps)
@@ -446,6 +488,7 @@ def edge_figures(taps: Run, slides: Run | None = None, reach_at: tuple[float, ..
         "name": taps.meta["scenario"]["name"],
         "kind": taps.meta["scenario"]["protocol"]["kind"],
         "signal_profile": signal_profile(taps),
+        "signal_shift_share": signal_shift_share(taps),
         "reach": {l: reach_profile(taps, l) for l in reach_at if np.any(np.abs(lateral - l) <= 0.5 + 1e-9)},
         "closest_pins": closest_pins(taps),
         "pcs_explained": pcs.explained.tolist(),
