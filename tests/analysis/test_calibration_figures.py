@@ -57,9 +57,10 @@ FIGURES_ONLY = {
 
 
 def test_a_miss_is_counted_in_tolerances() -> None:
-    """A signal ratio 0.1 off is one tolerance; a factor of 4/3 either way is one; a figure
-    below its floor counts as the floor; one the twin lacks is MISSING_MISS."""
+    """A signal ratio or a shift share 0.1 off is one tolerance; a factor of 4/3 either way is
+    one; a figure below its floor counts as the floor; one the twin lacks is MISSING_MISS."""
     assert miss("signal", 0.75, 0.65) == pytest.approx(0.1 / SIGNAL_TOLERANCE)
+    assert miss("shift", 0.55, 0.05) == pytest.approx(5.0)
     assert miss("signal", 0.55, 0.65) == pytest.approx(-1.0)
     assert miss("theta_pc23", 4.0 * 4 / 3, 4.0) == pytest.approx(1.0)
     assert miss("drag/signal", 3.0, 3.0 * FACTOR_TOLERANCE**2) == pytest.approx(-2.0)
@@ -170,7 +171,7 @@ def test_the_still_signal_is_the_replay_without_slides(recorded) -> None:
     from twin.analysis.calibration_fit.data import load_data
     from twin.analysis.calibration_fit.evaluator import Evaluator
     from twin.analysis.calibration_fit.space import Space
-    from twin.analysis.edge_imprint import signal_profile, usable
+    from twin.analysis.edge_imprint import signal_profile, signal_shift_share, usable
     from twin.runs.parallel import WorkerPool
     from twin.runs.record import Run
 
@@ -178,13 +179,14 @@ def test_the_still_signal_is_the_replay_without_slides(recorded) -> None:
     settings = settings.model_copy(update={"weights": settings.weights.model_copy(update={"edge_figures": 1.0})})
     scenario = recorded["scenario"]
     tables = {}
-    for still in (False, True):
+    for still, shift in ((False, "kept"), (True, "kept"), (True, "apart")):
         data = load_data([recorded["real"]], scenario, settings.weights, still_replays=still)
         with WorkerPool(1) as pool:
-            ev = Evaluator(Space(scenario, settings), data, pool)
+            ev = Evaluator(Space(scenario, settings.model_copy(update={"edge_signal_shift": shift})), data, pool)
             values = dict(ev.space.defaults)
             tips = ev.simulate_one(values, "the twin as the scenario has it")
-            tables[still] = {(r["figure"], r["lateral_mm"]): r["twin"] for r in ev.figure_table(tips, values)}
+            rows = ev.figure_table(tips, values)
+            tables[still if shift == "kept" else shift] = {(r["figure"], r["lateral_mm"]): r["twin"] for r in rows}
         assert data.still_of == ([0] if still else []) and len(tips) == (2 if still else 1) * len(data.pins)
 
     protocol = scenario.protocol.without_slides().model_dump()
@@ -205,3 +207,20 @@ def test_the_still_signal_is_the_replay_without_slides(recorded) -> None:
     others = {k: v for k, v in tables[True].items() if not (k[0] == "signal" and k[1] < 0)}
     assert ("signal", 1.0) in others
     assert others == pytest.approx({k: v for k, v in tables[False].items() if not (k[0] == "signal" and k[1] < 0)})
+    # apart: onto the object the still replay's signal without its shift, and its shift's share
+    still_used = Run(still_run.path, still_run.meta, [s for s, k in zip(still_run.samples, keep) if k])
+    (without,) = signal_profile(still_used, without_shift=True).values()
+    (shares,) = signal_shift_share(still_used).values()
+    apart = tables["apart"]
+    assert {l: v for (f, l), v in apart.items() if f == "signal" and l < 0} == pytest.approx(
+        {l: v for l, v in without.items() if l < 0}, abs=1e-6
+    )
+    assert {l: v for (f, l), v in apart.items() if f == "shift" and l < 0} == pytest.approx(
+        {l: v for l, v in shares.items() if l < 0}, abs=1e-6
+    )
+    assert {k for k in apart if k[0] == "shift"} == {("shift", l) for (f, l) in apart if f == "signal"} | {
+        ("shift", 0.0)
+    }
+    assert {k: v for k, v in apart.items() if k[0] not in ("signal", "shift")} == pytest.approx(
+        {k: v for k, v in tables[True].items() if k[0] != "signal"}
+    )

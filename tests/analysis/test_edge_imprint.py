@@ -269,6 +269,22 @@ def test_a_full_turns_signal_shift_share_is_the_rotating_shifts_energy() -> None
     assert in_pcs == pytest.approx(share, rel=1e-6)
 
 
+def test_the_signal_without_its_shift_is_the_imprints_pattern() -> None:
+    """Taps over a turn at l = 0 and −2 mm with the same pattern sin θ·r/ρ and rigid shifts
+    b·n(θ) of 1 and 3 px: each pin's spread is √(b² + ½) px, so the whole signal ratio is
+    √(9.5 / 1.5); without the shift both are the pattern's √½ and the ratio is 1."""
+    thetas = np.radians(np.arange(-180.0, 180.0, 20.0))
+    samples = []
+    for l, b in ((0.0, 1.0), (-2.0, 3.0)):
+        for t in thetas:
+            pins = REST + b * np.array([np.cos(t), np.sin(t)]) + np.sin(t) * CENTRED / RHO
+            labels = {"theta_deg": float(np.degrees(t)), "lateral_mm": l, "depth_mm": 3.0}
+            samples.append({"pins_px": pins.tolist(), "found": None, "labels": labels})
+    run = Run(Path("synthetic"), {"scenario": {"protocol": {"kind": "taps"}}, "rest_pins_px": REST.tolist()}, samples)
+    assert E.signal_profile(run)[3.0][-2.0] == pytest.approx(np.sqrt(9.5 / 1.5), rel=1e-9)
+    assert E.signal_profile(run, without_shift=True) == {3.0: {0.0: 1.0, -2.0: pytest.approx(1.0, rel=1e-9)}}
+
+
 def test_a_sheared_runs_signal_shift_share_is_not_the_frames_jitter() -> None:
     """Sheared taps whose θ field is a pattern r/ρ with no rigid shift (share 0) and whose
     frames each jitter rigidly by 1.5 px (a drag the model leaves unexplained). The jitter's

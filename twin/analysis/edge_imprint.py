@@ -168,16 +168,24 @@ def sheared_fits(run: Run, width_mm: float = 1.0, min_samples: int = 20) -> list
     return fits
 
 
-def signal_profile(run: Run) -> dict[float, dict[float, float]]:
+def signal_profile(run: Run, without_shift: bool = False) -> dict[float, dict[float, float]]:
     """{depth_mm: {lateral_mm: signal at l over signal at l = 0}}: plain taps per depth;
     sheared taps as one row at their nominal depth (the fitted θ term's spread). Rows
-    without an l = 0 are left out."""
+    without an l = 0 are left out. `without_shift`: the signal less its rigid shift of the
+    pins (`signal_shift_share`), signal × √(1 − share) at each l: the imprint's change of
+    pattern alone."""
     if is_sheared(run):
         fits = sheared_fits(run)
         signal = {f.lateral_mm: f.spread_px["theta_deg"] for f in fits}
         rows = {float(run.meta["scenario"]["protocol"]["depth_mm"]): signal}
     else:
         rows = orientation_signal_px(_subset(run, usable(run)))
+    if without_shift:
+        shares = signal_shift_share(run)
+        rows = {
+            d: {l: v * np.sqrt(max(1.0 - shares[d][l], 0.0)) for l, v in row.items() if l in shares.get(d, {})}
+            for d, row in rows.items()
+        }
     return {d: {l: v / row[0.0] for l, v in row.items()} for d, row in rows.items() if row.get(0.0)}
 
 

@@ -32,7 +32,13 @@ def _edge_figure_lines(figures: dict | None) -> list[str]:
     lines = [
         "",
         f"Edge figures (weight {figures['weight']:g}; the twin's signal from its "
-        f"{figures.get('signal_from', 'sheared')} replay of the taps). Miss: over the tolerance (0.1 for the signal ratio, a "
+        f"{figures.get('signal_from', 'sheared')} replay of the taps"
+        + (
+            "; the signal without its rigid shift, the shift's share a figure"
+            if figures.get("signal_shift") == "apart"
+            else ""
+        )
+        + "). Miss: over the tolerance (0.1 for the signal ratio and the shift, a "
         "factor 4/3 for the others) and, fitted, over √(tolerance² + spread²), the spread the recorded figure's "
         "over bootstrap resamples of its frames (the signal's in its units, the others' in log units; "
         "twin.analysis.calibration_fit.figures):",

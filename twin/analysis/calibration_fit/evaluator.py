@@ -71,6 +71,7 @@ class Evaluator:
                 settings.edge_figure_resamples,
                 settings.optimiser.seed,
                 [data.still_rows(r) for r in range(len(data.records))],
+                settings.edge_signal_shift == "apart",
             )
             if weight > 0
             else None

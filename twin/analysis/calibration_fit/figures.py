@@ -7,7 +7,10 @@ The figures, per lateral bin l (mm) of each run:
 * signal: the edge's orientation signal over its value at l = 0 (figure 1); a miss is
   the difference over SIGNAL_TOLERANCE (0.1);
 * theta_pc23: how far a 1 mm slide along the edge turns θ_PC23 (deg/mm, figure 3);
-* drag/signal: the fitted slide and twist terms' spread over the angle term's (figure 3).
+* drag/signal: the fitted slide and twist terms' spread over the angle term's (figure 3);
+* shift (settings `edge_signal_shift: apart`): the share of the signal that is a rigid shift
+  of the pins (edge_imprint.signal_shift_share), a miss its difference over
+  SHIFT_TOLERANCE (0.1); the signal ratios are then those of the signal without it.
 
 The last two span decades across l, so their miss is the log of the ratio over
 log(FACTOR_TOLERANCE) (a third either way), below a floor that keeps a vanishing figure finite.
@@ -22,7 +25,11 @@ twists: there its sheared signal is buried in the slides' scatter (±0.26 of the
 l = −4 with 500 taps a bin, the still one ±0.02) and the two agree within it. Off the
 object the sheared one is kept: it is precise there (±0.04–0.06 px with 400 taps a bin),
 and the slides raise it above the still one by 0.16–0.23 px at l = +1 … +5, so a still
-figure there would not be the real's kind (docs/real-sensor.md, 2026-11-29)."""
+figure there would not be the real's kind (docs/real-sensor.md, 2026-11-29). The twin's
+slides turn its imprint off the object into a rigid shift (40–65 % of its sheared signal
+against the real's 1–8 %), which the whole signal ratio counts as signal; `apart` weighs
+the imprint's pattern and that shift as two figures (docs/real-sensor.md,
+"The imprint's rigid shift, and the signal without it")."""
 
 from __future__ import annotations
 
@@ -31,12 +38,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from twin.analysis.edge_imprint import along_edge_turn_sheared, drag_over_signal, is_sheared, signal_profile
+from twin.analysis.edge_imprint import (
+    along_edge_turn_sheared,
+    drag_over_signal,
+    is_sheared,
+    signal_profile,
+    signal_shift_share,
+)
 from twin.core.errors import UserError
 from twin.core.scenario import SHEARED_TAP_MOTION
 from twin.runs.record import Run
 
 SIGNAL_TOLERANCE = 0.1
+SHIFT_TOLERANCE = 0.1
+#: the figures whose miss is their difference (the others': the log of their ratio)
+LINEAR = {"signal": SIGNAL_TOLERANCE, "shift": SHIFT_TOLERANCE}
 FACTOR_TOLERANCE = 4.0 / 3.0
 #: figure -> the value below which it counts as this floor (its unit)
 FLOORS = {"theta_pc23": 0.1, "drag/signal": 0.1}
@@ -46,24 +62,35 @@ MISSING_MISS = 10.0
 Figures = dict[tuple[str, float], float]
 
 
-def figure_values(run: Run) -> Figures:
+def figure_values(run: Run, shift_apart: bool = False) -> Figures:
     """{(figure, l): value} of a sheared-tap run (module docstring); l = 0's signal, 1 by
-    definition, is left out."""
-    values: Figures = {}
-    for row in signal_profile(run).values():
-        values.update({("signal", l): v for l, v in row.items() if l != 0.0})
+    definition, is left out. `shift_apart`: the signal without its rigid shift, and the
+    shift's share as figures of their own."""
+    values = _imprint_values(run, shift_apart)
     values.update({("drag/signal", l): v["ratio"] for l, v in drag_over_signal(run).items()})
     values.update({("theta_pc23", l): v["pc23_deg_per_mm"] for l, v in along_edge_turn_sheared(run).items()})
     return values
 
 
+def _imprint_values(run: Run, shift_apart: bool) -> Figures:
+    """The figures of the imprint alone (LINEAR: the signal ratios, and the shift's share
+    with `shift_apart`), which a replay without slides has too."""
+    values: Figures = {}
+    for row in signal_profile(run, without_shift=shift_apart).values():
+        values.update({("signal", l): v for l, v in row.items() if l != 0.0})
+    if shift_apart:
+        for row in signal_shift_share(run).values():
+            values.update({("shift", l): v for l, v in row.items()})
+    return values
+
+
 def _scale(figure: str, value: float) -> float:
     """The figure in the units its miss is counted in: the ratio itself, or the log of the floored value."""
-    return value if figure == "signal" else math.log(max(value, FLOORS[figure]))
+    return value if figure in LINEAR else math.log(max(value, FLOORS[figure]))
 
 
 def _tolerance(figure: str) -> float:
-    return SIGNAL_TOLERANCE if figure == "signal" else math.log(FACTOR_TOLERANCE)
+    return LINEAR.get(figure, math.log(FACTOR_TOLERANCE))
 
 
 def miss(figure: str, twin: float | None, recorded: float, spread: float = 0.0) -> float:
@@ -74,12 +101,14 @@ def miss(figure: str, twin: float | None, recorded: float, spread: float = 0.0) 
     return (_scale(figure, twin) - _scale(figure, recorded)) / math.hypot(_tolerance(figure), spread)
 
 
-def figure_spread(run: Run, resamples: int, seed: int, values: Figures | None = None) -> Figures:
+def figure_spread(
+    run: Run, resamples: int, seed: int, values: Figures | None = None, shift_apart: bool = False
+) -> Figures:
     """Each figure's standard deviation (in its miss's units) over `resamples` bootstrap
     resamples of the run's frames (its no-contact frames kept); 0 for every figure when
     `resamples` is 0, and for a figure that some resample lacks, the spread of those that have it.
-    `values`: the run's own figures (`figure_values`), where the caller has them."""
-    values = figure_values(run) if values is None else values
+    `values`: the run's own figures (`figure_values`, with `shift_apart`), where the caller has them."""
+    values = figure_values(run, shift_apart) if values is None else values
     if resamples == 0:
         return dict.fromkeys(values, 0.0)
     rest = [s for s in run.samples if s["labels"].get("no_contact")]
@@ -88,7 +117,7 @@ def figure_spread(run: Run, resamples: int, seed: int, values: Figures | None = 
     drawn: dict[tuple[str, float], list[float]] = {k: [] for k in values}
     for _ in range(resamples):
         pick = rng.integers(0, len(taps), len(taps))
-        for k, v in figure_values(Run(run.path, run.meta, rest + [taps[i] for i in pick])).items():
+        for k, v in figure_values(Run(run.path, run.meta, rest + [taps[i] for i in pick]), shift_apart).items():
             if k in drawn:
                 drawn[k].append(_scale(k[0], v))
     return {k: float(np.std(v)) if len(v) > 1 else 0.0 for k, v in drawn.items()}
@@ -104,6 +133,7 @@ class EdgeFigureTarget:
     spread: list[Figures]  # per run: each recorded figure's bootstrap spread (its miss's units)
     weight: float
     still_rows: list[np.ndarray | None]  # per run: the rows of its still replay in the pins given, or None
+    shift_apart: bool = False  # the signal without its rigid shift, and the shift as a figure (settings)
 
     @classmethod
     def of(
@@ -114,11 +144,12 @@ class EdgeFigureTarget:
         resamples: int,
         seed: int,
         still_rows: list[np.ndarray | None] | None = None,
+        shift_apart: bool = False,
     ) -> EdgeFigureTarget:
         """The recorded figures and their spread over `resamples` bootstrap resamples (seeded);
         UserError naming a run that is not sheared taps or has no lateral bin to compare.
         `still_rows`: per run, where its still replay's pins are (the twin's signal then
-        comes from them)."""
+        comes from them). `shift_apart`: settings edge_signal_shift is apart."""
         recorded = []
         for run in records:
             if not is_sheared(run):
@@ -127,7 +158,7 @@ class EdgeFigureTarget:
                     f"{run.path}: calibration settings field 'weights.edge_figures' needs sheared-tap runs "
                     f"(twin import-lab, or a sheared_taps protocol); this run's protocol is {kind!r}"
                 )
-            figures = figure_values(run)
+            figures = figure_values(run, shift_apart)
             if not any(f == "signal" for f, _ in figures):
                 raise UserError(
                     f"{run.path}: too few usable taps for the edge figures (a lateral bin needs 20 frames with every "
@@ -136,9 +167,10 @@ class EdgeFigureTarget:
             recorded.append(figures)
         rows = [np.nonzero(run_index == r)[0] for r in range(len(records))]
         spread = [
-            figure_spread(run, resamples, seed + r, figures) for r, (run, figures) in enumerate(zip(records, recorded))
+            figure_spread(run, resamples, seed + r, figures, shift_apart)
+            for r, (run, figures) in enumerate(zip(records, recorded))
         ]
-        return cls(records, rows, recorded, spread, weight, still_rows or [None] * len(records))
+        return cls(records, rows, recorded, spread, weight, still_rows or [None] * len(records), shift_apart)
 
     def simulated_runs(self, pins_px: np.ndarray, still: bool = False) -> list[Run | None]:
         """Each recorded run with its pins replaced by those of `pins_px` (px) at its rows,
@@ -169,11 +201,10 @@ class EdgeFigureTarget:
         out = []
         runs, stills = self.simulated_runs(pins_px), self.simulated_runs(pins_px, still=True)
         for r, (run, still, recorded, spread) in enumerate(zip(runs, stills, self.recorded, self.spread)):
-            twin = figure_values(run)
+            twin = figure_values(run, self.shift_apart)
             if still is not None:
-                twin = {k: v for k, v in twin.items() if not (k[0] == "signal" and k[1] < 0.0)}
-                for row in signal_profile(still).values():
-                    twin.update({("signal", l): v for l, v in row.items() if l < 0.0})
+                onto = {k: v for k, v in _imprint_values(still, self.shift_apart).items() if k[1] < 0.0}
+                twin = {k: v for k, v in twin.items() if not (k[0] in LINEAR and k[1] < 0.0)} | onto
             for (figure, l), value in sorted(recorded.items()):
                 simulated = twin.get((figure, l))
                 out.append(

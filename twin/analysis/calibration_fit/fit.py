@@ -224,6 +224,7 @@ def _calibrate(
         else {
             "weight": settings.weights.edge_figures,
             "signal_from": settings.edge_signal,
+            "signal_shift": settings.edge_signal_shift,
             "before": figures_before,
             "after": figures_after,
         },

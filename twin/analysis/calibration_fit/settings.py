@@ -106,6 +106,11 @@ class CalibrationSettings(_Strict):
         "taps, or onto the object (l < 0) the same taps replayed without their slides and twists "
         "(twin.analysis.calibration_fit.figures)"
     )
+    edge_signal_shift: Literal["kept", "apart"] = Field(
+        description="the edge signal figure as the issue's whole signal ('kept'), or without its rigid "
+        "shift of the pins with that shift's share as a figure of its own ('apart') "
+        "(twin.analysis.calibration_fit.figures)"
+    )
     noise_px: float = Field(gt=0, le=50)
     identifiable_fraction: float = Field(gt=0, le=10)
     max_variance_inflation: float = Field(ge=1)
