@@ -25,11 +25,11 @@ twists: there its sheared signal is buried in the slides' scatter (±0.26 of the
 l = −4 with 500 taps a bin, the still one ±0.02) and the two agree within it. Off the
 object the sheared one is kept: it is precise there (±0.04–0.06 px with 400 taps a bin),
 and the slides raise it above the still one by 0.16–0.23 px at l = +1 … +5, so a still
-figure there would not be the real's kind (docs/real-sensor.md, 2026-11-29). The twin's
-slides turn its imprint off the object into a rigid shift (40–65 % of its sheared signal
-against the real's 1–8 %), which the whole signal ratio counts as signal; `apart` weighs
-the imprint's pattern and that shift as two figures (docs/real-sensor.md,
-"The imprint's rigid shift, and the signal without it")."""
+figure there would not be the real's kind (docs/real-sensor.md, 2026-11-29). Onto the
+object the real signal is partly a rigid shift of the pins that turns with the edge
+(19–62 % of it at l = −5 … −3) and the twin's unslid imprint has next to none, which the
+whole signal ratio counts as signal; `apart` weighs the imprint's pattern and that shift as
+two figures (docs/real-sensor.md, "The imprint's rigid shift, and the signal without it")."""
 
 from __future__ import annotations
 
