@@ -179,8 +179,9 @@ def test_import_round_trips_the_twins_own_taps(twin_sheared_run: Path, tmp_path:
     assert np.ptp(twin.pins_px[1:, :, 0] - twin.rest_pins_px[:, 0]) > 1.0  # the taps moved the pins
 
 
-def test_replay_takes_an_imported_runs_taps_in_order(twin_sheared_run: Path, tmp_path: Path) -> None:
-    """`twin run --taps-from` replays an imported recording's taps: the same targets, in order."""
+def test_replay_takes_an_imported_runs_taps_in_order(twin_sheared_run: Path, tmp_path: Path, capsys) -> None:
+    """`twin run --taps-from` replays an imported recording's taps: the same targets, in
+    order; a scenario without a fitted camera is told that its pixels are not the recording's."""
     targets = _write_lab_set(twin_sheared_run, tmp_path / "lab")
     assert _import_lab(tmp_path / "lab", targets, tmp_path / "imp") == 0
     scenario = {
@@ -210,11 +211,17 @@ def test_replay_takes_an_imported_runs_taps_in_order(twin_sheared_run: Path, tmp
         == 0
     )
     np.testing.assert_allclose(load_run(tmp_path / "replay").targets, load_run(tmp_path / "imp").targets[:3], atol=1e-5)
+    assert "has no fitted camera" in capsys.readouterr().err
 
     # --without-slides: the same frames' poses, reached without the slide and twist
+    # (through a fitted camera, which the note then leaves out)
     still = tmp_path / "still"
-    argv = ["run", str(tmp_path / "replay.yaml"), "--taps-from", str(tmp_path / "imp"), "--first-taps", "2"]
+    fitted = {"width": 640, "height": 480, "focal_px": 420.0}
+    scenario["sensor"] = {"camera": {"width": 640, "height": 480}, "calibration": {"camera": fitted}}
+    (tmp_path / "fitted.yaml").write_text(yaml.safe_dump(scenario))
+    argv = ["run", str(tmp_path / "fitted.yaml"), "--taps-from", str(tmp_path / "imp"), "--first-taps", "2"]
     assert main([*argv, "--without-slides", "--out", str(still), "--workers", "1", "--quiet"]) == 0
+    assert "has no fitted camera" not in capsys.readouterr().err
     replay, imported = load_run(still), load_run(tmp_path / "imp")
     np.testing.assert_allclose(replay.targets, imported.targets[:3], atol=1e-5)
     for key in ("lateral_mm", "theta_deg", "depth_mm"):

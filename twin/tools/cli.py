@@ -94,6 +94,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
         raise UserError("twin run: --without-slides replays a recording's taps; give --taps-from RUN")
     if scenario is not None and args.taps_from:
         scenario = with_taps_from(scenario, Path(args.taps_from), args.first_taps, args.without_slides)
+        calibration = scenario.calibration()
+        if calibration is None or calibration.camera.focal_px is None:
+            print(
+                f"note: {args.scenario} has no fitted camera (sensor.calibration.camera.focal_px), so the replay's "
+                f"pixels are its nominal camera's: its edge figures compare with {args.taps_from}'s only through "
+                "the camera twin calibrate fits to that recording",
+                file=sys.stderr,
+            )
     if scenario is not None and args.hardware_config:
         scenario = scenario.with_changes(hardware_config=str(Path(args.hardware_config).resolve()))
     if args.resume is not None:
