@@ -40,7 +40,7 @@ def _edge_figure_lines(figures: dict | None) -> list[str]:
         )
         + "). Miss: over the tolerance (0.1 for the signal ratio and the shift, a "
         "factor 4/3 for the others) and, fitted, over √(tolerance² + spread²), the spread the recorded figure's "
-        "over bootstrap resamples of its frames (the signal's in its units, the others' in log units; "
+        "over bootstrap resamples of its frames (the signal's and the shift's in their units, the others' in log units; "
         "twin.analysis.calibration_fit.figures):",
         "",
         "| run | figure | l (mm) | recorded | spread | before | miss | after | miss | fitted miss |",

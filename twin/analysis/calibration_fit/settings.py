@@ -107,7 +107,7 @@ class CalibrationSettings(_Strict):
         "(twin.analysis.calibration_fit.figures)"
     )
     edge_signal_shift: Literal["kept", "apart"] = Field(
-        description="the edge signal figure as the issue's whole signal ('kept'), or without its rigid "
+        description="the edge signal figure as the whole signal ('kept'), or without its rigid "
         "shift of the pins with that shift's share as a figure of its own ('apart') "
         "(twin.analysis.calibration_fit.figures)"
     )
