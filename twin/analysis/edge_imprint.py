@@ -168,20 +168,22 @@ def sheared_fits(run: Run, width_mm: float = 1.0, min_samples: int = 20) -> list
     return fits
 
 
-def signal_profile(run: Run, without_shift: bool = False) -> dict[float, dict[float, float]]:
+def signal_profile(
+    run: Run, without_shift: bool = False, fits: list[BinFit] | None = None
+) -> dict[float, dict[float, float]]:
     """{depth_mm: {lateral_mm: signal at l over signal at l = 0}}: plain taps per depth;
     sheared taps as one row at their nominal depth (the fitted θ term's spread). Rows
     without an l = 0 are left out. `without_shift`: the signal less its rigid shift of the
     pins (`signal_shift_share`), signal × √(1 − share) at each l: the imprint's change of
-    pattern alone."""
+    pattern alone. `fits`: a sheared run's `sheared_fits`, where the caller has them."""
     if is_sheared(run):
-        fits = sheared_fits(run)
+        fits = sheared_fits(run) if fits is None else fits
         signal = {f.lateral_mm: f.spread_px["theta_deg"] for f in fits}
-        rows = {float(run.meta["scenario"]["protocol"]["depth_mm"]): signal}
+        rows = {_nominal_depth(run): signal}
     else:
         rows = orientation_signal_px(_subset(run, usable(run)))
     if without_shift:
-        shares = signal_shift_share(run)
+        shares = signal_shift_share(run, fits)
         rows = {
             d: {l: v * np.sqrt(max(1.0 - shares[d][l], 0.0)) for l, v in row.items() if l in shares.get(d, {})}
             for d, row in rows.items()
@@ -189,17 +191,23 @@ def signal_profile(run: Run, without_shift: bool = False) -> dict[float, dict[fl
     return {d: {l: v / row[0.0] for l, v in row.items()} for d, row in rows.items() if row.get(0.0)}
 
 
-def signal_shift_share(run: Run) -> dict[float, dict[float, float]]:
+def _nominal_depth(run: Run) -> float:
+    """A sheared-taps run's nominal depth (mm): the depth its one row of figures is at."""
+    return float(run.meta["scenario"]["protocol"]["depth_mm"])
+
+
+def signal_shift_share(run: Run, fits: list[BinFit] | None = None) -> dict[float, dict[float, float]]:
     """{depth_mm: {lateral_mm: share}}: how much of the edge's orientation signal is a rigid
     shift of all the pins (the imprint moving as a whole, its direction turning with the
     edge): 0 for an imprint that only changes the pins' pattern, 1 for one that only shifts
     them. Over a turn, such a shift becomes part of the taps' PC2–PC3 pair, and a slide's
     drag, mostly a rigid shift, then lands in the plane the orientation is read from. Plain
     taps per depth: the frames' deviations from their mean over the angles at each l; sheared
-    taps as one row at their nominal depth: the fitted θ gradient, less the fit's noise."""
+    taps as one row at their nominal depth: the fitted θ gradient, less the fit's noise.
+    `fits`: a sheared run's `sheared_fits`, where the caller has them."""
     if is_sheared(run):
-        depth = float(run.meta["scenario"]["protocol"]["depth_mm"])
-        return {depth: {f.lateral_mm: f.signal_shift_share for f in sheared_fits(run)}}
+        fits = sheared_fits(run) if fits is None else fits
+        return {_nominal_depth(run): {f.lateral_mm: f.signal_shift_share for f in fits}}
     ok = usable(run)
     pins, depth, lateral = run.pins_px[ok], run.label("depth_mm")[ok], run.label("lateral_mm")[ok]
     table: dict[float, dict[float, float]] = {}
@@ -213,16 +221,17 @@ def signal_shift_share(run: Run) -> dict[float, dict[float, float]]:
     return table
 
 
-def drag_over_signal(run: Run) -> dict[float, dict[str, float]]:
+def drag_over_signal(run: Run, fits: list[BinFit] | None = None) -> dict[float, dict[str, float]]:
     """Sheared taps, per lateral bin: {"drag_px": the fitted slide and twist terms' spread,
-    "signal_px": the θ term's, "ratio": drag / signal}."""
+    "signal_px": the θ term's, "ratio": drag / signal}. `fits`: the run's `sheared_fits`,
+    where the caller has them."""
     return {
         f.lateral_mm: {
             "drag_px": f.spread_px["slides"],
             "signal_px": f.spread_px["theta_deg"],
             "ratio": f.spread_px["slides"] / f.spread_px["theta_deg"],
         }
-        for f in sheared_fits(run)
+        for f in (sheared_fits(run) if fits is None else fits)
     }
 
 
@@ -300,13 +309,15 @@ class TapPCs:
         return float(np.sum((self.components[list(self.pair)] @ field) ** 2) / np.sum(field**2))
 
 
-def tap_pcs(run: Run) -> TapPCs:
+def tap_pcs(run: Run, fits: list[BinFit] | None = None) -> TapPCs:
     """The PCs of a tap run's usable frames (sheared taps: with their fitted slide and
     twist taken out, the taps the paper's PCA is of); over their six-fold turns, each
-    frame's uniform shift taken out, when its angles span less than 300° (a lab set's ±45°)."""
+    frame's uniform shift taken out, when its angles span less than 300° (a lab set's ±45°).
+    `fits`: a sheared run's `sheared_fits`, where the caller has them."""
     ok = usable(run)
     theta = run.label("theta_deg")[ok]
-    fits = sheared_fits(run) if is_sheared(run) else []
+    if fits is None:
+        fits = sheared_fits(run) if is_sheared(run) else []
     pins = np.concatenate([f.tap_z for f in fits]).reshape(-1, 127, 2) if fits else run.pins_px[ok]
     turned = np.ptp(theta) < 300.0
     if turned:
@@ -319,14 +330,18 @@ def _wrap(angle_deg: np.ndarray) -> np.ndarray:
     return (np.asarray(angle_deg) + 180.0) % 360.0 - 180.0
 
 
-def along_edge_turn_sheared(run: Run, pcs: TapPCs | None = None) -> dict[float, dict[str, float]]:
+def along_edge_turn_sheared(
+    run: Run, pcs: TapPCs | None = None, fits: list[BinFit] | None = None
+) -> dict[float, dict[str, float]]:
     """Sheared taps, per lateral bin, for a 1 mm slide along the edge: "raw_deg_per_mm" (its
     pin field along the orientation direction, in degrees of θ: g_a·g_θ / |g_θ|²),
     "pc23_deg_per_mm" (how far it turns θ_PC23 from the bin's mean frame), "plane_share"
-    (its energy in the taps' PC2–PC3 plane) and "radius_px" (the bin's RMS radius in that plane)."""
-    pcs = pcs or tap_pcs(run)
+    (its energy in the taps' PC2–PC3 plane) and "radius_px" (the bin's RMS radius in that plane).
+    `fits`: the run's `sheared_fits`, where the caller has them."""
+    fits = sheared_fits(run) if fits is None else fits
+    pcs = pcs or tap_pcs(run, fits)
     out = {}
-    for f in sheared_fits(run):
+    for f in fits:
         g_a, g_t = f.gradients["slide_along_mm"], f.gradients["theta_deg"]
         turn = _wrap(pcs.theta_pc23_deg(f.mean_z + g_a) - pcs.theta_pc23_deg(f.mean_z))[0]
         p = pcs.in_plane(f.tap_z)
@@ -427,7 +442,7 @@ def closest_pins(run: Run) -> dict[float, dict[float, dict[str, float]]]:
         ratio.append(np.min(nearest_neighbour_px(pins) / rest_px[found]))
         lost.append(not found.all())
         lateral.append(np.round(s["labels"]["lateral_mm"]) + 0.0 if sheared else s["labels"]["lateral_mm"])
-        depth.append(run.meta["scenario"]["protocol"]["depth_mm"] if sheared else s["labels"]["depth_mm"])
+        depth.append(_nominal_depth(run) if sheared else s["labels"]["depth_mm"])
     ratio, lost, lateral, depth = (np.array(v, float) for v in (ratio, lost, lateral, depth))
     rows: dict[float, dict[float, dict[str, float]]] = {}
     for d in sorted(set(depth.tolist())):
@@ -490,13 +505,14 @@ def edge_figures(taps: Run, slides: Run | None = None, reach_at: tuple[float, ..
     are left out. Keys: signal_profile, signal_shift_share, reach (l → ten bins), closest_pins, pcs_explained,
     pcs_turned, drag_over_signal and along_edge (l → figures; sheared taps, or plain taps
     with slides)."""
-    pcs = tap_pcs(taps)
+    fits = sheared_fits(taps) if is_sheared(taps) else None
+    pcs = tap_pcs(taps, fits)
     lateral = taps.label("lateral_mm")[usable(taps)]
     figures = {
         "name": taps.meta["scenario"]["name"],
         "kind": taps.meta["scenario"]["protocol"]["kind"],
-        "signal_profile": signal_profile(taps),
-        "signal_shift_share": signal_shift_share(taps),
+        "signal_profile": signal_profile(taps, fits=fits),
+        "signal_shift_share": signal_shift_share(taps, fits),
         "reach": {l: reach_profile(taps, l) for l in reach_at if np.any(np.abs(lateral - l) <= 0.5 + 1e-9)},
         "closest_pins": closest_pins(taps),
         "pcs_explained": pcs.explained.tolist(),
@@ -505,8 +521,8 @@ def edge_figures(taps: Run, slides: Run | None = None, reach_at: tuple[float, ..
         "along_edge": {},
     }
     if is_sheared(taps):
-        figures["drag_over_signal"] = drag_over_signal(taps)
-        figures["along_edge"] = along_edge_turn_sheared(taps, pcs)
+        figures["drag_over_signal"] = drag_over_signal(taps, fits)
+        figures["along_edge"] = along_edge_turn_sheared(taps, pcs, fits)
     elif slides is not None:
         starts = np.isin(slides.label("direction_deg"), (90, 270)) & (slides.label("sample_in_slide") == 0)
         for l in sorted(set(slides.label("lateral_mm")[starts].tolist())):

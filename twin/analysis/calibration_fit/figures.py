@@ -39,9 +39,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from twin.analysis.edge_imprint import (
+    BinFit,
     along_edge_turn_sheared,
     drag_over_signal,
     is_sheared,
+    sheared_fits,
     signal_profile,
     signal_shift_share,
 )
@@ -66,20 +68,23 @@ def figure_values(run: Run, shift_apart: bool = False) -> Figures:
     """{(figure, l): value} of a sheared-tap run (module docstring); l = 0's signal, 1 by
     definition, is left out. `shift_apart`: the signal without its rigid shift, and the
     shift's share as figures of their own."""
-    values = _imprint_values(run, shift_apart)
-    values.update({("drag/signal", l): v["ratio"] for l, v in drag_over_signal(run).items()})
-    values.update({("theta_pc23", l): v["pc23_deg_per_mm"] for l, v in along_edge_turn_sheared(run).items()})
+    fits = sheared_fits(run)
+    values = _imprint_values(run, shift_apart, fits)
+    values.update({("drag/signal", l): v["ratio"] for l, v in drag_over_signal(run, fits).items()})
+    values.update({("theta_pc23", l): v["pc23_deg_per_mm"] for l, v in along_edge_turn_sheared(run, fits=fits).items()})
     return values
 
 
-def _imprint_values(run: Run, shift_apart: bool) -> Figures:
+def _imprint_values(run: Run, shift_apart: bool, fits: list[BinFit] | None = None) -> Figures:
     """The figures of the imprint alone (LINEAR: the signal ratios, and the shift's share
-    with `shift_apart`), which a replay without slides has too."""
+    with `shift_apart`), which a replay without slides has too; `fits` the run's
+    `sheared_fits`, where the caller has them."""
+    fits = sheared_fits(run) if fits is None else fits
     values: Figures = {}
-    for row in signal_profile(run, without_shift=shift_apart).values():
+    for row in signal_profile(run, without_shift=shift_apart, fits=fits).values():
         values.update({("signal", l): v for l, v in row.items() if l != 0.0})
     if shift_apart:
-        for row in signal_shift_share(run).values():
+        for row in signal_shift_share(run, fits).values():
             values.update({("shift", l): v for l, v in row.items()})
     return values
 
