@@ -378,6 +378,29 @@ def test_a_camera_beyond_the_settings_bounds_is_named_not_a_crash(real, tmp_path
     assert len(err.strip().splitlines()) == 1, err
 
 
+def _record(tmp_path: Path, twin: dict, real: dict, rest: dict) -> list[Path]:
+    """Write the twin's scenario to tmp_path/twin.yaml and record the "real" taps and rest frames."""
+    (tmp_path / "twin.yaml").write_text(yaml.safe_dump(twin))
+    return [run_scenario(scenario_from_dict(s), tmp_path / s["name"], workers=1, progress=False) for s in (real, rest)]
+
+
+def _fit_alone(tmp_path: Path, twin: dict, runs: list[Path], name: str) -> dict:
+    """`twin calibrate`'s report on `runs` from the `twin` scenario, fitting the parameter `name` alone."""
+    fixed = ("camera.focal_px", "camera.k1", "tcp.z_mm", "material.young_kpa")
+    fit = {
+        "parameters": {**{n: {"fit": False} for n in fixed}, name: {"fit": True}},
+        "optimiser": {"popsize": 6, "max_generations": 15, "patience": 4, "tol_relative": 0.005, "seed": 3},
+    }
+    return calibrate_and_report(
+        runs,
+        scenario_from_dict(twin, str(tmp_path / "twin.yaml")),
+        tmp_path / "cal",
+        load_settings(_settings(tmp_path, fit)),
+        workers=1,
+        progress=False,
+    )
+
+
 def test_recovers_where_the_base_holds_the_skin(tmp_path, monkeypatch) -> None:
     """Where the base holds the compliant dome's skin decides whether the shell follows
     contours (docs/dome/skins.md, "Where the skin is held") and nothing in the geometry fixes it, so it
@@ -409,29 +432,11 @@ def test_recovers_where_the_base_holds_the_skin(tmp_path, monkeypatch) -> None:
         "protocol": {"kind": "taps", "orientations_deg": [30], "lateral_mm": [2, -3], "depths_mm": [2.5, 4]},
     }
     rest = {**real, "name": "held_rest", "protocol": {"kind": "render", "poses": [[60, 0, -5, 0, 0, 0]] * 2}}
-    (tmp_path / "twin.yaml").write_text(yaml.safe_dump(twin))
-    runs = [run_scenario(scenario_from_dict(s), tmp_path / s["name"], workers=1, progress=False) for s in (real, rest)]
+    runs = _record(tmp_path, twin, real, rest)
     floor = _noise_floor_px(runs[0])
     users = set(compliance.glob("*.npz"))
     assert users  # the "real" shell's
-    fit = {
-        "parameters": {
-            "camera.focal_px": {"fit": False},
-            "camera.k1": {"fit": False},
-            "tcp.z_mm": {"fit": False},
-            "material.young_kpa": {"fit": False},
-            "material.skin_held_deg": {"fit": True},
-        },
-        "optimiser": {"popsize": 6, "max_generations": 15, "patience": 4, "tol_relative": 0.005, "seed": 3},
-    }
-    r = calibrate_and_report(
-        runs,
-        scenario_from_dict(twin, str(tmp_path / "twin.yaml")),
-        tmp_path / "cal",
-        load_settings(_settings(tmp_path, fit)),
-        workers=1,
-        progress=False,
-    )
+    r = _fit_alone(tmp_path, twin, runs, "material.skin_held_deg")
     assert r["status"] == "converged"
     assert set(compliance.glob("*.npz")) == users
     assert len(list((compliance / SEARCH_FOLDER).glob("*.npz"))) > 1
@@ -443,3 +448,39 @@ def test_recovers_where_the_base_holds_the_skin(tmp_path, monkeypatch) -> None:
     # the lattice's steps in χ² (docs/dome/skins.md, "Where the skin is held") leave a little above the floor
     assert r["before"]["groups"]["contact"] > max(1.0, 10 * floor) and r["after"]["groups"]["contact"] < 1.5 * floor
     assert load_calibration(r["calibration_file"]).dome_material["skin_held_deg"] == pytest.approx(u["value"])
+
+
+def test_recovers_how_far_the_arm_yields(tmp_path, monkeypatch) -> None:
+    """A desktop arm yields to the press (twin.runs.sim_env, calibration
+    `arm_yield_mm_per_n`) and the stuck skin shears by it, so the taps measure it: a
+    "real" arm yielding 0.2 mm per newton along the edge normal (rendered with camera noise
+    and tracked, another seed) is calibrated back from a rigid twin, fitting only
+    `arm.x_mm_per_n`; the file written carries the yield."""
+    monkeypatch.setenv("TWIN_CACHE", str(tmp_path / "cache"))
+    twin = {
+        "name": "rigid_arm",
+        "object": {"name": "rectangle"},
+        "seed": 0,
+        "effects": ["contact", "friction"],
+        "dome": "compliant",
+        "fidelity": "fast",
+        "protocol": {"kind": "taps"},
+    }
+    real = {
+        **twin,
+        "name": "yielding_arm",
+        "seed": 5,
+        "effects": ["contact", "friction", "render", "camera_noise"],
+        "sensor": {"calibration": {"arm_yield_mm_per_n": [0.2, 0.0, 0.0]}},
+        "protocol": {"kind": "taps", "orientations_deg": [30, 120], "lateral_mm": [2, -3], "depths_mm": [2.5, 4]},
+    }
+    rest = {**real, "name": "yield_rest", "protocol": {"kind": "render", "poses": [[60, 0, -5, 0, 0, 0]] * 2}}
+    runs = _record(tmp_path, twin, real, rest)
+    floor = _noise_floor_px(runs[0])
+    r = _fit_alone(tmp_path, twin, runs, "arm.x_mm_per_n")
+    assert r["status"] == "converged"
+    u = r["uncertainty"]["parameters"]["arm.x_mm_per_n"]
+    assert u["identifiable"], u
+    assert u["value"] == pytest.approx(0.2, abs=0.01), u
+    assert r["before"]["groups"]["contact"] > 5 * floor and r["after"]["groups"]["contact"] < 1.5 * floor
+    assert load_calibration(r["calibration_file"]).arm_yield_mm_per_n == pytest.approx([u["value"], 0.0, 0.0])

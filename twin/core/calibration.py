@@ -13,6 +13,8 @@
 | friction             | –           | skin–stimulus Coulomb coefficient         | —                           |
 | tcp_offset_mm        | mm          | the dome apex moved from the commanded    | the robot's TCP corrected   |
 |                      |             | TCP (tool frame)                          | by it                       |
+| arm_yield_mm_per_n   | mm/N        | the TCP yields by it × the contact's      | —  (the real arm yields by  |
+|                      |             | normal force (work frame)                 | itself)                     |
 
 Pixels refer to the camera resolution `camera.width × camera.height`; a scenario with
 another resolution of the same camera gets them rescaled (CameraModel.rescale_px).
@@ -106,6 +108,7 @@ class Calibration(StrictModel):
     dome_material: dict[str, float] = {}
     friction: float | None = bounded(0.0, 3.0, "dimensionless", "skin–stimulus Coulomb coefficient", None)
     tcp_offset_mm: bounded_list(-20.0, 20.0, "mm", length=3) = [0.0, 0.0, 0.0]
+    arm_yield_mm_per_n: bounded_list(-2.0, 2.0, "mm/N", length=3) = [0.0, 0.0, 0.0]
     notes: str = ""
 
     @field_validator("dome_material")
@@ -157,6 +160,11 @@ class Calibration(StrictModel):
     def tcp_offset_m(self) -> np.ndarray:
         """(3,) m: the dome apex relative to the commanded TCP, tool frame."""
         return np.asarray(self.tcp_offset_mm, float) * 1e-3
+
+    @property
+    def arm_yield_m_per_n(self) -> np.ndarray:
+        """(3,) m/N: how far the TCP yields per newton of contact normal force, work frame."""
+        return np.asarray(self.arm_yield_mm_per_n, float) * 1e-3
 
 
 def load_calibration(path: str | Path) -> Calibration:

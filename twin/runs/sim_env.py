@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 
 from twin.core.environment import Environment, Observation
-from twin.core.errors import UnreachablePoseError, UserError
+from twin.core.errors import PhysicsError, UnreachablePoseError, UserError
 from twin.core.poses import Pose, invert_transform
 from twin.core.scenario import DEFAULT_SPEED_MM_S, START_POSE, Scenario
 from twin.runs.protocols import protocol_moves
@@ -19,6 +19,13 @@ from twin.world.arm import ArmDynamics
 from twin.world.render import InsideRenderer, PinRenderer, render_overview
 from twin.world.scene import TOOL2FLANGE, Scene, build_overview, build_scene, kinematics, sensor_physics
 from twin.world.silhouette import SilhouetteRenderer
+
+#: the arm's yield to the contact force: at most this many in-contact moves per commanded
+#: move; how far (mm) the last may be from force × yield (friction's hysteresis leaves the
+#: force a band of microns wide, not a point: any pose in it holds); and the most it may yield (mm)
+YIELD_ITERATIONS = 4
+YIELD_TOLERANCE_MM = 0.05
+YIELD_LIMIT_MM = 5.0
 
 
 class SimEnvironment(Environment):
@@ -100,6 +107,13 @@ class SimEnvironment(Environment):
         self._q = kinematics().inverse(target, TOOL2FLANGE, q_seed=self._q)  # raises UnreachablePoseError
         speed = speed_mm_s or DEFAULT_SPEED_MM_S
         t0 = time.perf_counter()
+        self._drive(target, speed)
+        if self.spec.arm_yield.any():
+            self._yield_to_contact(target, pose, speed)
+        self.timings["physics"] += time.perf_counter() - t0
+
+    def _drive(self, target: np.ndarray, speed: float) -> None:
+        """Move the dome's TCP to `target` (4×4 world, m) and settle there."""
         if self.arm is None:
             self.physics.move(target @ self.tcp2apex, speed)
         else:
@@ -112,7 +126,35 @@ class SimEnvironment(Environment):
                 previous = actual
         self._commanded = target
         self._frame = self.physics.settle()
-        self.timings["physics"] += time.perf_counter() - t0
+
+    def _yield_to_contact(self, target: np.ndarray, pose: Pose, speed: float) -> None:
+        """The arm's yield (calibration `arm_yield_mm_per_n`): the TCP settles a distance s
+        from `target` along the yield's direction where s = |yield| × the contact's normal
+        force there, found by the secant method in at most YIELD_ITERATIONS in-contact moves
+        (a skin that sticks shears by what the arm yields); none out of contact. PhysicsError
+        when it does not settle (an arm that yields into the press faster than the contact
+        pushes back)."""
+        per_newton = self.scene.work2world[:3, :3] @ self.spec.arm_yield
+        compliance = float(np.linalg.norm(per_newton))  # m/N
+        direction = per_newton / compliance
+        s_last, miss_last = 0.0, compliance * self._frame.contact_force
+        s, miss = miss_last, miss_last
+        for _ in range(YIELD_ITERATIONS):
+            if abs(miss) < 1e-7 or abs(s) * 1e3 > YIELD_LIMIT_MM:
+                break
+            yielded = target.copy()
+            yielded[:3, 3] += s * direction
+            self._drive(yielded, speed)
+            miss = compliance * self._frame.contact_force - s
+            if miss == miss_last:
+                break
+            s, s_last, miss_last = s - miss * (s - s_last) / (miss - miss_last), s, miss
+        if abs(miss) * 1e3 > YIELD_TOLERANCE_MM:
+            raise PhysicsError(
+                f"[{self.spec.scene.name}] at pose {pose}: the arm's yield does not settle (it is "
+                f"{abs(miss) * 1e3:.3g} mm from force × yield at a contact force of {self._frame.contact_force:.3g} N "
+                f"after {YIELD_ITERATIONS} moves): calibration arm_yield_mm_per_n = {self.spec.arm_yield * 1e3} mm/N"
+            )
 
     def observe(self) -> Observation:
         frame = self.observe_frame()

@@ -40,7 +40,9 @@ class SimSpec:
     (samples per px), noise_std (grey levels; 0 without camera_noise): the renderer's.
     rest_offsets_px: (127, 2) px the sensor's rest layout differs from the lattice
     (calibration), None without one. tcp2apex: 4×4 (m), the dome apex relative to the
-    commanded TCP (calibration's tcp_offset_mm).
+    commanded TCP (calibration's tcp_offset_mm). arm_yield: (3,) m/N, work frame, how far
+    the TCP yields per newton of contact normal force (calibration's arm_yield_mm_per_n;
+    zeros: a rigid arm).
     """
 
     scene: SceneSpec
@@ -51,6 +53,7 @@ class SimSpec:
     noise_std: float
     rest_offsets_px: np.ndarray | None
     tcp2apex: np.ndarray
+    arm_yield: np.ndarray
 
     def has(self, effect: str) -> bool:
         return effect in self.effects
@@ -207,4 +210,5 @@ def sim_spec(scenario: Scenario) -> SimSpec:
         tcp2apex=_read_only(
             make_transform(np.eye(3), np.zeros(3) if calibration is None else calibration.tcp_offset_m)
         ),
+        arm_yield=_read_only(np.zeros(3) if calibration is None else calibration.arm_yield_m_per_n),
     )

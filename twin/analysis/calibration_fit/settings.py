@@ -39,6 +39,9 @@ PHYSICS = (
     "tcp.x_mm",
     "tcp.y_mm",
     "tcp.z_mm",
+    "arm.x_mm_per_n",
+    "arm.y_mm_per_n",
+    "arm.z_mm_per_n",
 )
 PARAMETERS = CAMERA + PHYSICS
 SETTINGS_FILE = ("tactip", "calibration_settings.yaml")

@@ -17,6 +17,8 @@ from twin.runs.spec import dome_params, load_scenario_stimulus
 from twin.world.dome.material import dome_material_of
 
 RENDER_EFFECTS = {"render", "camera_noise", "lighting"}
+#: the arm's yield per newton of contact normal force, work frame (Calibration.arm_yield_mm_per_n)
+ARM_YIELD = ("arm.x_mm_per_n", "arm.y_mm_per_n", "arm.z_mm_per_n")
 
 
 def scenario_values(scenario: Scenario) -> dict[str, float]:
@@ -31,6 +33,7 @@ def scenario_values(scenario: Scenario) -> dict[str, float]:
     values.update({f"material.{n}": v for n, v in dome_material_of(dome_params(scenario)).items()})
     values["friction"] = load_scenario_stimulus(scenario).friction
     values.update(zip(("tcp.x_mm", "tcp.y_mm", "tcp.z_mm"), calibration.tcp_offset_mm))
+    values.update(zip(ARM_YIELD, calibration.arm_yield_mm_per_n))
     return {n: float(v) for n, v in values.items()}
 
 
@@ -104,6 +107,7 @@ class Space:
             dome_material=material,
             friction=v["friction"],
             tcp_offset_mm=[v["tcp.x_mm"], v["tcp.y_mm"], v["tcp.z_mm"]],
+            arm_yield_mm_per_n=[v[n] for n in ARM_YIELD],
             notes=base.notes,
         )
 
@@ -116,6 +120,7 @@ class Space:
             dome_material=cal.dome_material,
             friction=cal.friction,
             tcp_offset_mm=cal.tcp_offset_mm,
+            arm_yield_mm_per_n=cal.arm_yield_mm_per_n,
         )
         effects = [e for e in self.scenario.effects if e not in RENDER_EFFECTS]
         sensor = {"camera": self.scenario.sensor.camera.model_dump(), "calibration": physics_only}
