@@ -3,14 +3,15 @@ the edge's frame (along its outward normal n and along the edge t; per lateral b
 depth third) and the slides' terms in the edge's frame (linear and |·| in the slide along and
 across the edge), fitted jointly by least squares over every usable frame.
 A shift fixed in the edge's frame turns with the edge in the image: it is the part of the
-orientation signal that moves every pin alike. usage: edge_frame_shift.py RUN [RUN...]"""
+orientation signal that moves every pin alike.
+usage: edge_frame_shift.py [--first N] RUN [RUN...]  (--first: each run's first N samples)"""
 
 import sys
 
 import numpy as np
 
 from twin.analysis.edge_imprint import edge_normal_in_image, usable
-from twin.runs.record import load_run
+from twin.runs.record import Run, load_run
 
 
 def frames(run):
@@ -51,9 +52,14 @@ def lateral_bins(labels):
 
 
 if __name__ == "__main__":
-    for path in sys.argv[1:]:
-        _, shift, c, s, labels = frames(load_run(path))
-        print("==", path.rstrip("/").split("/")[-1])
+    args, first = sys.argv[1:], None
+    if args[0] == "--first":
+        first, args = int(args[1]), args[2:]
+    for path in args:
+        run = load_run(path)
+        run = Run(run.path, run.meta, run.samples[:first])
+        _, shift, c, s, labels = frames(run)
+        print("==", path.rstrip("/").split("/")[-1], "" if first is None else f"(first {first} samples)")
         print("  by l:    ", fit(shift, c, s, labels, *lateral_bins(labels)))
         depth = labels["depth_mm"]
         q = np.quantile(depth, [1 / 3, 2 / 3])
