@@ -20,14 +20,12 @@ from __future__ import annotations
 
 import logging
 
-import numpy as np
-
 from hardware.camera import TactipCamera
 from hardware.config import HardwareConfig, load_hardware_config
 from hardware.robot import RobotCommandRefused, RobotDriver
 from twin.core.environment import Environment, Observation
 from twin.core.errors import SafetyError, UserError
-from twin.core.poses import Pose, make_transform
+from twin.core.poses import Pose
 from twin.core.sensor import CameraModel
 
 log = logging.getLogger(__name__)
@@ -91,9 +89,9 @@ class HardwareEnvironment(Environment):
             )
         config = load_hardware_config(scenario.resolve(name))
         calibration = scenario.calibration()
-        if calibration is not None and any(calibration.tcp_offset_mm):
-            # the dome apex is tcp_offset_mm from the configured TCP (tool frame): command the apex itself
-            tcp = Pose.from_matrix(config.robot.tcp.to_matrix() @ make_transform(np.eye(3), calibration.tcp_offset_m))
+        if calibration is not None and (any(calibration.tcp_offset_mm) or calibration.tcp_roll_deg):
+            # the dome apex is tcp_offset_mm and tcp_roll_deg from the configured TCP (tool frame): command the apex itself
+            tcp = Pose.from_matrix(config.robot.tcp.to_matrix() @ calibration.tcp2apex)
             robot = config.robot.model_copy(update={"tcp_mm_deg": [float(v) for v in tcp.as_array()]})
             config = config.model_copy(update={"robot": robot})
         return cls(config, scenario.camera_model())

@@ -18,6 +18,7 @@ import yaml
 from twin.analysis.calibration_fit.data import load_data
 from twin.analysis.calibration_fit.search import BracketSearch
 from twin.analysis.calibration_fit.settings import load_settings
+from twin.analysis.calibration_fit.space import scenario_values
 from twin.analysis.calibration_fit.uncertainty import robust_variances, variance_inflation
 from twin.core.calibration import Calibration, load_calibration
 from twin.core.resources import SEARCH_FOLDER
@@ -450,15 +451,23 @@ def test_recovers_where_the_base_holds_the_skin(tmp_path, monkeypatch) -> None:
     assert load_calibration(r["calibration_file"]).dome_material["skin_held_deg"] == pytest.approx(u["value"])
 
 
-def test_recovers_how_far_the_arm_yields(tmp_path, monkeypatch) -> None:
-    """A desktop arm yields to the press (twin.runs.sim_env, calibration
-    `arm_yield_mm_per_n`) and the stuck skin shears by it, so the taps measure it: a
-    "real" arm yielding 0.2 mm per newton along the edge normal (rendered with camera noise
-    and tracked, another seed) is calibrated back from a rigid twin, fitting only
-    `arm.x_mm_per_n`; the file written carries the yield."""
+@pytest.mark.parametrize(
+    ("calibration", "parameter", "truth", "tolerance"),
+    [
+        # a desktop arm gives way under the press (twin.runs.sim_env) and the stuck skin shears by it
+        ({"arm_yield_mm_per_n": [0.2, 0.0, 0.0]}, "arm.x_mm_per_n", 0.2, 0.01),
+        # the pin grid repeats every 60°, so only an edge says how the sensor is turned on its mount
+        ({"tcp_roll_deg": 20.0}, "tcp.roll_deg", 20.0, 0.5),
+    ],
+    ids=["arm_yield", "mount_roll"],
+)
+def test_recovers_the_rig(tmp_path, monkeypatch, calibration, parameter, truth, tolerance) -> None:
+    """What the rig does to the taps, the taps measure: a "real" rig (rendered with camera
+    noise and tracked, another seed) is calibrated back from a twin without it, fitting the
+    one parameter alone, and the calibration file written carries it."""
     monkeypatch.setenv("TWIN_CACHE", str(tmp_path / "cache"))
     twin = {
-        "name": "rigid_arm",
+        "name": "plain_rig",
         "object": {"name": "rectangle"},
         "seed": 0,
         "effects": ["contact", "friction"],
@@ -468,19 +477,22 @@ def test_recovers_how_far_the_arm_yields(tmp_path, monkeypatch) -> None:
     }
     real = {
         **twin,
-        "name": "yielding_arm",
+        "name": "real_rig",
         "seed": 5,
         "effects": ["contact", "friction", "render", "camera_noise"],
-        "sensor": {"calibration": {"arm_yield_mm_per_n": [0.2, 0.0, 0.0]}},
+        "sensor": {"calibration": calibration},
         "protocol": {"kind": "taps", "orientations_deg": [30, 120], "lateral_mm": [2, -3], "depths_mm": [2.5, 4]},
     }
-    rest = {**real, "name": "yield_rest", "protocol": {"kind": "render", "poses": [[60, 0, -5, 0, 0, 0]] * 2}}
+    rest = {**real, "name": "real_rest", "protocol": {"kind": "render", "poses": [[60, 0, -5, 0, 0, 0]] * 2}}
     runs = _record(tmp_path, twin, real, rest)
     floor = _noise_floor_px(runs[0])
-    r = _fit_alone(tmp_path, twin, runs, "arm.x_mm_per_n")
+    r = _fit_alone(tmp_path, twin, runs, parameter)
     assert r["status"] == "converged"
-    u = r["uncertainty"]["parameters"]["arm.x_mm_per_n"]
+    u = r["uncertainty"]["parameters"][parameter]
     assert u["identifiable"], u
-    assert u["value"] == pytest.approx(0.2, abs=0.01), u
+    assert u["value"] == pytest.approx(truth, abs=tolerance), u
     assert r["before"]["groups"]["contact"] > 5 * floor and r["after"]["groups"]["contact"] < 1.5 * floor
-    assert load_calibration(r["calibration_file"]).arm_yield_mm_per_n == pytest.approx([u["value"], 0.0, 0.0])
+    written = load_calibration(r["calibration_file"]).model_dump()
+    assert scenario_values(scenario_from_dict({**twin, "sensor": {"calibration": written}}))[
+        parameter
+    ] == pytest.approx(u["value"])

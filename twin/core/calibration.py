@@ -13,6 +13,8 @@
 | friction             | –           | skin–stimulus Coulomb coefficient         | —                           |
 | tcp_offset_mm        | mm          | the dome apex moved from the commanded    | the robot's TCP corrected   |
 |                      |             | TCP (tool frame)                          | by it                       |
+| tcp_roll_deg         | deg         | the dome and its camera turned about the  | the robot's TCP corrected   |
+|                      |             | TCP's axis (the sensor's mounting roll)   | by it                       |
 | arm_yield_mm_per_n   | mm/N        | the TCP yields by it × the contact's      | —  (the real arm yields by  |
 |                      |             | normal force (work frame)                 | itself)                     |
 
@@ -32,6 +34,7 @@ from pydantic import Field, field_validator
 
 from twin.core.errors import UserError
 from twin.core.files import replace_file
+from twin.core.poses import Pose
 from twin.core.sensor import N_PINS, CameraModel
 from twin.core.validation import StrictModel, bounded, bounded_list, read_yaml, validate_mapping
 
@@ -108,6 +111,7 @@ class Calibration(StrictModel):
     dome_material: dict[str, float] = {}
     friction: float | None = bounded(0.0, 3.0, "dimensionless", "skin–stimulus Coulomb coefficient", None)
     tcp_offset_mm: bounded_list(-20.0, 20.0, "mm", length=3) = [0.0, 0.0, 0.0]
+    tcp_roll_deg: float = bounded(-180.0, 180.0, "deg", "the sensor turned about its own axis from the TCP", 0.0)
     arm_yield_mm_per_n: bounded_list(-2.0, 2.0, "mm/N", length=3) = [0.0, 0.0, 0.0]
     notes: str = ""
 
@@ -157,9 +161,10 @@ class Calibration(StrictModel):
         return np.asarray(self.rest_pin_offsets_px, float) * (width / self.camera.width)
 
     @property
-    def tcp_offset_m(self) -> np.ndarray:
-        """(3,) m: the dome apex relative to the commanded TCP, tool frame."""
-        return np.asarray(self.tcp_offset_mm, float) * 1e-3
+    def tcp2apex(self) -> np.ndarray:
+        """4×4 (m): the dome apex and its camera relative to the commanded TCP (tcp_offset_mm,
+        tcp_roll_deg about the tool's z)."""
+        return Pose(*self.tcp_offset_mm, 0.0, 0.0, self.tcp_roll_deg).to_matrix()
 
     @property
     def arm_yield_m_per_n(self) -> np.ndarray:

@@ -20,7 +20,7 @@ from pydantic import ValidationError
 
 from twin.core.calibration import Calibration
 from twin.core.errors import UserError
-from twin.core.poses import Pose, make_transform
+from twin.core.poses import Pose
 from twin.core.scenario import ObjectSpec, Scenario, calibrated_camera
 from twin.core.scenario import load_scenario as load_scenario_file
 from twin.world.dome.base import DomeBuilder, DomeParameters, PhysicsSettings
@@ -40,7 +40,7 @@ class SimSpec:
     (samples per px), noise_std (grey levels; 0 without camera_noise): the renderer's.
     rest_offsets_px: (127, 2) px the sensor's rest layout differs from the lattice
     (calibration), None without one. tcp2apex: 4×4 (m), the dome apex relative to the
-    commanded TCP (calibration's tcp_offset_mm). arm_yield: (3,) m/N, work frame, how far
+    commanded TCP (calibration's tcp_offset_mm and tcp_roll_deg). arm_yield: (3,) m/N, work frame, how far
     the TCP yields per newton of contact normal force (calibration's arm_yield_mm_per_n;
     zeros: a rigid arm).
     """
@@ -207,8 +207,6 @@ def sim_spec(scenario: Scenario) -> SimSpec:
         msaa=camera.msaa,
         noise_std=camera.noise_std if scenario.has("camera_noise") else 0.0,
         rest_offsets_px=_read_only(None if calibration is None else calibration.rest_offsets_px(scene.camera.width)),
-        tcp2apex=_read_only(
-            make_transform(np.eye(3), np.zeros(3) if calibration is None else calibration.tcp_offset_m)
-        ),
+        tcp2apex=_read_only(np.eye(4) if calibration is None else calibration.tcp2apex),
         arm_yield=_read_only(np.zeros(3) if calibration is None else calibration.arm_yield_m_per_n),
     )

@@ -39,6 +39,7 @@ PHYSICS = (
     "tcp.x_mm",
     "tcp.y_mm",
     "tcp.z_mm",
+    "tcp.roll_deg",
     "arm.x_mm_per_n",
     "arm.y_mm_per_n",
     "arm.z_mm_per_n",

@@ -33,6 +33,7 @@ def scenario_values(scenario: Scenario) -> dict[str, float]:
     values.update({f"material.{n}": v for n, v in dome_material_of(dome_params(scenario)).items()})
     values["friction"] = load_scenario_stimulus(scenario).friction
     values.update(zip(("tcp.x_mm", "tcp.y_mm", "tcp.z_mm"), calibration.tcp_offset_mm))
+    values["tcp.roll_deg"] = calibration.tcp_roll_deg
     values.update(zip(ARM_YIELD, calibration.arm_yield_mm_per_n))
     return {n: float(v) for n, v in values.items()}
 
@@ -107,6 +108,7 @@ class Space:
             dome_material=material,
             friction=v["friction"],
             tcp_offset_mm=[v["tcp.x_mm"], v["tcp.y_mm"], v["tcp.z_mm"]],
+            tcp_roll_deg=v["tcp.roll_deg"],
             arm_yield_mm_per_n=[v[n] for n in ARM_YIELD],
             notes=base.notes,
         )
@@ -120,6 +122,7 @@ class Space:
             dome_material=cal.dome_material,
             friction=cal.friction,
             tcp_offset_mm=cal.tcp_offset_mm,
+            tcp_roll_deg=cal.tcp_roll_deg,
             arm_yield_mm_per_n=cal.arm_yield_mm_per_n,
         )
         effects = [e for e in self.scenario.effects if e not in RENDER_EFFECTS]
