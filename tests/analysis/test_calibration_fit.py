@@ -466,22 +466,14 @@ def test_recovers_the_rig(tmp_path, monkeypatch, calibration, parameter, truth, 
     noise and tracked, another seed) is calibrated back from a twin without it, fitting the
     one parameter alone, and the calibration file written carries it."""
     monkeypatch.setenv("TWIN_CACHE", str(tmp_path / "cache"))
-    twin = {
-        "name": "plain_rig",
-        "object": {"name": "rectangle"},
-        "seed": 0,
-        "effects": ["contact", "friction"],
-        "dome": "compliant",
-        "fidelity": "fast",
-        "protocol": {"kind": "taps"},
-    }
+    compliant = {"dome": "compliant", "fidelity": "fast"}
+    twin = {**TWIN, **compliant, "name": "plain_rig"}
     real = {
-        **twin,
+        **REAL_TAPS,
+        **compliant,
         "name": "real_rig",
-        "seed": 5,
-        "effects": ["contact", "friction", "render", "camera_noise"],
         "sensor": {"calibration": calibration},
-        "protocol": {"kind": "taps", "orientations_deg": [30, 120], "lateral_mm": [2, -3], "depths_mm": [2.5, 4]},
+        "protocol": {**REAL_TAPS["protocol"], "orientations_deg": [30, 120]},
     }
     rest = {**real, "name": "real_rest", "protocol": {"kind": "render", "poses": [[60, 0, -5, 0, 0, 0]] * 2}}
     runs = _record(tmp_path, twin, real, rest)

@@ -137,7 +137,9 @@ class SimEnvironment(Environment):
         per_newton = self.scene.work2world[:3, :3] @ self.spec.arm_yield
         compliance = float(np.linalg.norm(per_newton))  # m/N
         direction = per_newton / compliance
-        s_last, miss_last = 0.0, compliance * self._frame.contact_force
+        s_last, miss_last = 0.0, compliance * self._frame.contact_force  # at the target
+        if miss_last < 1e-7:  # m: out of contact
+            return
         s, miss = miss_last, miss_last
         for _ in range(YIELD_ITERATIONS):
             if abs(miss) < 1e-7 or abs(s) * 1e3 > YIELD_LIMIT_MM:
