@@ -141,21 +141,26 @@ class SimEnvironment(Environment):
         if miss_last < 1e-7:  # m: out of contact
             return
         s, miss = miss_last, miss_last
-        for _ in range(YIELD_ITERATIONS):
-            if abs(miss) < 1e-7 or abs(s) * 1e3 > YIELD_LIMIT_MM:
-                break
+        moves = 0
+        while moves < YIELD_ITERATIONS and abs(miss) >= 1e-7 and abs(s) * 1e3 <= YIELD_LIMIT_MM:
             yielded = target.copy()
             yielded[:3, 3] += s * direction
             self._drive(yielded, speed)
+            moves += 1
             miss = compliance * self._frame.contact_force - s
             if miss == miss_last:
                 break
             s, s_last, miss_last = s - miss * (s - s_last) / (miss - miss_last), s, miss
         if abs(miss) * 1e3 > YIELD_TOLERANCE_MM:
+            beyond = (
+                f", the next {abs(s) * 1e3:.3g} mm past the {YIELD_LIMIT_MM} mm limit"
+                if abs(s) * 1e3 > YIELD_LIMIT_MM
+                else ""
+            )
             raise PhysicsError(
                 f"[{self.spec.scene.name}] at pose {pose}: the arm's yield does not settle (it is "
                 f"{abs(miss) * 1e3:.3g} mm from force × yield at a contact force of {self._frame.contact_force:.3g} N "
-                f"after {YIELD_ITERATIONS} moves): calibration arm_yield_mm_per_n = {self.spec.arm_yield * 1e3} mm/N"
+                f"after {moves} moves{beyond}): calibration arm_yield_mm_per_n = {self.spec.arm_yield * 1e3} mm/N"
             )
 
     def observe(self) -> Observation:
