@@ -1,0 +1,46 @@
+"""Where the twin's pins miss the real's: the displacement misfit (px RMS, each run from its
+own rest frame) in ten bins of the rest pins along the edge normal in the image (far beyond
+the edge -> object side), per lateral third, beside the real's mean |displacement| there.
+usage: misfit_bins.py REAL TWIN..."""
+
+import sys
+
+import numpy as np
+
+from twin.analysis.edge_imprint import edge_normal_in_image, usable
+from twin.runs.record import load_run
+
+BINS = 10
+real = load_run(sys.argv[1])
+phi0, sigma = edge_normal_in_image(real)
+rest = real.rest_pins_px - real.rest_pins_px.mean(axis=0)
+theta, lateral = real.label("theta_deg"), real.label("lateral_mm")
+
+
+def binned(values, ok):
+    """(BINS,) mean of per-pin `values` (frames, pins) in the bins along the normal."""
+    total, count = np.zeros(BINS), np.zeros(BINS)
+    for v, t in zip(values[ok], theta[ok]):
+        a = np.radians(phi0 + sigma * t)
+        along = rest @ np.array([np.cos(a), np.sin(a)])
+        edges = np.linspace(along.max(), along.min(), BINS + 1)
+        i = np.clip(np.searchsorted(-edges, -along, side="right") - 1, 0, BINS - 1)
+        total += np.bincount(i, v, BINS)
+        count += np.bincount(i, minlength=BINS)
+    return total / count
+
+
+dr = real.pins_px - real.rest_pins_px
+for p in sys.argv[2:]:
+    twin = load_run(p)
+    ok0 = usable(real) & usable(twin)
+    dt = twin.pins_px - twin.rest_pins_px
+    for lo, hi in ((-5.5, -2), (-2, 2), (2, 5.5)):
+        ok = ok0 & (lateral >= lo) & (lateral < hi)
+        mis = np.sqrt(binned(np.sum((dt - dr) ** 2, axis=-1), ok))
+        mag_r = binned(np.linalg.norm(dr, axis=-1), ok)
+        mag_t = binned(np.linalg.norm(dt, axis=-1), ok)
+        name = p.rstrip("/").split("/")[-1][:16]
+        print(f"{name:16s} l [{lo:+.0f},{hi:+.0f}) misfit " + " ".join(f"{v:4.2f}" for v in mis))
+        print(f"{'':16s}              |real| " + " ".join(f"{v:4.2f}" for v in mag_r))
+        print(f"{'':16s}              |twin| " + " ".join(f"{v:4.2f}" for v in mag_t))
