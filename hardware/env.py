@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import logging
 
+import numpy as np
+
 from hardware.camera import TactipCamera
 from hardware.config import HardwareConfig, load_hardware_config
 from hardware.robot import RobotCommandRefused, RobotDriver
@@ -89,8 +91,8 @@ class HardwareEnvironment(Environment):
             )
         config = load_hardware_config(scenario.resolve(name))
         calibration = scenario.calibration()
-        if calibration is not None and (any(calibration.tcp_offset_mm) or calibration.tcp_roll_deg):
-            # the dome apex is tcp_offset_mm and tcp_roll_deg from the configured TCP (tool frame): command the apex itself
+        if calibration is not None and not np.array_equal(calibration.tcp2apex, np.eye(4)):
+            # the dome apex is calibration.tcp2apex from the configured TCP (tool frame): command the apex itself
             tcp = Pose.from_matrix(config.robot.tcp.to_matrix() @ calibration.tcp2apex)
             robot = config.robot.model_copy(update={"tcp_mm_deg": [float(v) for v in tcp.as_array()]})
             config = config.model_copy(update={"robot": robot})

@@ -86,9 +86,8 @@ def lab(tmp_path_factory) -> dict:
     shipped = yaml.safe_load(asset_path("tactip", "calibration_settings_digitac_256.yaml").read_text())
     shipped["parameters"]["material.membrane_young_mpa"]["fit"] = False
     shipped["parameters"]["friction"]["fit"] = False
-    shipped["parameters"]["tcp.roll_deg"]["default"] = (
-        0.0  # these sets' sensor is mounted straight, not as the DigiTac's
-    )
+    # these sets' sensor is mounted straight, not turned as the DigiTac's
+    shipped["parameters"]["tcp.roll_deg"]["default"] = 0.0
     shipped["optimiser"] = {"popsize": 5, "max_generations": 6, "patience": 2, "tol_bracket": 0.02}
     (root / "settings.yaml").write_text(yaml.safe_dump(shipped))
     return {

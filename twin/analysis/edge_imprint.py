@@ -478,6 +478,17 @@ def edge_normal_in_image(run: Run) -> tuple[float, float]:
     return float(np.degrees(np.angle(best[1]))), best[0]
 
 
+def normal_bins(rest_px: np.ndarray, normal: tuple[float, float], theta_deg: float, bins: int) -> np.ndarray:
+    """(pins,) int: each rest pin's bin of `bins` equal bins of its position along the edge's
+    outward normal in the image at edge angle `theta_deg`, 0 = furthest beyond the edge, the
+    last on the object side; `normal` is edge_normal_in_image's (φ0 deg, σ)."""
+    phi0, sigma = normal
+    a = np.radians(phi0 + sigma * theta_deg)
+    along = (rest_px - rest_px.mean(axis=0)) @ np.array([np.cos(a), np.sin(a)])  # + beyond the edge
+    edges = np.linspace(along.max(), along.min(), bins + 1)
+    return np.clip(np.searchsorted(-edges, -along, side="right") - 1, 0, bins - 1)
+
+
 def reach_profile(run: Run, lateral_mm: float, half_width_mm: float = 0.5, bins: int = REACH_BINS) -> list[float]:
     """Mean |pin displacement| (px) in `bins` equal bins of the rest pins' position along the
     edge normal in the image, from beyond the edge (far) to the object side, over the
@@ -485,14 +496,10 @@ def reach_profile(run: Run, lateral_mm: float, half_width_mm: float = 0.5, bins:
     ok = usable(run) & (np.abs(run.label("lateral_mm") - lateral_mm) <= half_width_mm + 1e-9)
     if not ok.any():
         raise UserError(f"{run.path}: no usable sample within {half_width_mm} mm of l = {lateral_mm} mm")
-    phi0, sigma = edge_normal_in_image(run)
-    rest = run.rest_pins_px - run.rest_pins_px.mean(axis=0)
+    normal = edge_normal_in_image(run)
     total = np.zeros(bins)
     for pins, theta in zip(run.pins_px[ok], run.label("theta_deg")[ok]):
-        a = np.radians(phi0 + sigma * theta)
-        along = rest @ np.array([np.cos(a), np.sin(a)])  # + beyond the edge
-        edges = np.linspace(along.max(), along.min(), bins + 1)
-        index = np.clip(np.searchsorted(-edges, -along, side="right") - 1, 0, bins - 1)
+        index = normal_bins(run.rest_pins_px, normal, theta, bins)
         magnitude = np.linalg.norm(pins - run.rest_pins_px, axis=-1)
         total += np.bincount(index, magnitude, bins) / np.maximum(np.bincount(index, minlength=bins), 1)
     return (total / total.max()).tolist()

@@ -1,19 +1,19 @@
 """Where the twin's pins miss the real's: the displacement misfit (px RMS, each run from its
-own rest frame) in ten bins of the rest pins along the edge normal in the image (far beyond
-the edge -> object side), per lateral third, beside the real's mean |displacement| there.
+own rest frame) in the reach profile's ten bins of the rest pins along the edge normal in
+the image (twin.analysis.edge_imprint.normal_bins: far beyond the edge -> object side), per
+lateral third, beside the real's mean |displacement| there.
 usage: misfit_bins.py REAL TWIN..."""
 
 import sys
 
 import numpy as np
 
-from twin.analysis.edge_imprint import edge_normal_in_image, usable
+from twin.analysis.edge_imprint import REACH_BINS, edge_normal_in_image, normal_bins, usable
 from twin.runs.record import load_run
 
-BINS = 10
+BINS = REACH_BINS
 real = load_run(sys.argv[1])
-phi0, sigma = edge_normal_in_image(real)
-rest = real.rest_pins_px - real.rest_pins_px.mean(axis=0)
+normal = edge_normal_in_image(real)
 theta, lateral = real.label("theta_deg"), real.label("lateral_mm")
 
 
@@ -21,10 +21,7 @@ def binned(values, ok):
     """(BINS,) mean of per-pin `values` (frames, pins) in the bins along the normal."""
     total, count = np.zeros(BINS), np.zeros(BINS)
     for v, t in zip(values[ok], theta[ok]):
-        a = np.radians(phi0 + sigma * t)
-        along = rest @ np.array([np.cos(a), np.sin(a)])
-        edges = np.linspace(along.max(), along.min(), BINS + 1)
-        i = np.clip(np.searchsorted(-edges, -along, side="right") - 1, 0, BINS - 1)
+        i = normal_bins(real.rest_pins_px, normal, t, BINS)
         total += np.bincount(i, v, BINS)
         count += np.bincount(i, minlength=BINS)
     return total / count
