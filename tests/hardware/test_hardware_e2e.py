@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import yaml
 
+from hardware.env import HardwareEnvironment
 from hardware.protocol import Command
 from hardware.virtual_controller import KinematicArm, VirtualRobotServer
 from twin.analysis.comparison import compare_runs
@@ -118,6 +119,28 @@ def test_runner_records_a_hardware_run(tmp_path, server, filmed) -> None:
         # the frame filmed at this pose, tracked from its chunk's no-contact reference
         assert np.sqrt(np.mean(np.sum((np.asarray(sample["pins_px"]) - pins) ** 2, axis=1))) < 1.0
     assert run.frame(0).shape == (480, 640, 3)
+
+
+def test_a_calibrated_tcp_reaches_the_robot_as_its_tool(tmp_path, server, video) -> None:
+    """The calibration's apex offset (mm, tool frame) and the sensor's roll on its mount
+    (deg about the tool's z) are the robot's tool: the configured TCP (0, 0, 101) moved by
+    (1, -2, 0.5) and turned 90 deg is, on the wire, (1, -2, 101.5) with the quaternion
+    (cos 45 deg, 0, 0, sin 45 deg) (w, x, y, z)."""
+    scenario = scenario_from_dict(
+        {
+            "name": "hw_calibrated",
+            "backend": "hardware",
+            "object": {"name": "rectangle"},
+            "hardware_config": str(_config(tmp_path, server.port, video)),
+            "sensor": {"calibration": {"tcp_offset_mm": [1.0, -2.0, 0.5], "tcp_roll_deg": 90.0}},
+        }
+    )
+    with HardwareEnvironment.from_scenario(scenario) as env:
+        env.reset()
+        half = np.sqrt(0.5)
+        assert server.tool == pytest.approx((1.0, -2.0, 101.5, half, 0.0, 0.0, half), abs=1e-4)
+        target = Pose(2.0, 1.0, -3.0, 0.0, 0.0, 30.0)
+        assert np.allclose(env.step(target).pose.as_array(), target.as_array(), atol=0.01)
 
 
 @pytest.fixture(scope="module")
