@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from twin.analysis import edge_imprint as E
+from twin.analysis.calibration_fit.figures import figure_values
 from twin.core.scenario import ShearedTapProtocol
 from twin.runs.protocols import drawn_sheared_taps
 from twin.runs.record import Run
@@ -476,3 +477,22 @@ def test_sheared_runs_at_other_nominal_depths_print_side_by_side(run: Run) -> No
     plain = {**b, "kind": "taps"}
     text = format_edge_figures([a, plain], ["rig", "twin"])
     assert "l = 0, 3 mm deep:" in text and "l = 0, 4 mm deep:" in text
+
+
+def test_a_bin_whose_signal_is_within_its_noise_has_no_drag_over_signal() -> None:
+    """Pins that carry the slides and the depth but not the edge's angle: the angle term's
+    spread, its noise taken out, is 0 px in some bins; their ratio is NaN (no signal to
+    weigh the drag against), not a division error, the rest stay finite, and the
+    calibration's figures leave it out."""
+    f = _fields()
+    run = _sheared(lambda tap: tap.slide_along_mm * f["along"] + tap.depth_offset_mm * f["depth"], 600, 3, 0.05)
+    figures = E.drag_over_signal(run)
+    silent = {l for l, v in figures.items() if v["signal_px"] == 0.0}
+    assert silent, "no bin's signal fell within its noise: the case is not exercised"
+    assert {l for l, v in figures.items() if np.isnan(v["ratio"])} == silent
+    assert all(v["drag_px"] > 0.1 for v in figures.values())
+    assert E.edge_figures(run)["drag_over_signal"] is not None
+    # `twin calibrate` counts such a bin's ratio as a figure the run lacks, not as a NaN miss
+    values = figure_values(run)
+    assert all(("drag/signal", l) not in values for l in silent)
+    assert all(np.isfinite(v) for v in values.values())

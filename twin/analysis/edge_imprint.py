@@ -36,6 +36,7 @@ Only samples with every pin found and in contact count.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -223,16 +224,13 @@ def signal_shift_share(run: Run, fits: list[BinFit] | None = None) -> dict[float
 
 def drag_over_signal(run: Run, fits: list[BinFit] | None = None) -> dict[float, dict[str, float]]:
     """Sheared taps, per lateral bin: {"drag_px": the fitted slide and twist terms' spread,
-    "signal_px": the θ term's, "ratio": drag / signal}. `fits`: the run's `sheared_fits`,
-    where the caller has them."""
-    return {
-        f.lateral_mm: {
-            "drag_px": f.spread_px["slides"],
-            "signal_px": f.spread_px["theta_deg"],
-            "ratio": f.spread_px["slides"] / f.spread_px["theta_deg"],
-        }
-        for f in (sheared_fits(run) if fits is None else fits)
-    }
+    "signal_px": the θ term's, "ratio": drag / signal, NaN where the signal is within its
+    noise (0 px)}. `fits`: the run's `sheared_fits`, where the caller has them."""
+    table = {}
+    for f in sheared_fits(run) if fits is None else fits:
+        drag, signal = f.spread_px["slides"], f.spread_px["theta_deg"]
+        table[f.lateral_mm] = {"drag_px": drag, "signal_px": signal, "ratio": drag / signal if signal > 0 else math.nan}
+    return table
 
 
 def _subset(run: Run, mask: np.ndarray) -> Run:

@@ -70,7 +70,10 @@ def figure_values(run: Run, shift_apart: bool = False) -> Figures:
     shift's share as figures of their own."""
     fits = sheared_fits(run)
     values = _imprint_values(run, shift_apart, fits)
-    values.update({("drag/signal", l): v["ratio"] for l, v in drag_over_signal(run, fits).items()})
+    # a bin whose signal is within its noise has no ratio (NaN): a figure the run lacks
+    values.update(
+        {("drag/signal", l): v["ratio"] for l, v in drag_over_signal(run, fits).items() if math.isfinite(v["ratio"])}
+    )
     values.update({("theta_pc23", l): v["pc23_deg_per_mm"] for l, v in along_edge_turn_sheared(run, fits=fits).items()})
     return values
 
