@@ -1,7 +1,9 @@
 """Where the twin's pins miss the real's: the displacement misfit (px RMS, each run from its
 own rest frame) in the reach profile's ten bins of the rest pins along the edge normal in
 the image (twin.analysis.edge_imprint.normal_bins: far beyond the edge -> object side), per
-lateral third, beside the real's mean |displacement| there.
+lateral third, beside the real's mean |displacement| there and the object side's rim (the
+last bin) over the largest; a replay of the first N taps
+(`twin run --first-taps N`) against the real's first N frames.
 usage: misfit_bins.py REAL TWIN..."""
 
 import sys
@@ -9,12 +11,11 @@ import sys
 import numpy as np
 
 from twin.analysis.edge_imprint import REACH_BINS, edge_normal_in_image, normal_bins, usable
-from twin.runs.record import load_run
+from twin.runs.record import Run, load_run
 
 BINS = REACH_BINS
-real = load_run(sys.argv[1])
-normal = edge_normal_in_image(real)
-theta, lateral = real.label("theta_deg"), real.label("lateral_mm")
+recorded = load_run(sys.argv[1])
+normal = edge_normal_in_image(recorded)
 
 
 def binned(values, ok):
@@ -27,9 +28,11 @@ def binned(values, ok):
     return total / count
 
 
-dr = real.pins_px - real.rest_pins_px
 for p in sys.argv[2:]:
     twin = load_run(p)
+    real = Run(recorded.path, recorded.meta, recorded.samples[: len(twin.samples)])
+    theta, lateral = real.label("theta_deg"), real.label("lateral_mm")
+    dr = real.pins_px - real.rest_pins_px
     ok0 = usable(real) & usable(twin)
     dt = twin.pins_px - twin.rest_pins_px
     for lo, hi in ((-5.5, -2), (-2, 2), (2, 5.5)):
@@ -41,3 +44,6 @@ for p in sys.argv[2:]:
         print(f"{name:16s} l [{lo:+.0f},{hi:+.0f}) misfit " + " ".join(f"{v:4.2f}" for v in mis))
         print(f"{'':16s}              |real| " + " ".join(f"{v:4.2f}" for v in mag_r))
         print(f"{'':16s}              |twin| " + " ".join(f"{v:4.2f}" for v in mag_t))
+        print(
+            f"{'':16s}              rim / largest bin: real {mag_r[-1] / mag_r.max():.2f}, twin {mag_t[-1] / mag_t.max():.2f}"
+        )

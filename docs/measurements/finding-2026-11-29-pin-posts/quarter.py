@@ -1,0 +1,33 @@
+"""Every fourth tap of an imported lab recording as a recording of its own: the no-contact
+frame, then taps 0, 4, 8, ... with their frames, their rows renumbered and the scenario's
+given taps cut to match, so that `twin run --taps-from OUT` replays those 1,250 taps and
+`twin compare OUT RUN` pairs them. A quarter spread over the whole set (the DigiTac set is
+ordered by edge angle: its first taps are not a sample of it).
+usage: quarter.py IMPORTED OUT"""
+
+import json
+import shutil
+import sys
+from pathlib import Path
+
+source, out = Path(sys.argv[1]), Path(sys.argv[2])
+meta = json.loads((source / "run.json").read_text())
+rows = [json.loads(line) for line in (source / "samples.jsonl").read_text().splitlines()]
+kept = [r for r in rows if r["labels"].get("no_contact")][:1]
+kept += [r for r in rows if not r["labels"].get("no_contact") and r["labels"]["tap"] % 4 == 0]
+given = meta["scenario"]["protocol"]["given"]
+taps = []
+(out / "frames").mkdir(parents=True)
+for k, row in enumerate(kept):
+    if row.get("frame"):
+        shutil.copy(source / row["frame"], out / row["frame"])
+    if not row["labels"].get("no_contact"):
+        taps.append(given[row["labels"]["tap"]])
+        row["labels"]["tap"] = len(taps) - 1
+    row["index"] = k
+meta["scenario"]["protocol"]["given"] = taps
+meta["scenario"]["protocol"]["taps"] = len(taps)
+meta["samples"] = len(kept)
+(out / "run.json").write_text(json.dumps(meta))
+(out / "samples.jsonl").write_text("".join(json.dumps(r) + "\n" for r in kept))
+print(f"{out}: {len(taps)} taps of {len(given)}")

@@ -1,0 +1,27 @@
+"""A variant of a replay scenario, written to NAME.yaml: each KEY=VALUE (VALUE in YAML, null
+removes the key) sets `physics.KEY`, the calibration's `material.KEY` (dome_material) or
+`calibration.KEY`; the description lists the changes.
+usage: variant.py BASE.yaml NAME KEY=VALUE...
+e.g.:  variant.py ../finding-2026-11-29-sensor-roll/lab_roll133_yield_0.05.yaml posts \
+           physics.pins_in_gel=false physics.pin_lever_mm=null "calibration.tcp_offset_mm=[0,0,-0.8]" """
+
+import sys
+
+import yaml
+
+scenario = yaml.safe_load(open(sys.argv[1]))
+name = sys.argv[2]
+scenario["name"] = name
+calibration = scenario["sensor"]["calibration"]
+sections = {"physics": scenario["physics"], "material": calibration["dome_material"], "calibration": calibration}
+for change in sys.argv[3:]:
+    key, value = change.split("=", 1)
+    section, field = key.split(".", 1)
+    value = yaml.safe_load(value)
+    if value is None:
+        sections[section].pop(field, None)
+    else:
+        sections[section][field] = value
+scenario["description"] += "; changed: " + ", ".join(sys.argv[3:])
+with open(f"{name}.yaml", "w") as out:
+    yaml.safe_dump(scenario, out, sort_keys=False, allow_unicode=True, width=100)
