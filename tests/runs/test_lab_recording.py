@@ -181,7 +181,8 @@ def test_import_round_trips_the_twins_own_taps(twin_sheared_run: Path, tmp_path:
 
 def test_replay_takes_an_imported_runs_taps_in_order(twin_sheared_run: Path, tmp_path: Path, capsys) -> None:
     """`twin run --taps-from` replays an imported recording's taps: the same targets, in
-    order; a scenario without a fitted camera is told that its pixels are not the recording's."""
+    order (all, the first N, or every K-th); a scenario without a fitted camera is told that
+    its pixels are not the recording's."""
     targets = _write_lab_set(twin_sheared_run, tmp_path / "lab")
     assert _import_lab(tmp_path / "lab", targets, tmp_path / "imp") == 0
     scenario = {
@@ -230,6 +231,15 @@ def test_replay_takes_an_imported_runs_taps_in_order(twin_sheared_run: Path, tmp
     for key in ("slide_along_mm", "slide_lateral_mm", "twist_deg"):
         assert np.all(replay.label(key)[1:] == 0.0), key
     assert main(["run", str(tmp_path / "replay.yaml"), "--without-slides", "--out", str(tmp_path / "x")]) == 2
+
+    # --every-nth-tap 2: taps 0 and 2 of the recording's three, after its no-contact sample
+    spread = tmp_path / "every2"
+    argv = ["run", str(tmp_path / "replay.yaml"), "--taps-from", str(tmp_path / "imp"), "--every-nth-tap", "2"]
+    assert main([*argv, "--out", str(spread), "--workers", "1", "--quiet"]) == 0
+    assert len(imported.samples) == 4
+    np.testing.assert_allclose(load_run(spread).targets, imported.targets[[0, 1, 3]], atol=1e-5)
+    np.testing.assert_allclose(load_run(spread).label("theta_deg")[1:], imported.label("theta_deg")[[1, 3]], atol=1e-5)
+    assert main(["run", str(tmp_path / "replay.yaml"), "--every-nth-tap", "2", "--out", str(tmp_path / "y")]) == 2
 
 
 def test_bad_targets_name_the_file_row_and_column(tmp_path: Path, capsys) -> None:

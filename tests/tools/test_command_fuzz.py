@@ -62,7 +62,13 @@ BAD_FLOAT = ["nan", "inf", "-inf", "-1", "1e400", "abc", "", "1e30"]
 COMMANDS = {
     "run": (
         ["fuzz.yaml"],
-        {"--seed": BAD_INT, "--workers": BAD_INT + ["0"], "--first-taps": BAD_INT + ["0"], "--backend": ["real", ""]},
+        {
+            "--seed": BAD_INT,
+            "--workers": BAD_INT + ["0"],
+            "--first-taps": BAD_INT + ["0"],
+            "--every-nth-tap": BAD_INT + ["0"],
+            "--backend": ["real", ""],
+        },
     ),
     "check": (["fuzz.yaml"], {"--bogus": ["1"]}),
     "evaluate": (["--train", "a", "--test", "b", "--out", "o"], {"--seed": BAD_INT}),

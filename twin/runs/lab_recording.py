@@ -227,10 +227,11 @@ def import_lab_recording(
 
 
 def with_taps_from(
-    scenario: Scenario, run_dir: Path, first: int | None = None, without_slides: bool = False
+    scenario: Scenario, run_dir: Path, first: int | None = None, without_slides: bool = False, every: int = 1
 ) -> Scenario:
     """`scenario` (a sheared-taps one) with the taps of a recorded sheared-taps run (an
-    imported lab recording), in order, the first `first` of them when given: the twin
+    imported lab recording), in order: every `every`-th tap from the first (a sample spread
+    over a recording ordered by pose), then the first `first` of those when given; the twin
     replays the recording sample by sample. `without_slides`: each tap at its pose without
     its in-contact slide and twist, the imprint the slides are measured against."""
     if scenario.protocol.kind != "sheared_taps":
@@ -240,6 +241,6 @@ def with_taps_from(
     recorded = load_run(run_dir).meta["scenario"]["protocol"]
     if recorded.get("kind") != "sheared_taps" or not recorded.get("given"):
         raise UserError(f"{run_dir}: not a run of given sheared taps (an imported lab recording)")
-    given = recorded["given"][:first]
+    given = recorded["given"][::every][:first]
     replay = scenario.with_changes(protocol={**scenario.protocol.model_dump(), "given": given, "taps": len(given)})
     return replay.with_changes(protocol=replay.protocol.without_slides().model_dump()) if without_slides else replay

@@ -90,10 +90,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
     scenario = None if args.scenario is None else _checked_scenario(args.scenario)
     if scenario is not None and args.backend:
         scenario = scenario.with_changes(backend=args.backend)
-    if args.without_slides and not args.taps_from:
-        raise UserError("twin run: --without-slides replays a recording's taps; give --taps-from RUN")
+    for given, option in ((args.without_slides, "--without-slides"), (args.every_nth_tap, "--every-nth-tap")):
+        if given and not args.taps_from:
+            raise UserError(f"twin run: {option} replays a recording's taps; give --taps-from RUN")
     if scenario is not None and args.taps_from:
-        scenario = with_taps_from(scenario, Path(args.taps_from), args.first_taps, args.without_slides)
+        scenario = with_taps_from(
+            scenario, Path(args.taps_from), args.first_taps, args.without_slides, args.every_nth_tap or 1
+        )
         calibration = scenario.calibration()
         if calibration is None or calibration.camera.focal_px is None:
             print(
@@ -428,6 +431,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--first-taps", type=COUNT, default=None, metavar="N", help="with --taps-from: only the first N taps"
+    )
+    p.add_argument(
+        "--every-nth-tap",
+        type=COUNT,
+        default=None,
+        metavar="K",
+        help="with --taps-from: every K-th tap from the first (before --first-taps): a sample spread over "
+        "a recording ordered by pose",
     )
     p.add_argument(
         "--without-slides",
