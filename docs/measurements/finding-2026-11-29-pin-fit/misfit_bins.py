@@ -18,11 +18,10 @@ recorded = load_run(sys.argv[1])
 normal = edge_normal_in_image(recorded)
 
 
-def binned(values, ok):
-    """(BINS,) mean of per-pin `values` (frames, pins) in the bins along the normal."""
+def binned(values, bins, ok):
+    """(BINS,) mean of per-pin `values` (frames, pins) in each frame's `bins` (frames, pins)."""
     total, count = np.zeros(BINS), np.zeros(BINS)
-    for v, t in zip(values[ok], theta[ok]):
-        i = normal_bins(real.rest_pins_px, normal, t, BINS)
+    for v, i in zip(values[ok], bins[ok]):
         total += np.bincount(i, v, BINS)
         count += np.bincount(i, minlength=BINS)
     return total / count
@@ -35,11 +34,12 @@ for p in sys.argv[2:]:
     dr = real.pins_px - real.rest_pins_px
     ok0 = usable(real) & usable(twin)
     dt = twin.pins_px - twin.rest_pins_px
+    bins = np.array([normal_bins(real.rest_pins_px, normal, t, BINS) for t in theta])
     for lo, hi in ((-5.5, -2), (-2, 2), (2, 5.5)):
         ok = ok0 & (lateral >= lo) & (lateral < hi)
-        mis = np.sqrt(binned(np.sum((dt - dr) ** 2, axis=-1), ok))
-        mag_r = binned(np.linalg.norm(dr, axis=-1), ok)
-        mag_t = binned(np.linalg.norm(dt, axis=-1), ok)
+        mis = np.sqrt(binned(np.sum((dt - dr) ** 2, axis=-1), bins, ok))
+        mag_r = binned(np.linalg.norm(dr, axis=-1), bins, ok)
+        mag_t = binned(np.linalg.norm(dt, axis=-1), bins, ok)
         name = p.rstrip("/").split("/")[-1][:16]
         print(f"{name:16s} l [{lo:+.0f},{hi:+.0f}) misfit " + " ".join(f"{v:4.2f}" for v in mis))
         print(f"{'':16s}              |real| " + " ".join(f"{v:4.2f}" for v in mag_r))

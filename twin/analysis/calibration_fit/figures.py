@@ -70,12 +70,15 @@ def figure_values(run: Run, shift_apart: bool = False) -> Figures:
     shift's share as figures of their own."""
     fits = sheared_fits(run)
     values = _imprint_values(run, shift_apart, fits)
-    # a bin whose signal is within its noise has no ratio (NaN): a figure the run lacks
-    values.update(
-        {("drag/signal", l): v["ratio"] for l, v in drag_over_signal(run, fits).items() if math.isfinite(v["ratio"])}
-    )
+    values.update({("drag/signal", l): v["ratio"] for l, v in drag_over_signal(run, fits).items()})
     values.update({("theta_pc23", l): v["pc23_deg_per_mm"] for l, v in along_edge_turn_sheared(run, fits=fits).items()})
-    return values
+    return _finite(values)
+
+
+def _finite(values: Figures) -> Figures:
+    """The figures a run has: a NaN one (e.g. drag / signal in a bin whose signal is within
+    its noise, a shift share without energy) is a figure it lacks, not a miss of NaN."""
+    return {k: v for k, v in values.items() if math.isfinite(v)}
 
 
 def _imprint_values(run: Run, shift_apart: bool, fits: list[BinFit] | None = None) -> Figures:
@@ -89,7 +92,7 @@ def _imprint_values(run: Run, shift_apart: bool, fits: list[BinFit] | None = Non
     if shift_apart:
         for row in signal_shift_share(run, fits).values():
             values.update({("shift", l): v for l, v in row.items()})
-    return values
+    return _finite(values)
 
 
 def _scale(figure: str, value: float) -> float:
