@@ -403,6 +403,7 @@ def test_compare_and_evaluate_print_the_edge_figures(run: Run, tmp_path: Path, c
     printed = capsys.readouterr().out
     assert "no paired samples" in printed and "drag / orientation signal" in printed
     assert "orientation signal in a rigid shift of the pins, %" in printed
+    assert "orientation signal by ring of pins" in printed
     header = next(line for line in printed.splitlines() if line.startswith("edge figures"))
     assert "A: rig" in header and "B: twin" in header
     figures = json.loads((tmp_path / "cmp" / "comparison.json").read_text())["edge_figures"]
@@ -496,3 +497,55 @@ def test_a_bin_whose_signal_is_within_its_noise_has_no_drag_over_signal() -> Non
     values = figure_values(run)
     assert all(("drag/signal", l) not in values for l in silent)
     assert all(np.isfinite(v) for v in values.values())
+
+
+#: each template pin's hexagonal ring: the template is ordered ring by ring from the centre (twin.core.sensor)
+TEMPLATE_RINGS = np.repeat(np.arange(7), [1, 6, 12, 18, 24, 30, 36])
+
+
+def test_pin_rings_are_the_hexagonal_rings_about_the_centre() -> None:
+    """A hexagonal lattice's points by their hex distance from the centre (axial
+    coordinates), seen through a lens that pulls the outer rings in, turned and shuffled,
+    fall into the rings of their hex distance; so do the twin's template pins."""
+    axial = [(q, r) for q in range(-6, 7) for r in range(-6, 7) if max(abs(q), abs(r), abs(q + r)) <= 6]
+    hex_distance = np.array([max(abs(q), abs(r), abs(q + r)) for q, r in axial])
+    flat = np.array([[q + r / 2, r * np.sqrt(3) / 2] for q, r in axial])
+    radius = np.linalg.norm(flat, axis=1, keepdims=True)
+    pulled_in = flat * np.sin(radius / 8.0) * 8.0 / np.maximum(radius, 1e-9)
+    turn = np.radians(133.0)
+    image = 100.0 + 12.0 * pulled_in @ np.array([[np.cos(turn), np.sin(turn)], [-np.sin(turn), np.cos(turn)]])
+    order = np.random.default_rng(0).permutation(len(image))
+    assert np.array_equal(E.pin_rings(image[order]), hex_distance[order])
+    assert np.array_equal(E.pin_rings(REST), TEMPLATE_RINGS)
+
+
+def test_signal_rings_place_the_signal_where_the_pins_carry_it() -> None:
+    """The edge angle moves only the 18 pins of ring 3, by fade(l): ring 3 reads
+    fade(l) std θ(l) / (fade(0) std θ(0)) × √(127/18) (the whole array's signal lies in 18
+    of its 127 pins; std θ over the bin's taps), every other ring nothing, for sheared taps
+    and plain taps alike."""
+    field = _fields()["theta"] * (TEMPLATE_RINGS == 3)[:, None]
+
+    def displacement(tap) -> np.ndarray:
+        return FADE[float(np.round(tap.lateral_mm)) + 0.0] * tap.theta_deg / 45.0 * field + tap.slide_along_mm * 0.5
+
+    sheared_run = _sheared(displacement, 1500, 8, 0.01)
+    sheared = E.signal_rings(sheared_run, at_mm=(-2.0, 0.0, 1.4))
+    assert list(sheared) == [3.0] and sorted(sheared[3.0]) == [-2.0, 0.0, 1.0]  # 1.4 mm: the bin at 1
+    rng = np.random.default_rng(9)
+    samples = [
+        {
+            "pins_px": (REST + FADE[l] * theta / 45.0 * field).tolist(),
+            "found": None,
+            "labels": {"theta_deg": theta, "lateral_mm": l, "depth_mm": 2.0},
+        }
+        for l in (-2.0, 0.0, 1.0)
+        for theta in rng.uniform(-45, 45, 40)
+    ]
+    plain = Run(Path("synthetic"), {"scenario": {"protocol": {"kind": "taps"}}, "rest_pins_px": REST.tolist()}, samples)
+    for run, table in ((sheared_run, sheared[3.0]), (plain, E.signal_rings(plain, at_mm=(-2.0, 0.0, 1.0))[2.0])):
+        theta, bins = run.label("theta_deg"), np.round(run.label("lateral_mm")) + 0.0
+        spread = {l: FADE[l] * np.std(theta[bins == l]) for l in table}
+        for l, rings in table.items():
+            expected = np.where(np.arange(7) == 3, spread[l] / spread[0.0] * np.sqrt(127 / 18), 0.0)
+            np.testing.assert_allclose(rings, expected, atol=0.02, err_msg=str(l))

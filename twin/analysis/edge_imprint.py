@@ -8,6 +8,9 @@ Unit-free figures, so they compare across cameras:
   RMS over the pins, px) at each lateral position l, over its value at l = 0;
 * reach profile: mean |pin displacement| in ten bins across the pin array along the edge
   normal (from beyond the edge to the object side), over the largest bin, at one l;
+* signal by ring: the same signal per ring of the pin array (the centre pin, the 6 around
+  it, the next 12, …), over the whole array's at l = 0: how far out from the centre the
+  pins still read the edge;
 * drag / signal: how much more an in-contact slide moves the pins than the edge angle does;
 * the along-edge drag in degrees of turn per mm of slide: how far along the orientation
   direction a 1 mm slide along the edge moves the pins, in degrees of the edge angle
@@ -84,6 +87,9 @@ class BinFit:
     residual_px: float  # RMS pin distance left unexplained
     tap_z: np.ndarray  # (n, 254) px: the bin's frames with the fitted slide and twist taken out
     signal_shift_share: float  # the θ gradient's energy in a rigid shift of the pins, less its noise
+    pin_signal_px: (
+        np.ndarray
+    )  # (127,) px: each pin's share of the θ term's spread (RMS over pins = spread_px's), less its noise
 
 
 def _pin_rms(vectors: np.ndarray) -> float:
@@ -100,7 +106,8 @@ class _TermNoise:
 
     def __init__(self, design: np.ndarray, unexplained: np.ndarray) -> None:
         dof = max(len(design) - design.shape[1], 1)
-        self.variance_px2 = float(np.sum(unexplained**2)) / dof  # Σ_j s_j²
+        self.pin_variance_px2 = np.sum(unexplained.reshape(len(unexplained), -1, 2) ** 2, axis=(0, 2)) / dof
+        self.variance_px2 = float(np.sum(self.pin_variance_px2))  # Σ_j s_j²
         # the same for the rigid shift's two coordinates, × N_PINS: its share of that noise
         self.shift_variance_px2 = N_PINS * float(np.sum(_uniform_shift(unexplained) ** 2)) / dof
         self.inverse = np.linalg.pinv(design.T @ design)
@@ -112,6 +119,14 @@ class _TermNoise:
         raw2 = float(np.sum((xs @ coef[cols]) ** 2))
         bias2 = float(np.trace(xs.T @ xs @ self.inverse[np.ix_(cols, cols)])) * self.variance_px2
         return float(np.sqrt(max(raw2 - bias2, 0.0) / (len(x) * N_PINS)))
+
+    def pin_spread_px(self, x: np.ndarray, coef: np.ndarray, term: int) -> np.ndarray:
+        """(pins,) px: `spread_px` of one term for each pin's two coordinates alone, so
+        that their RMS over the pins is the term's spread (where none is floored)."""
+        xt, col = x[:, term], 1 + term
+        raw2 = float(xt @ xt) * np.sum(coef[col].reshape(-1, 2) ** 2, axis=1)
+        bias2 = float(xt @ xt) * float(self.inverse[col, col]) * self.pin_variance_px2
+        return np.sqrt(np.maximum(raw2 - bias2, 0.0) / len(x))
 
     def shift_share(self, gradient: np.ndarray, term: int) -> float:
         """`translation_share` of a fitted gradient (coef row 1 + term), its noise taken out
@@ -164,6 +179,7 @@ def sheared_fits(run: Run, width_mm: float = 1.0, min_samples: int = 20) -> list
                 residual,
                 z[m] - x[:, 1:4] @ coef[2:5],
                 noise.shift_share(coef[1], 0),
+                noise.pin_spread_px(x, coef, 0),
             )
         )
     return fits
@@ -190,6 +206,60 @@ def signal_profile(
             for d, row in rows.items()
         }
     return {d: {l: v / row[0.0] for l, v in row.items()} for d, row in rows.items() if row.get(0.0)}
+
+
+def pin_rings(rest_px: np.ndarray) -> np.ndarray:
+    """(pins,) int: each rest pin's ring of the hexagonal layout by distance from the pin
+    nearest the layout's centre: ring 0 that pin, ring k the next 6k pins (the nearest 1,
+    6, 12, … pins; on the 127-pin dome rings 0–6)."""
+    centre = rest_px[np.argmin(np.linalg.norm(rest_px - rest_px.mean(axis=0), axis=1))]
+    order = np.argsort(np.linalg.norm(rest_px - centre, axis=1), kind="stable")
+    rings = np.empty(len(rest_px), int)
+    start, ring = 0, 0
+    while start < len(order):
+        size = 6 * ring if ring else 1
+        rings[order[start : start + size]] = ring
+        start, ring = start + size, ring + 1
+    return rings
+
+
+def signal_rings(
+    run: Run, at_mm: tuple[float, ...] = (*REACH_AT_MM, 0.0), fits: list[BinFit] | None = None
+) -> dict[float, dict[float, list[float]]]:
+    """{depth_mm: {lateral_mm: [ring 0, 1, …]}}: where in the pin array the edge's
+    orientation signal lies, at the lateral positions nearest each of `at_mm` (within
+    0.5 mm): each pin's spread over the edge angles, RMS over the pins of each ring
+    (`pin_rings`), over the signal of all pins at l = 0 (so the rings' RMS, weighted by
+    their pins, is the signal profile's value there). Plain taps per depth; sheared taps
+    as one row at their nominal depth (the fitted θ term's, less its noise). `fits`: a
+    sheared run's `sheared_fits`, where the caller has them."""
+    rings = pin_rings(run.rest_pins_px)
+    if is_sheared(run):
+        fits = sheared_fits(run) if fits is None else fits
+        rows = {_nominal_depth(run): {f.lateral_mm: f.pin_signal_px for f in fits}}
+    else:
+        ok = usable(run)
+        pins, depth, lateral = run.pins_px[ok], run.label("depth_mm")[ok], run.label("lateral_mm")[ok]
+        rows = {}
+        for d in sorted(set(depth.tolist())):
+            for l in sorted(set(lateral[depth == d].tolist())):
+                group = pins[(depth == d) & (lateral == l)]
+                if len(group) > 1:
+                    spread = np.sqrt(np.mean(np.sum((group - group.mean(axis=0)) ** 2, axis=-1), axis=0))
+                    rows.setdefault(float(d), {})[float(l)] = spread
+    table: dict[float, dict[float, list[float]]] = {}
+    for d, row in rows.items():
+        if 0.0 not in row or not np.any(row[0.0]):
+            continue
+        whole = float(np.sqrt(np.mean(row[0.0] ** 2)))
+        for target in at_mm:
+            nearest = min(row, key=lambda l: (abs(l - target), l))
+            if abs(nearest - target) <= 0.5 + 1e-9:
+                by_ring = [
+                    float(np.sqrt(np.mean(row[nearest][rings == k] ** 2))) / whole for k in range(rings.max() + 1)
+                ]
+                table.setdefault(d, {})[nearest] = by_ring
+    return table
 
 
 def _nominal_depth(run: Run) -> float:
@@ -507,7 +577,8 @@ def edge_figures(taps: Run, slides: Run | None = None, reach_at: tuple[float, ..
     """Every figure of this module for one sensor: a tap run (plain or sheared) and, for
     plain taps, a slides run for the along-edge drag (its slides at their first lateral
     position). `reach_at`: the l (mm) of the reach profiles; those with no tap within 0.5 mm
-    are left out. Keys: signal_profile, signal_shift_share, reach (l → ten bins), closest_pins, pcs_explained,
+    are left out. Keys: signal_profile, signal_shift_share, reach (l → ten bins),
+    signal_rings (at the reach's l and l = 0), closest_pins, pcs_explained,
     pcs_turned, drag_over_signal and along_edge (l → figures; sheared taps, or plain taps
     with slides)."""
     fits = sheared_fits(taps) if is_sheared(taps) else None
@@ -519,6 +590,7 @@ def edge_figures(taps: Run, slides: Run | None = None, reach_at: tuple[float, ..
         "signal_profile": signal_profile(taps, fits=fits),
         "signal_shift_share": signal_shift_share(taps, fits),
         "reach": {l: reach_profile(taps, l) for l in reach_at if np.any(np.abs(lateral - l) <= 0.5 + 1e-9)},
+        "signal_rings": signal_rings(taps, (*reach_at, 0.0), fits),
         "closest_pins": closest_pins(taps),
         "pcs_explained": pcs.explained.tolist(),
         "pcs_turned": pcs.turned,

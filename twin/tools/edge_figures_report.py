@@ -57,6 +57,13 @@ def format_edge_figures(figures: list[dict], labels: list[str] | None = None) ->
         for label, f in zip(labels, figures):
             bins = f["reach"].get(l)
             lines.append(f"    {label}: " + ("—" if bins is None else " ".join(f"{v:.2f}" for v in bins)))
+    for depth, by_l in _depth_groups(figures, "signal_rings"):
+        lines.append(f"  orientation signal by ring of pins (centre → rim), / the whole array's at l = 0, {depth}:")
+        for l in sorted({l for rows in by_l for l in rows}, reverse=True):
+            for label, rows in zip(labels, by_l):
+                rings = rows.get(l)
+                values = "—" if rings is None else " ".join(f"{v:.2f}" for v in rings)
+                lines.append(f"    l {l:+g} mm, {label}: {values}")
     for depth, closest in _depth_groups(figures, "closest_pins"):
         lines.append(
             f"  closest pins, {depth} (nearest neighbour / at rest, the frame's smallest: "
