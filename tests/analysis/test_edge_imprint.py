@@ -530,8 +530,8 @@ def test_signal_rings_place_the_signal_where_the_pins_carry_it() -> None:
         return FADE[float(np.round(tap.lateral_mm)) + 0.0] * tap.theta_deg / 45.0 * field + tap.slide_along_mm * 0.5
 
     sheared_run = _sheared(displacement, 1500, 8, 0.01)
-    sheared = E.signal_rings(sheared_run, at_mm=(-2.0, 0.0, 1.4))
-    assert list(sheared) == [3.0] and sorted(sheared[3.0]) == [-2.0, 0.0, 1.0]  # 1.4 mm: the bin at 1
+    sheared = E.signal_rings(sheared_run, at_mm=(-1.5, 0.0, 1.4))
+    assert list(sheared) == [3.0] and sorted(sheared[3.0]) == [-1.0, 0.0, 1.0]  # the bins nearest, then nearer l = 0
     rng = np.random.default_rng(9)
     samples = [
         {
@@ -543,7 +543,8 @@ def test_signal_rings_place_the_signal_where_the_pins_carry_it() -> None:
         for theta in rng.uniform(-45, 45, 40)
     ]
     plain = Run(Path("synthetic"), {"scenario": {"protocol": {"kind": "taps"}}, "rest_pins_px": REST.tolist()}, samples)
-    for run, table in ((sheared_run, sheared[3.0]), (plain, E.signal_rings(plain, at_mm=(-2.0, 0.0, 1.0))[2.0])):
+    plain_table = E.signal_rings(plain, at_mm=(-2.0, 0.0, 1.0))[2.0]
+    for run, table in ((sheared_run, sheared[3.0]), (plain, plain_table)):
         theta, bins = run.label("theta_deg"), np.round(run.label("lateral_mm")) + 0.0
         spread = {l: FADE[l] * np.std(theta[bins == l]) for l in table}
         for l, rings in table.items():

@@ -228,7 +228,7 @@ def signal_rings(
 ) -> dict[float, dict[float, list[float]]]:
     """{depth_mm: {lateral_mm: [ring 0, 1, …]}}: where in the pin array the edge's
     orientation signal lies, at the lateral positions nearest each of `at_mm` (within
-    0.5 mm): each pin's spread over the edge angles, RMS over the pins of each ring
+    0.5 mm; of two as near, the one nearer l = 0): each pin's spread over the edge angles, RMS over the pins of each ring
     (`pin_rings`), over the signal of all pins at l = 0 (so the rings' RMS, weighted by
     their pins, is the signal profile's value there). Plain taps per depth; sheared taps
     as one row at their nominal depth (the fitted θ term's, less its noise). `fits`: a
@@ -253,7 +253,7 @@ def signal_rings(
             continue
         whole = float(np.sqrt(np.mean(row[0.0] ** 2)))
         for target in at_mm:
-            nearest = min(row, key=lambda l: (abs(l - target), l))
+            nearest = min(row, key=lambda l: (abs(l - target), abs(l)))
             if abs(nearest - target) <= 0.5 + 1e-9:
                 by_ring = [
                     float(np.sqrt(np.mean(row[nearest][rings == k] ** 2))) / whole for k in range(rings.max() + 1)
