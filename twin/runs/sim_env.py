@@ -26,6 +26,8 @@ from twin.world.silhouette import SilhouetteRenderer
 YIELD_ITERATIONS = 4
 YIELD_TOLERANCE_MM = 0.05
 YIELD_LIMIT_MM = 5.0
+#: the secant's slope of (yield × force − s) against s (–) above which a yield move takes the fixed-point step
+SECANT_SLOPE_FLOOR = 0.5
 
 
 class SimEnvironment(Environment):
@@ -130,7 +132,8 @@ class SimEnvironment(Environment):
     def _yield_to_contact(self, target: np.ndarray, pose: Pose, speed: float) -> None:
         """The arm's yield (calibration `arm_yield_mm_per_n`): the TCP settles a distance s
         from `target` along the yield's direction where s = |yield| × the contact's normal
-        force there, found by the secant method in at most YIELD_ITERATIONS in-contact moves
+        force there, found by the secant method (the fixed-point step s = |yield| × force
+        where the secant's slope is not clearly negative) in at most YIELD_ITERATIONS in-contact moves
         (a skin that sticks shears by what the arm yields); none out of contact. PhysicsError
         when it does not settle (an arm that yields into the press faster than the contact
         pushes back)."""
@@ -150,7 +153,12 @@ class SimEnvironment(Environment):
             miss = compliance * self._frame.contact_force - s
             if miss == miss_last:
                 break
-            s, s_last, miss_last = s - miss * (s - s_last) / (miss - miss_last), s, miss
+            slope = (miss - miss_last) / (s - s_last)
+            # a yield that settles has miss falling with s (slope < 0); a slope near 0 or above is
+            # the force's path dependence (a sticking skin) at the micron level, and its secant
+            # step would leap: take the fixed-point step s = yield × force instead
+            step = -miss / slope if slope < -SECANT_SLOPE_FLOOR else miss
+            s, s_last, miss_last = s + step, s, miss
         if abs(miss) * 1e3 > YIELD_TOLERANCE_MM:
             beyond = (
                 f", the next {abs(s) * 1e3:.3g} mm past the {YIELD_LIMIT_MM} mm limit"
