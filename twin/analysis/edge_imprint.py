@@ -87,9 +87,7 @@ class BinFit:
     residual_px: float  # RMS pin distance left unexplained
     tap_z: np.ndarray  # (n, 254) px: the bin's frames with the fitted slide and twist taken out
     signal_shift_share: float  # the θ gradient's energy in a rigid shift of the pins, less its noise
-    pin_signal_px: (
-        np.ndarray
-    )  # (127,) px: each pin's share of the θ term's spread (RMS over pins = spread_px's), less its noise
+    pin_signal_px: np.ndarray  # (127,) px: each pin's θ term spread, less its noise (`_TermNoise.pin_spread_px`)
 
 
 def _pin_rms(vectors: np.ndarray) -> float:
@@ -228,11 +226,12 @@ def signal_rings(
 ) -> dict[float, dict[float, list[float]]]:
     """{depth_mm: {lateral_mm: [ring 0, 1, …]}}: where in the pin array the edge's
     orientation signal lies, at the lateral positions nearest each of `at_mm` (within
-    0.5 mm; of two as near, the one nearer l = 0): each pin's spread over the edge angles, RMS over the pins of each ring
-    (`pin_rings`), over the signal of all pins at l = 0 (so the rings' RMS, weighted by
-    their pins, is the signal profile's value there). Plain taps per depth; sheared taps
-    as one row at their nominal depth (the fitted θ term's, less its noise). `fits`: a
-    sheared run's `sheared_fits`, where the caller has them."""
+    0.5 mm; of two as near, the one nearer l = 0): each pin's spread over the edge angles,
+    RMS over the pins of each ring (`pin_rings`), over the same RMS over all pins at l = 0
+    (so the rings' RMS, weighted by their pins, is the signal profile's value there, where
+    no pin's spread is floored at 0). Plain taps per depth; sheared taps as one row at
+    their nominal depth (the fitted θ term's, less its noise). `fits`: a sheared run's
+    `sheared_fits`, where the caller has them."""
     rings = pin_rings(run.rest_pins_px)
     if is_sheared(run):
         fits = sheared_fits(run) if fits is None else fits
