@@ -45,7 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from twin.analysis.evaluation import orientation_signal_px
+from twin.analysis.evaluation import orientation_signal_by_pin_px, orientation_signal_px
 from twin.core.errors import UserError
 from twin.core.scenario import SHEARED_TAP_MOTION
 from twin.core.sensor import N_PINS
@@ -237,15 +237,8 @@ def signal_rings(
         fits = sheared_fits(run) if fits is None else fits
         rows = {_nominal_depth(run): {f.lateral_mm: f.pin_signal_px for f in fits}}
     else:
-        ok = usable(run)
-        pins, depth, lateral = run.pins_px[ok], run.label("depth_mm")[ok], run.label("lateral_mm")[ok]
-        rows = {}
-        for d in sorted(set(depth.tolist())):
-            for l in sorted(set(lateral[depth == d].tolist())):
-                group = pins[(depth == d) & (lateral == l)]
-                if len(group) > 1:
-                    spread = np.sqrt(np.mean(np.sum((group - group.mean(axis=0)) ** 2, axis=-1), axis=0))
-                    rows.setdefault(float(d), {})[float(l)] = spread
+        rows = orientation_signal_by_pin_px(_subset(run, usable(run)))
+    n_rings = rings.max() + 1
     table: dict[float, dict[float, list[float]]] = {}
     for d, row in rows.items():
         if 0.0 not in row or not np.any(row[0.0]):
@@ -254,9 +247,7 @@ def signal_rings(
         for target in at_mm:
             nearest = min(row, key=lambda l: (abs(l - target), abs(l)))
             if abs(nearest - target) <= 0.5 + 1e-9:
-                by_ring = [
-                    float(np.sqrt(np.mean(row[nearest][rings == k] ** 2))) / whole for k in range(rings.max() + 1)
-                ]
+                by_ring = [float(np.sqrt(np.mean(row[nearest][rings == k] ** 2))) / whole for k in range(n_rings)]
                 table.setdefault(d, {})[nearest] = by_ring
     return table
 

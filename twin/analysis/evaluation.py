@@ -89,21 +89,29 @@ def heldout_table(test: Run, predictions: dict) -> dict:
     return table
 
 
-def orientation_signal_px(taps: Run) -> dict[float, dict[float, float]]:
-    """{depth_mm: {lateral_mm: px}}: how much of the edge's orientation a tap run's frames
-    carry at each depth and lateral position: each pin's spread over the run's
-    orientations (RMS distance from its mean position there), RMS over the pins, in px at
-    the run's resolution. A drag larger than this where a slide runs outweighs the edge in
-    any reading of the pins, PCA or raw."""
+def orientation_signal_by_pin_px(taps: Run) -> dict[float, dict[float, np.ndarray]]:
+    """{depth_mm: {lateral_mm: (pins,) px}}: each pin's spread over a tap run's
+    orientations at each depth and lateral position (RMS distance from its mean position
+    there), in px at the run's resolution; positions with one tap or a pin not found are
+    left out."""
     pins, depth, lateral = taps.pins_px, taps.label("depth_mm"), taps.label("lateral_mm")
-    table: dict[float, dict[float, float]] = {}
+    table: dict[float, dict[float, np.ndarray]] = {}
     for d in sorted(set(depth[np.isfinite(depth)].tolist())):
         table[float(d)] = {}
         for l in sorted(set(lateral[depth == d].tolist()), reverse=True):
             group = pins[(depth == d) & (lateral == l)]
             if len(group) > 1 and np.isfinite(group).all():
-                table[float(d)][float(l)] = _rms(np.linalg.norm(group - group.mean(axis=0), axis=-1).ravel())
+                table[float(d)][float(l)] = np.sqrt(np.mean(np.sum((group - group.mean(axis=0)) ** 2, axis=-1), axis=0))
     return table
+
+
+def orientation_signal_px(taps: Run) -> dict[float, dict[float, float]]:
+    """{depth_mm: {lateral_mm: px}}: how much of the edge's orientation a tap run's frames
+    carry at each depth and lateral position: each pin's spread over the run's
+    orientations (`orientation_signal_by_pin_px`), RMS over the pins, in px at the run's
+    resolution. A drag larger than this where a slide runs outweighs the edge in any
+    reading of the pins, PCA or raw."""
+    return {d: {l: _rms(spread) for l, spread in row.items()} for d, row in orientation_signal_by_pin_px(taps).items()}
 
 
 def along_edge_drag_px(slides: Run) -> dict[int, float | None]:
