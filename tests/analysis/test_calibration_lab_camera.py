@@ -1,6 +1,7 @@
 """`twin calibrate` on a recording in the lab's format whose camera is not the twin's (the
 DigiTac set's kind: a 256×256 frame, the pin grid turned on the image, a camera much nearer
 the dome): the camera's start from the no-contact frame (settings `camera_from_rest`),
+its distance fitted on the taps with the rest of it tied to that frame (`camera_tied_to_rest`),
 the shipped settings for that camera, and runs held out of the fit. The "real" sensor is
 the twin itself through such a camera, rendered, written in the lab's format and imported."""
 
@@ -145,6 +146,67 @@ def test_without_the_camera_start_the_rest_layout_takes_the_turn(lab, tmp_path) 
     report = yaml.safe_load((tmp_path / "cal" / "report.json").read_text())
     assert report["camera_from_rest"] is None and report["after"]["groups"]["contact"] > 2.0
     assert np.abs(load_calibration(tmp_path / "cal" / "calibration.yaml").rest_pin_offsets_px).max() > 30.0
+
+
+def _settings_without_distortion_prior(lab: dict, tied: bool) -> dict:
+    """The lab settings with no prior on the distortion: the no-contact frame alone then
+    leaves the camera's distance free along cameras that meet it alike."""
+    settings = yaml.safe_load(lab["settings"].read_text())
+    for k in ("camera.k1", "camera.k2"):
+        settings["parameters"][k]["prior_std"] = None
+    if tied:
+        settings["camera_tied_to_rest"] = True
+        settings["camera_from_rest"] = [n for n in settings["camera_from_rest"] if n != "camera.z_mm"]
+        settings["parameters"]["camera.rz_deg"]["fit"] = False
+        settings["parameters"]["camera.z_mm"]["fit"] = True  # from the twin's 0 mm, on the taps
+    return settings
+
+
+def test_tied_to_the_rest_frame_the_taps_fit_the_cameras_distance(lab, tmp_path, capsys) -> None:
+    reports = {}
+    for tied in (False, True):
+        (tmp_path / f"s{tied}.yaml").write_text(yaml.safe_dump(_settings_without_distortion_prior(lab, tied)))
+        out = tmp_path / f"cal{tied}"
+        assert _calibrate(lab, out, tmp_path / f"s{tied}.yaml", "--held-out", str(lab["held"])) == 0
+        reports[tied] = json.loads((out / "report.json").read_text())
+    free, tied = reports[False], reports[True]
+    # the no-contact frame alone: a camera 22 mm nearer and one with a strong distortion meet it
+    # alike, and without the prior it picks the wrong one, which the depth offset then makes up for
+    assert abs(free["camera_from_rest"]["values"]["camera.z_mm"] - 22.0) > 10.0
+    assert abs(free["uncertainty"]["parameters"]["tcp.z_mm"]["value"] - 0.3) > 0.3
+    # tied, the taps' pin motion along the axis chooses the distance, and with it the lens
+    fitted = tied["uncertainty"]["parameters"]
+    assert fitted["camera.z_mm"]["identifiable"] and fitted["camera.z_mm"]["value"] == pytest.approx(22.0, abs=0.5)
+    assert fitted["tcp.z_mm"]["value"] == pytest.approx(0.3, abs=0.05)
+    at_fit = tied["camera_from_rest"]["at_fit"]
+    assert at_fit["camera.focal_px"] == pytest.approx(80.0, rel=0.03)
+    assert at_fit["camera.k1"] == pytest.approx(-0.05, abs=0.02) and at_fit["camera.rz_deg"] == pytest.approx(
+        -28.0, abs=0.1
+    )
+    cal = load_calibration(tmp_path / "calTrue" / "calibration.yaml")
+    assert cal.camera.focal_px == pytest.approx(at_fit["camera.focal_px"]) and cal.camera.offset_mm[2] == pytest.approx(
+        fitted["camera.z_mm"]["value"]
+    )
+    # the taps and the held-out taps fit several times better than through the wrong camera
+    assert tied["after"]["groups"]["contact"] < free["after"]["groups"]["contact"] / 3
+    assert tied["held_out"]["after"]["groups"]["contact"] < free["held_out"]["after"]["groups"]["contact"] / 3
+    assert "tied to them, at the fitted camera" in capsys.readouterr().out
+    assert "tied: at the fitted camera" in (tmp_path / "calTrue" / "report.md").read_text()
+
+
+@pytest.mark.parametrize(
+    ("change", "named"),
+    [
+        ({"camera_tied_to_rest": True, "camera_from_rest": []}, "camera_tied_to_rest needs"),
+        ({"camera_tied_to_rest": True}, "camera.rz_deg"),  # tied to the rest frame and fitted on the taps
+    ],
+)
+def test_a_bad_tie_exits_2_naming_the_field(lab, tmp_path, capsys, change, named) -> None:
+    settings = yaml.safe_load(lab["settings"].read_text())
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump({**settings, **change}))
+    assert _calibrate(lab, tmp_path / "cal", tmp_path / "s.yaml") == 2
+    err = capsys.readouterr().err.strip()
+    assert named in err and "s.yaml" in err and "Traceback" not in err, err
 
 
 @pytest.mark.parametrize(

@@ -98,12 +98,20 @@ def report_markdown(r: dict) -> str:
             f"Camera start from the no-contact frames (the pin lattice projected, no rest offsets; pin RMS "
             f"{rest['rms_px']:.3f} px on them):",
             "",
-            "| parameter | twin | from the no-contact frames | ± std (Gauss–Newton) |",
-            "|---|---|---|---|",
+            "| parameter | twin | from the no-contact frames | ± std (Gauss–Newton) | tied: at the fitted camera |",
+            "|---|---|---|---|---|",
         ]
+        at_fit = rest.get("at_fit") or {}
         for name, v in rest["values"].items():
             flag = " (**at a bound**: widen it)" if name in rest["at_bound"] else ""
-            lines.append(f"| {name} | {rest['twin'][name]:.4g} | {v:.4g}{flag} | {rest['std'][name]:.2g} |")
+            tied = f"{at_fit[name]:.4g}" if name in at_fit else "–"
+            lines.append(f"| {name} | {rest['twin'][name]:.4g} | {v:.4g}{flag} | {rest['std'][name]:.2g} | {tied} |")
+        if at_fit:
+            lines += [
+                "",
+                "Tied (settings camera_tied_to_rest): fitted to the no-contact frames again at every camera the "
+                "fit tried; the calibration file holds their values at the fitted camera.",
+            ]
     lines += _edge_figure_lines(r.get("edge_figures"))
     lines += [
         "",

@@ -317,8 +317,11 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         )
     if r["failed_simulations"]:
         print(f"  {len(r['failed_simulations'])} candidates failed their physics checks (ranked last; report.md)")
-    for name, v in (r["camera_from_rest"] or {}).get("values", {}).items():
-        print(f"  {name} from the no-contact frames = {v:.5g} ± {r['camera_from_rest']['std'][name]:.2g}")
+    rest = r["camera_from_rest"] or {}
+    for name, v in rest.get("values", {}).items():
+        print(f"  {name} from the no-contact frames = {v:.5g} ± {rest['std'][name]:.2g}")
+        if rest.get("at_fit"):
+            print(f"    tied to them, at the fitted camera = {rest['at_fit'][name]:.5g}")
     for name, u in r["uncertainty"]["parameters"].items():
         flag = (
             ""

@@ -4,6 +4,7 @@ then the edge figures' where weighted), χ² and the pin RMS (px)."""
 
 from __future__ import annotations
 
+import hashlib
 import time
 from dataclasses import dataclass
 
@@ -12,6 +13,7 @@ from scipy.optimize import least_squares
 
 from twin.analysis.calibration_fit.data import GROUPS, Data
 from twin.analysis.calibration_fit.figures import EdgeFigureTarget
+from twin.analysis.calibration_fit.settings import CAMERA
 from twin.analysis.calibration_fit.space import Space
 from twin.core.errors import PhysicsError, UserError
 from twin.core.resources import searching
@@ -86,6 +88,11 @@ class Evaluator:
         self.fit_rest = space.settings.rest_pins and bool(self.rest.any())
         #: rest offsets (127, 2) px to use instead of the closed form (held-out runs: the fit's layout)
         self.fixed_offsets: np.ndarray | None = None
+        #: camera parameters fitted to the no-contact frames again at every camera (`tie`); none: off
+        self.tied: list[str] = []
+        self._tie_start: dict[str, float] = {}
+        self._tie_prior_about: dict[str, float] = {}
+        self._tie_cache: dict[tuple, dict[str, float]] = {}
 
     def simulate(self, candidates: list[dict[str, float]]) -> list[np.ndarray | None]:
         """Pin tips (N, 127, 3) m for each physics candidate, in recorded-sample order, then
@@ -131,9 +138,39 @@ class Evaluator:
         self.sim_seconds += time.perf_counter() - t0
         return out
 
+    def tie(self, names: list[str], start: dict[str, float], prior_about: dict[str, float]) -> None:
+        """From now on, fit the camera parameters `names` to the no-contact frames again for
+        every camera the predictions use (settings camera_tied_to_rest): from `start`, their
+        priors about `prior_about` (the twin's values, as for the camera start)."""
+        self.tied = list(names)
+        self._tie_start = {n: start[n] for n in names}
+        self._tie_prior_about = {n: prior_about[n] for n in names}
+        self._tie_cache.clear()
+
+    def camera_values(self, tips: np.ndarray, values: dict[str, float]) -> dict[str, float]:
+        """`values` with the tied camera parameters (`tie`) fitted to the no-contact frames'
+        pins for the other camera parameters' values and these tips; `values` when none are tied."""
+        if not self.tied:
+            return values
+        full = {**self.space.defaults, **values}
+        rest_tips = np.ascontiguousarray(tips[: self.n_recorded][self.rest])
+        key = (
+            tuple(round(full[n], 12) for n in CAMERA if n not in self.tied),
+            hashlib.blake2b(rest_tips.tobytes(), digest_size=16).hexdigest(),
+        )
+        if key not in self._tie_cache:
+            start = {**full, **self._tie_start}
+            fitted = self.solve_rest_camera(tips, self.tied, start, prior_about=self._tie_prior_about)["values"]
+            if len(self._tie_cache) >= 256:
+                self._tie_cache.pop(next(iter(self._tie_cache)))
+            self._tie_cache[key] = fitted
+        return {**values, **self._tie_cache[key]}
+
     def predict(self, tips: np.ndarray, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
         """(predicted pins (N, 127, 2) px, rest offsets (127, 2) px) for pin tips and values
-        (the rows of `simulate`'s tips: still replays' after the N recorded samples')."""
+        (the rows of `simulate`'s tips: still replays' after the N recorded samples'); tied
+        camera parameters (`tie`) fitted to the no-contact frames for the camera in `values`."""
+        values = self.camera_values(tips, values)
         camera = self.space.calibration(values).camera_model(self.space.scenario.camera_model().nominal())
         proj = camera.project_tool_points(tips.reshape(-1, 3)).reshape(tips.shape[0], N_PINS, 2)
         offsets = np.zeros((N_PINS, 2))
@@ -183,11 +220,13 @@ class Evaluator:
         sol = least_squares(fun, x0, bounds=(0.0, 1.0), x_scale="jac", diff_step=1e-6, xtol=1e-10, ftol=1e-10)
         return {**physics, **self.space.from_unit(names, sol.x)}
 
-    def solve_rest_camera(self, tips: np.ndarray, names: list[str], values: dict[str, float]) -> dict:
+    def solve_rest_camera(
+        self, tips: np.ndarray, names: list[str], values: dict[str, float], prior_about: dict[str, float] | None = None
+    ) -> dict:
         """The camera parameters `names` fitted to the no-contact frames' pins as the pin lattice
         projected, without rest offsets (least squares within their bounds, from `values`):
         a start for a camera unlike the twin's, which the rest offsets (≤ 50 px) cannot absorb.
-        The parameters' priors (settings prior_std, about `values`) apply: a dome's pins at rest
+        The parameters' priors (settings prior_std, about `prior_about`, else `values`) apply: a dome's pins at rest
         are met nearly as well by a near camera as by a far one with a strong radial
         distortion, and a prior on the distortion settles it. Returns {"values", "std" (Gauss–Newton, s² from the fit), "rms_px" (Euclidean per pin)}."""
         pins, valid = self.data.pins[self.rest], self.valid[self.rest]
@@ -202,7 +241,8 @@ class Evaluator:
                 pins.shape
             )
 
-        priors = [(n, values[n], space.settings.parameters[n].prior_std) for n in names]
+        about = values if prior_about is None else prior_about
+        priors = [(n, about[n], space.settings.parameters[n].prior_std) for n in names]
         priors = [(n, v, std) for n, v, std in priors if std]
 
         def fun(unit: np.ndarray) -> np.ndarray:

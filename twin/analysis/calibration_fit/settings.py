@@ -101,6 +101,11 @@ class CalibrationSettings(_Strict):
     camera_from_rest: list[str] = Field(
         description="camera parameters whose start is first fitted to the no-contact frames' pins (no rest offsets)"
     )
+    camera_tied_to_rest: bool = Field(
+        description="the camera_from_rest parameters fitted to the no-contact frames again wherever the fit "
+        "moves the other camera parameters (a distance the no-contact frames leave free, fitted on the taps "
+        "among the cameras that meet those frames); a tied parameter is not fitted itself"
+    )
     weights: Weights
     edge_figure_resamples: int = Field(
         ge=0, le=1000, description="bootstrap resamples for the recorded edge figures' spread (0 = none)"
@@ -134,6 +139,19 @@ class CalibrationSettings(_Strict):
         if wrong:
             raise ValueError(f"{wrong} are not camera parameters with bounds (camera parameters: {', '.join(CAMERA)})")
         return names
+
+    @model_validator(mode="after")
+    def _tied_not_fitted(self) -> CalibrationSettings:
+        if self.camera_tied_to_rest:
+            if not self.camera_from_rest:
+                raise ValueError("camera_tied_to_rest needs the parameters to tie in camera_from_rest")
+            both = [n for n in self.camera_from_rest if self.parameters[n].fit]
+            if both:
+                raise ValueError(
+                    f"camera_tied_to_rest: {both} are tied to the no-contact frames and fitted on the taps too; "
+                    "set their fit: false or take them out of camera_from_rest"
+                )
+        return self
 
     @property
     def fitted(self) -> list[str]:
