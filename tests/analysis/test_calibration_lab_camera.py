@@ -111,21 +111,21 @@ def test_the_shipped_settings_fit_a_camera_unlike_the_twins(lab, tmp_path, capsy
     assert "camera.rz_deg from the no-contact frames" in printed and "held out (3 samples, not fitted)" in printed
     report = yaml.safe_load((out / "report.json").read_text())
     rest = report["camera_from_rest"]
-    # the turn of the pin grid on the image and the rim's magnification, from the no-contact frame alone
+    # the turn of the pin grid on the image, from the no-contact frame alone
     assert rest["values"]["camera.rz_deg"] == pytest.approx(-28.0, abs=1.0) and not rest["at_bound"]
-    # the camera's distance, not a strong distortion, magnifies the rim (the distortion's prior)
-    assert rest["values"]["camera.z_mm"] == pytest.approx(22.0, abs=3.0)
-    assert rest["values"]["camera.focal_px"] == pytest.approx(80.0, rel=0.15)
     assert rest["rms_px"] < 0.5
+    # the camera's distance from the taps (starting at the twin's, 22 mm off), the lens tied to the no-contact frame
     fitted = report["uncertainty"]["parameters"]
-    assert fitted["tcp.z_mm"]["identifiable"] and fitted["tcp.z_mm"]["value"] == pytest.approx(0.3, abs=0.15)
-    assert fitted["camera.rz_deg"]["value"] == pytest.approx(-28.0, abs=1.5)
+    assert fitted["camera.z_mm"]["identifiable"] and fitted["camera.z_mm"]["value"] == pytest.approx(22.0, abs=0.5)
+    assert rest["at_fit"]["camera.focal_px"] == pytest.approx(80.0, rel=0.03)
+    assert rest["at_fit"]["camera.rz_deg"] == pytest.approx(-28.0, abs=0.1)
+    assert fitted["tcp.z_mm"]["identifiable"] and fitted["tcp.z_mm"]["value"] == pytest.approx(0.3, abs=0.05)
     # the twin as it was misses the pins by tens of px; fitted, the taps are within a pixel, fitted or held out
     assert report["before"]["groups"]["contact"] > 20.0 and report["after"]["groups"]["contact"] < 1.0
     held = report["held_out"]
     assert held["samples"] == 3 and held["before"]["overall"] > 20.0 and held["after"]["groups"]["contact"] < 1.0
     cal = load_calibration(out / "calibration.yaml")
-    assert cal.camera.rotation_deg[2] == pytest.approx(fitted["camera.rz_deg"]["value"])
+    assert cal.camera.rotation_deg[2] == pytest.approx(rest["at_fit"]["camera.rz_deg"])
     assert np.abs(cal.rest_pin_offsets_px).max() < 3.0  # the camera, not the rest layout, took the turn
     assert "from the no-contact frames" in (out / "report.md").read_text()
     # the residual plot draws the pins where the recording has them, in its 256×256 frame
@@ -139,8 +139,8 @@ def test_without_the_camera_start_the_rest_layout_takes_the_turn(lab, tmp_path) 
     # (up to the 50 px a calibration holds), which say nothing of how the pins move: the taps
     # fit several times worse than with the camera start (< 1 px above)
     settings = yaml.safe_load(lab["settings"].read_text())
-    settings["camera_from_rest"] = []
-    settings["parameters"]["camera.rz_deg"]["fit"] = False
+    settings["camera_from_rest"], settings["camera_tied_to_rest"] = [], False
+    settings["parameters"]["camera.z_mm"]["fit"] = False
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(settings))
     assert _calibrate(lab, tmp_path / "cal", tmp_path / "s.yaml") == 0
     report = yaml.safe_load((tmp_path / "cal" / "report.json").read_text())
@@ -149,16 +149,17 @@ def test_without_the_camera_start_the_rest_layout_takes_the_turn(lab, tmp_path) 
 
 
 def _settings_without_distortion_prior(lab: dict, tied: bool) -> dict:
-    """The lab settings with no prior on the distortion: the no-contact frame alone then
-    leaves the camera's distance free along cameras that meet it alike."""
+    """The lab settings (tied: the camera's distance fitted on the taps from the twin's 0 mm)
+    with no prior on the distortion, which leaves the no-contact frame alone to choose among
+    cameras that meet it alike; untied, the distance is taken from that frame too."""
     settings = yaml.safe_load(lab["settings"].read_text())
     for k in ("camera.k1", "camera.k2"):
         settings["parameters"][k]["prior_std"] = None
-    if tied:
-        settings["camera_tied_to_rest"] = True
-        settings["camera_from_rest"] = [n for n in settings["camera_from_rest"] if n != "camera.z_mm"]
-        settings["parameters"]["camera.rz_deg"]["fit"] = False
-        settings["parameters"]["camera.z_mm"]["fit"] = True  # from the twin's 0 mm, on the taps
+    if not tied:
+        settings["camera_tied_to_rest"] = False
+        settings["camera_from_rest"].append("camera.z_mm")
+        settings["parameters"]["camera.z_mm"]["fit"] = False
+        settings["parameters"]["camera.rz_deg"]["fit"] = True
     return settings
 
 
@@ -195,18 +196,32 @@ def test_tied_to_the_rest_frame_the_taps_fit_the_cameras_distance(lab, tmp_path,
 
 
 @pytest.mark.parametrize(
-    ("change", "named"),
+    ("fitted", "named"),
     [
-        ({"camera_tied_to_rest": True, "camera_from_rest": []}, "camera_tied_to_rest needs"),
-        ({"camera_tied_to_rest": True}, "camera.rz_deg"),  # tied to the rest frame and fitted on the taps
+        (None, "camera_tied_to_rest needs"),  # nothing to tie
+        ("camera.rz_deg", "camera.rz_deg"),  # tied to the rest frame and fitted on the taps
     ],
 )
-def test_a_bad_tie_exits_2_naming_the_field(lab, tmp_path, capsys, change, named) -> None:
+def test_a_bad_tie_exits_2_naming_the_field(lab, tmp_path, capsys, fitted, named) -> None:
     settings = yaml.safe_load(lab["settings"].read_text())
-    (tmp_path / "s.yaml").write_text(yaml.safe_dump({**settings, **change}))
+    if fitted is None:
+        settings["camera_from_rest"] = []
+    else:
+        settings["parameters"][fitted]["fit"] = True
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(settings))
     assert _calibrate(lab, tmp_path / "cal", tmp_path / "s.yaml") == 2
     err = capsys.readouterr().err.strip()
     assert named in err and "s.yaml" in err and "Traceback" not in err, err
+
+
+def test_a_bound_beyond_what_a_calibration_holds_exits_2_naming_it(lab, tmp_path, capsys) -> None:
+    # a calibration file holds the camera within 30 mm of the twin's: found before the search, not on reaching it
+    settings = yaml.safe_load(lab["settings"].read_text())
+    settings["parameters"]["camera.z_mm"]["upper"] = 35.0
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(settings))
+    assert _calibrate(lab, tmp_path / "cal", tmp_path / "s.yaml") == 2
+    err = capsys.readouterr().err.strip()
+    assert "'parameters.camera.z_mm'" in err and "35" in err and "Traceback" not in err, err
 
 
 @pytest.mark.parametrize(

@@ -8,6 +8,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from pydantic import ValidationError
 
 from twin.analysis.calibration_fit.settings import CAMERA, PARAMETERS, PHYSICS, CalibrationSettings
 from twin.core.calibration import Calibration, CameraCalibration
@@ -75,6 +76,23 @@ class Space:
         #: every bounded parameter's, fitted or not (camera_from_rest may start one the search keeps fixed)
         self.lower = {n: s.lower for n, s in p.items()}
         self.range = {n: s.upper - s.lower for n, s in p.items()}
+        self._bounds_fit_a_calibration()
+
+    def _bounds_fit_a_calibration(self) -> None:
+        """UserError naming the parameter where a bound of one the fit moves (fitted, or started
+        from the no-contact frames) lies outside what a calibration file holds: found here, not as
+        an internal error when the search first reaches it."""
+        for name in dict.fromkeys([*self.fitted, *self.settings.camera_from_rest]):
+            s = self.settings.parameters[name]
+            for bound in (s.lower, s.upper):
+                try:
+                    self.calibration({name: bound})
+                except ValidationError as err:
+                    why = err.errors()[0]["msg"]
+                    raise UserError(
+                        f"calibration settings: field 'parameters.{name}': the bound {bound:g} lies outside what "
+                        f"a calibration file holds ({why})"
+                    ) from None
 
     def to_unit(self, names: list[str], values: dict[str, float]) -> np.ndarray:
         return np.array([(values[n] - self.lower[n]) / self.range[n] for n in names])
