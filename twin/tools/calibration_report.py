@@ -105,6 +105,8 @@ def report_markdown(r: dict) -> str:
         for name, v in rest["values"].items():
             flag = " (**at a bound**: widen it)" if name in rest["at_bound"] else ""
             tied = f"{at_fit[name]:.4g}" if name in at_fit else "–"
+            if name in rest.get("at_fit_at_bound", []):
+                tied += " (**at a bound**: the cameras that meet the no-contact frames end there)"
             lines.append(f"| {name} | {rest['twin'][name]:.4g} | {v:.4g}{flag} | {rest['std'][name]:.2g} | {tied} |")
         if at_fit:
             lines += [

@@ -320,8 +320,9 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     rest = r["camera_from_rest"] or {}
     for name, v in rest.get("values", {}).items():
         print(f"  {name} from the no-contact frames = {v:.5g} ± {rest['std'][name]:.2g}")
-        if rest.get("at_fit"):
-            print(f"    tied to them, at the fitted camera = {rest['at_fit'][name]:.5g}")
+        if name in rest.get("at_fit", {}):
+            flag = "  AT A BOUND: the cameras that meet them end there" if name in rest["at_fit_at_bound"] else ""
+            print(f"    tied to them, at the fitted camera = {rest['at_fit'][name]:.5g}{flag}")
     for name, u in r["uncertainty"]["parameters"].items():
         flag = (
             ""

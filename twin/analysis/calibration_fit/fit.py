@@ -15,10 +15,10 @@ The model of a recorded pin (px) in sample i, pin k:
   the no-contact frames' pins as the lattice projected (no rest offsets; their priors
   apply), and the values start the fit (a camera unlike the twin's: another crop, roll or
   distance, whose layout the ≤ 50 px rest offsets cannot absorb); fitted or not later,
-  they are reported with their Gauss–Newton errors. With settings.camera_tied_to_rest they
-  are fitted to those frames again wherever the fit moves the other camera parameters
-  (Evaluator.camera_values): a camera distance, which the frames at rest leave nearly
-  free, is then fitted on the taps among the cameras that meet the rest frames.
+  they are reported with their Gauss–Newton errors. With settings.camera_tied_to_rest those
+  not fitted are fitted to those frames again wherever the fit moves the fitted camera
+  parameters (Evaluator.camera_values): a camera distance, which the frames at rest leave
+  nearly free, is then fitted on the taps among the cameras that meet the rest frames.
 * rest_k: the rest layout's offset from the lattice, in closed form: the weighted mean,
   over the no-contact frames (target z ≤ 0 in the work frame), of recorded minus projected
   pins (the least-squares solution for given θ). Without no-contact frames it stays 0 and
@@ -116,9 +116,10 @@ def _camera_from_rest(ev: Evaluator, tips: np.ndarray) -> dict | None:
     # the pins with this camera, the rest layout fitted and the twin's physics: what the camera alone does
     alone = ev.rms(tips, dict(ev.space.defaults))
     estimate["pin_rms_px"] = {"overall": alone["overall"], "groups": alone["groups"]}
-    estimate["tied"] = ev.space.settings.camera_tied_to_rest
-    if estimate["tied"]:
-        ev.tie(list(names), estimate["values"], estimate["twin"])
+    tied = ev.space.settings.tied
+    estimate["tied"] = tied
+    if tied:
+        ev.tie(tied, estimate["values"], estimate["twin"])
     return estimate
 
 
@@ -189,6 +190,11 @@ def _calibrate(
     final = ev.camera_values(final_tips, final)
     if rest_camera is not None and rest_camera["tied"]:
         rest_camera["at_fit"] = {n: final[n] for n in ev.tied}
+        # the cameras that meet the no-contact frames end at a bound there: that frame no longer holds the lens
+        p = settings.parameters
+        rest_camera["at_fit_at_bound"] = [
+            n for n in ev.tied if min(final[n] - p[n].lower, p[n].upper - final[n]) < 1e-6 * space.range[n]
+        ]
     _, offsets = ev.predict(final_tips, final)
     if ev.fit_rest and np.abs(offsets).max() > REST_OFFSET_LIMIT_PX:
         raise UserError(

@@ -102,9 +102,9 @@ class CalibrationSettings(_Strict):
         description="camera parameters whose start is first fitted to the no-contact frames' pins (no rest offsets)"
     )
     camera_tied_to_rest: bool = Field(
-        description="the camera_from_rest parameters fitted to the no-contact frames again wherever the fit "
-        "moves the other camera parameters (a distance the no-contact frames leave free, fitted on the taps "
-        "among the cameras that meet those frames); a tied parameter is not fitted itself"
+        description="the camera_from_rest parameters that are not fitted are fitted to the no-contact frames "
+        "again wherever the fit moves the fitted camera parameters (tied): a distance the no-contact frames "
+        "leave free is then fitted on the taps among the cameras that meet those frames"
     )
     weights: Weights
     edge_figure_resamples: int = Field(
@@ -141,17 +141,21 @@ class CalibrationSettings(_Strict):
         return names
 
     @model_validator(mode="after")
-    def _tied_not_fitted(self) -> CalibrationSettings:
-        if self.camera_tied_to_rest:
-            if not self.camera_from_rest:
-                raise ValueError("camera_tied_to_rest needs the parameters to tie in camera_from_rest")
-            both = [n for n in self.camera_from_rest if self.parameters[n].fit]
-            if both:
-                raise ValueError(
-                    f"camera_tied_to_rest: {both} are tied to the no-contact frames and fitted on the taps too; "
-                    "set their fit: false or take them out of camera_from_rest"
-                )
+    def _something_tied(self) -> CalibrationSettings:
+        if self.camera_tied_to_rest and not self.tied:
+            raise ValueError(
+                "camera_tied_to_rest ties the camera_from_rest parameters that are not fitted, and there are "
+                f"none (camera_from_rest: {self.camera_from_rest or 'empty'})"
+            )
         return self
+
+    @property
+    def tied(self) -> list[str]:
+        """The camera parameters tied to the no-contact frames (camera_tied_to_rest): those of
+        camera_from_rest not fitted."""
+        if not self.camera_tied_to_rest:
+            return []
+        return [n for n in self.camera_from_rest if not self.parameters[n].fit]
 
     @property
     def fitted(self) -> list[str]:
