@@ -258,7 +258,7 @@ class Evaluator:
         return {
             "values": space.from_unit(names, sol.x),
             "std": {n: float(np.sqrt(max(cov[i, i], 0.0)) * space.range[n]) for i, n in enumerate(names)},
-            "at_bound": [n for n, u in zip(names, sol.x) if min(u, 1.0 - u) < 1e-6],
+            "at_bound": [n for n, v in space.from_unit(names, sol.x).items() if space.at_bound(n, v)],
             "rms_px": float(np.sqrt(np.mean(np.sum(diff(sol.x)[valid] ** 2, axis=1)))),
         }
 

@@ -191,10 +191,7 @@ def _calibrate(
     if rest_camera is not None and rest_camera["tied"]:
         rest_camera["at_fit"] = {n: final[n] for n in ev.tied}
         # the cameras that meet the no-contact frames end at a bound there: that frame no longer holds the lens
-        p = settings.parameters
-        rest_camera["at_fit_at_bound"] = [
-            n for n in ev.tied if min(final[n] - p[n].lower, p[n].upper - final[n]) < 1e-6 * space.range[n]
-        ]
+        rest_camera["at_fit_at_bound"] = [n for n in ev.tied if space.at_bound(n, final[n])]
     _, offsets = ev.predict(final_tips, final)
     if ev.fit_rest and np.abs(offsets).max() > REST_OFFSET_LIMIT_PX:
         raise UserError(

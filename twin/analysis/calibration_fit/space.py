@@ -94,6 +94,11 @@ class Space:
                         f"a calibration file holds ({why})"
                     ) from None
 
+    def at_bound(self, name: str, value: float) -> bool:
+        """Whether `value` lies within a millionth of the range from one of the parameter's bounds."""
+        unit = (value - self.lower[name]) / self.range[name]
+        return bool(min(unit, 1.0 - unit) < 1e-6)
+
     def to_unit(self, names: list[str], values: dict[str, float]) -> np.ndarray:
         return np.array([(values[n] - self.lower[n]) / self.range[n] for n in names])
 

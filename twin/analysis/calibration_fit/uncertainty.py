@@ -149,7 +149,7 @@ def uncertainty(ev: Evaluator, values: dict[str, float], tips: np.ndarray) -> di
             "not_identifiable_because": why,
             "resolution": resolution,
             "variance_inflation": float(vif[i]),
-            "at_bound": bool(min(values[n] - p[n].lower, p[n].upper - values[n]) < 1e-6 * space.range[n]),
+            "at_bound": space.at_bound(n, values[n]),
         }
     return {
         "parameters": out,
