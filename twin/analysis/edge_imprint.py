@@ -58,6 +58,8 @@ SLIDE_TERMS = SHEARED_TAP_MOTION
 REACH_BINS = 10
 #: the lateral positions (mm) of the reach profile unless asked for others: 4 mm onto and off the object
 REACH_AT_MM = (-4.0, 4.0)
+#: how far (mm) a tap's lateral position may lie from an l asked for and count as there
+NEAR_L_MM = 0.5
 #: a 60° turn must map every rest pin within this fraction of a pin spacing of another
 SYMMETRY_TOLERANCE = 0.35
 
@@ -246,7 +248,7 @@ def signal_rings(
         whole = float(np.sqrt(np.mean(row[0.0] ** 2)))
         for target in at_mm:
             nearest = min(row, key=lambda l: (abs(l - target), abs(l)))
-            if abs(nearest - target) <= 0.5 + 1e-9:
+            if abs(nearest - target) <= NEAR_L_MM + 1e-9:
                 by_ring = [float(np.sqrt(np.mean(row[nearest][rings == k] ** 2))) / whole for k in range(n_rings)]
                 table.setdefault(d, {})[nearest] = by_ring
     return table
@@ -547,7 +549,7 @@ def normal_bins(rest_px: np.ndarray, normal: tuple[float, float], theta_deg: flo
     return np.clip(np.searchsorted(-edges, -along, side="right") - 1, 0, bins - 1)
 
 
-def reach_profile(run: Run, lateral_mm: float, half_width_mm: float = 0.5, bins: int = REACH_BINS) -> list[float]:
+def reach_profile(run: Run, lateral_mm: float, half_width_mm: float = NEAR_L_MM, bins: int = REACH_BINS) -> list[float]:
     """Mean |pin displacement| (px) in `bins` equal bins of the rest pins' position along the
     edge normal in the image, from beyond the edge (far) to the object side, over the
     largest bin; over the usable samples within `half_width_mm` of `lateral_mm`."""
@@ -579,7 +581,7 @@ def edge_figures(taps: Run, slides: Run | None = None, reach_at: tuple[float, ..
         "kind": taps.meta["scenario"]["protocol"]["kind"],
         "signal_profile": signal_profile(taps, fits=fits),
         "signal_shift_share": signal_shift_share(taps, fits),
-        "reach": {l: reach_profile(taps, l) for l in reach_at if np.any(np.abs(lateral - l) <= 0.5 + 1e-9)},
+        "reach": {l: reach_profile(taps, l) for l in reach_at if np.any(np.abs(lateral - l) <= NEAR_L_MM + 1e-9)},
         "signal_rings": signal_rings(taps, (*reach_at, 0.0), fits),
         "closest_pins": closest_pins(taps),
         "pcs_explained": pcs.explained.tolist(),
