@@ -97,11 +97,17 @@ def test_workers_end_when_the_parent_is_killed(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("stop, exit_code", [("SIGTERM to the parent", 143), ("Ctrl-C to the process group", 130)])
-def test_an_interruption_keeps_every_chunk_the_workers_were_running(tmp_path: Path, stop: str, exit_code: int) -> None:
+@pytest.mark.parametrize("after", [1, CHUNK], ids=["at the first sample", "once the first chunk is in"])
+def test_an_interruption_keeps_every_chunk_the_workers_were_running(
+    tmp_path: Path, stop: str, exit_code: int, after: int
+) -> None:
+    """The first chunk runs in the parent while the workers start (about a second: the
+    forkserver imports the simulator). Stopped during that chunk, or once it is in and
+    the parent waits for the workers, the second chunk is still finished and kept."""
     proc, out = _start(tmp_path)
     samples = out / "samples.jsonl"
-    _wait(lambda: samples.exists() and samples.read_bytes().count(b"\n") >= 1, proc, "first sample")
-    seen = samples.read_bytes().count(b"\n")  # the first chunk; the second was running beside it
+    _wait(lambda: samples.exists() and samples.read_bytes().count(b"\n") >= after, proc, f"{after} samples")
+    seen = samples.read_bytes().count(b"\n")
     if stop.startswith("SIGTERM"):
         proc.send_signal(signal.SIGTERM)
     else:  # a terminal's Ctrl-C reaches every process of the group: the workers leave it to the parent

@@ -18,6 +18,7 @@ from multiprocessing import get_context
 from threadpoolctl import threadpool_limits
 
 from twin.core.errors import UserError
+from twin.runs.interrupts import HeldSignals, signals_held, stop_signals_blocked
 
 
 def default_workers() -> int:
@@ -92,12 +93,13 @@ class WorkerPool:
             for job in jobs:
                 yield fn(*job)
             return
-        futures = [self._local_pool().submit(fn, *job) for job in jobs]
-        with self._waits_interruptible() as caller_mask:
+        pool = self._local_pool()
+        with self._interruptible() as held:
+            with stop_signals_blocked():  # the workers it starts leave Ctrl-C to this process
+                futures = [pool.submit(fn, *job) for job in jobs]
             for index, future in enumerate(futures):
                 try:
-                    with _signals_delivered(caller_mask):
-                        result = future.result()
+                    result = _result(future, held)
                 except KeyboardInterrupt:  # Ctrl-C, SIGTERM: what the workers have finished is kept
                     yield from _finished_in_order(futures[index:])
                     raise
@@ -124,23 +126,20 @@ class WorkerPool:
         first = 1 if first_here is not None else 0
         futures: list = [None] * first  # job index → its future (the first job's is this process's)
         waiting: dict[int, list] = {}  # items of later jobs, sent before the earlier jobs ended
-        # made here, before the signals are blocked: making it starts multiprocessing's resource
-        # tracker, which unblocks SIGINT and SIGTERM on the thread that starts it
         pool = self._local_pool()
-        with self._waits_interruptible() as caller_mask:
-            submitter = _Submitter(pool, fn, jobs, first)  # its thread blocks the signals, as this one
+        with self._interruptible() as held:
+            submitter = _Submitter(pool, fn, jobs, first)
             try:
                 if first_here is not None:
-                    with _signals_deferred():
-                        yield from first_here(*jobs[0])
+                    yield from first_here(*jobs[0])
             finally:
-                futures += submitter.futures()
+                futures += submitter.futures()  # waits for the workers to start, as an interruption would
             for index in range(first, len(jobs)):
                 future = futures[index]
                 pending = waiting.pop(index, [])
                 while True:
                     try:
-                        item = pending.pop(0) if pending else self._next_item(index, future, waiting, caller_mask)
+                        item = pending.pop(0) if pending else self._next_item(index, future, waiting, held)
                     except KeyboardInterrupt:  # Ctrl-C, SIGTERM: the jobs the workers were on are kept whole
                         for later in futures[index + 1 :]:
                             later.cancel()
@@ -151,34 +150,32 @@ class WorkerPool:
                     yield item
 
     @contextlib.contextmanager
-    def _waits_interruptible(self) -> Iterator[set | None]:
-        """Around a local map: Ctrl-C and SIGTERM land while it waits for a worker
-        (_signals_delivered with the caller's mask, given), never while the caller
-        handles what it yields (records a chunk), so what was yielded is kept whole; a
-        failure or an interruption stops the local workers."""
-        on_main = threading.current_thread() is threading.main_thread()
-        caller_mask = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS) if on_main else None
-        try:
-            yield caller_mask
-        except BaseException:
-            self._stop_local()
-            raise
-        finally:
-            if on_main:
-                signal.pthread_sigmask(signal.SIG_SETMASK, caller_mask)
+    def _interruptible(self) -> Iterator[HeldSignals]:
+        """Around a local map: Ctrl-C and SIGTERM are held (twin.runs.interrupts) and land
+        only while it waits for a worker (`_result`, `_next_item`), never while this
+        process runs the first job, waits for the workers to start or the caller handles
+        what it yields (records a chunk), so what was yielded is kept whole; a failure or
+        an interruption stops the local workers."""
+        with signals_held() as held:
+            try:
+                yield held
+            except BaseException:
+                self._stop_local()
+                raise
 
-    def _next_item(self, index: int, future, waiting: dict[int, list], caller_mask: set | None):
-        """The next item job `index` sends (waits for it; Ctrl-C and SIGTERM land here);
+    def _next_item(self, index: int, future, waiting: dict[int, list], held: HeldSignals | None):
+        """The next item job `index` sends (waits for it; what `held` holds lands here);
         items of other jobs go to `waiting`. Raises the job's exception once the items it
         sent before failing have been taken."""
         while True:
-            with _signals_delivered(caller_mask):
-                try:
-                    sender, item = self._outbox.get(timeout=0.2)
-                except queue.Empty:
-                    if future.done() and future.exception() is not None:
-                        raise future.exception() from None
-                    continue
+            if held is not None:
+                held.deliver()
+            try:
+                sender, item = self._outbox.get(timeout=WAIT_S)
+            except queue.Empty:
+                if future.done() and future.exception() is not None:
+                    raise future.exception() from None
+                continue
             if sender == index:
                 return item
             waiting.setdefault(sender, []).append(item)
@@ -210,7 +207,10 @@ class WorkerPool:
         self._ray_remote = None
 
     def _local_pool(self) -> ProcessPoolExecutor:
-        """The local workers, started on first use, with the queue they send items on."""
+        """The local workers, started on first use, with the queue they send items on.
+        Made before the workers are started under stop_signals_blocked: making the queue
+        starts multiprocessing's resource tracker, which unblocks SIGINT and SIGTERM on the
+        thread that starts it."""
         if self._pool is None:
             # forkserver, not fork: the parent may hold a GL context or BLAS/OpenMP threads (GP
             # training), which a forked child inherits half-initialised and can deadlock on.
@@ -250,41 +250,18 @@ class WorkerPool:
             yield ray.get(ref)
 
 
-_STOP_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+#: How long a wait for a worker lasts before the held signals are looked at again (s)
+WAIT_S = 0.2
 
 
-@contextlib.contextmanager
-def _signals_delivered(mask: set | None) -> Iterator[None]:
-    """Inside, the signal mask is `mask` (the caller's); None leaves it as it is."""
-    if mask is None:
-        yield
-        return
-    signal.pthread_sigmask(signal.SIG_SETMASK, mask)
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
-
-
-@contextlib.contextmanager
-def _signals_deferred() -> Iterator[None]:
-    """Inside, SIGINT and SIGTERM are noted, not handled; on leaving, each noted one is sent
-    again to this thread, for the handlers in place before (with the signals blocked, as
-    in a local map, it lands at the next wait). A blocked mask alone does not hold them
-    off: the handler runs on the main thread whichever thread receives the signal, and
-    threads started by libraries before the block leave it unblocked."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    noted: list[int] = []
-    previous = {s: signal.signal(s, lambda signum, frame: noted.append(signum)) for s in _STOP_SIGNALS}
-    try:
-        yield
-    finally:
-        for s, handler in previous.items():
-            signal.signal(s, signal.SIG_DFL if handler is None else handler)
-        for s in dict.fromkeys(noted):
-            signal.raise_signal(s)
+def _result(future, held: HeldSignals):
+    """The future's result, waited for in steps of WAIT_S; what `held` holds lands here."""
+    while True:
+        held.deliver()
+        try:
+            return future.result(timeout=WAIT_S)
+        except TimeoutError:
+            continue
 
 
 def _finished_in_order(futures: list) -> Iterator:
@@ -326,8 +303,9 @@ class _Submitter:
 
         def submit() -> None:
             try:
-                for index in range(first, len(jobs)):
-                    self._submitted.append(pool.submit(_send_job, fn, index, jobs[index]))
+                with stop_signals_blocked():  # the workers it starts leave Ctrl-C to the parent
+                    for index in range(first, len(jobs)):
+                        self._submitted.append(pool.submit(_send_job, fn, index, jobs[index]))
             except BaseException as error:  # noqa: BLE001  (raised on the caller's thread by futures())
                 self._error = error
 

@@ -30,11 +30,9 @@ import fcntl
 import json
 import os
 import platform
-import signal
 import socket
 import time
 from concurrent.futures import Future, ThreadPoolExecutor
-from contextlib import contextmanager
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
@@ -46,6 +44,7 @@ from twin.core.environment import Observation
 from twin.core.errors import UserError
 from twin.core.files import remove_leftovers, replace_file
 from twin.core.poses import Pose
+from twin.runs.interrupts import signals_held
 
 FORMAT_VERSION = 1
 #: The recorder's lock file in a run directory (twin.runs.record.RunRecorder)
@@ -261,7 +260,7 @@ class RunRecorder:
             written, line = self._pending[0]
             if written is not None:
                 written.result()
-            with _signals_held():  # a Ctrl-C or SIGTERM lands after a whole line, not inside it
+            with signals_held():  # a Ctrl-C or SIGTERM lands after a whole line, not inside it
                 try:
                     _append(self._samples, line)
                 except OSError as err:  # named: the descriptor's error does not say which file
@@ -336,17 +335,6 @@ def _complete_lines(path: Path) -> int:
         return path.read_bytes().count(b"\n")
     except OSError:
         return 0
-
-
-@contextmanager
-def _signals_held():
-    """Hold SIGINT and SIGTERM back (delivered on exit) for a few statements that must not be split."""
-    held = {signal.SIGINT, signal.SIGTERM}
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, held)
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def _write_png(path: Path, bgr: np.ndarray) -> None:

@@ -1,0 +1,97 @@
+"""Ctrl-C and SIGTERM held while a run must not be cut (twin.runs.interrupts): real signals,
+sent to this process, land where the holder hands them on and nowhere else."""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+import time
+
+import pytest
+
+from twin.core.errors import Terminated
+from twin.runs.interrupts import signals_held, stop_signals_blocked
+
+
+def _send(signum: int) -> None:
+    """`signum` to this whole process, then a moment for Python to run its handler."""
+    os.kill(os.getpid(), signum)
+    time.sleep(0.05)
+
+
+def test_a_held_ctrl_c_lands_where_it_is_delivered() -> None:
+    reached = []
+    with signals_held() as held:
+        _send(signal.SIGINT)
+        reached.append("after the signal")
+        with pytest.raises(KeyboardInterrupt):
+            held.deliver()
+        held.deliver()  # handed on once
+    assert reached == ["after the signal"]
+
+
+def test_one_not_delivered_lands_on_leaving_and_the_handlers_are_back() -> None:
+    before = signal.getsignal(signal.SIGINT)
+    with pytest.raises(KeyboardInterrupt):
+        with signals_held():
+            _send(signal.SIGINT)
+    assert signal.getsignal(signal.SIGINT) is before
+
+
+def test_a_nested_hold_hands_its_signal_to_the_outer_one() -> None:
+    with signals_held() as outer:
+        with signals_held():
+            _send(signal.SIGINT)
+        outer_got_it = True  # the inner hold's leaving did not raise
+        with pytest.raises(KeyboardInterrupt):
+            outer.deliver()
+    assert outer_got_it
+
+
+def test_sigterm_goes_to_the_programs_own_handler() -> None:
+    def terminated(signum, frame):
+        raise Terminated("SIGTERM")
+
+    previous = signal.signal(signal.SIGTERM, terminated)
+    try:
+        with signals_held() as held:
+            _send(signal.SIGTERM)
+            with pytest.raises(Terminated):
+                held.deliver()
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def test_held_even_when_another_thread_takes_the_signal() -> None:
+    """The kernel gives a process-wide signal to a thread that does not block it; with the
+    main thread blocking it, that is the other thread, and Python still runs the handler
+    on the main thread: a mask alone would not have held it."""
+    stop = threading.Event()
+    taker = threading.Thread(target=stop.wait)
+    taker.start()
+    reached = []
+    try:
+        with signals_held(), stop_signals_blocked():
+            _send(signal.SIGINT)
+            reached.append("the block's end")
+    except KeyboardInterrupt:
+        reached.append("interrupted on leaving")
+    finally:
+        stop.set()
+        taker.join()
+    assert reached == ["the block's end", "interrupted on leaving"]
+
+
+def test_off_the_main_thread_nothing_is_held() -> None:
+    seen = []
+
+    def in_a_thread() -> None:
+        with signals_held() as held:
+            held.deliver()
+            seen.append(signal.getsignal(signal.SIGINT))
+
+    thread = threading.Thread(target=in_a_thread)
+    thread.start()
+    thread.join()
+    assert seen == [signal.getsignal(signal.SIGINT)]
