@@ -119,6 +119,9 @@ def test_the_shipped_settings_fit_a_camera_unlike_the_twins(lab, tmp_path, capsy
     assert rest["rms_px"] < 0.5
     fitted = report["uncertainty"]["parameters"]
     assert fitted["tcp.z_mm"]["identifiable"] and fitted["tcp.z_mm"]["value"] == pytest.approx(0.3, abs=0.15)
+    # that depth offset is from the depth the recording was imported at (--depth-mm), which the lab does not record
+    assert report["nominal_depth_mm"] == {str(lab["fit"]): 2.5} and "taps press from 2.5 mm" in printed
+    assert "press from 2.5 mm" in (out / "report.md").read_text()
     assert fitted["camera.rz_deg"]["value"] == pytest.approx(-28.0, abs=1.5)
     # the twin as it was misses the pins by tens of px; fitted, the taps are within a pixel, fitted or held out
     assert report["before"]["groups"]["contact"] > 20.0 and report["after"]["groups"]["contact"] < 1.0

@@ -182,7 +182,8 @@ def test_import_round_trips_the_twins_own_taps(twin_sheared_run: Path, tmp_path:
 def test_replay_takes_an_imported_runs_taps_in_order(twin_sheared_run: Path, tmp_path: Path, capsys) -> None:
     """`twin run --taps-from` replays an imported recording's taps: the same targets, in
     order (all, the first N, or every K-th); a scenario without a fitted camera is told that
-    its pixels are not the recording's."""
+    its pixels are not the recording's, and one pressing from another depth than the
+    import's by how much."""
     targets = _write_lab_set(twin_sheared_run, tmp_path / "lab")
     assert _import_lab(tmp_path / "lab", targets, tmp_path / "imp") == 0
     scenario = {
@@ -212,7 +213,8 @@ def test_replay_takes_an_imported_runs_taps_in_order(twin_sheared_run: Path, tmp
         == 0
     )
     np.testing.assert_allclose(load_run(tmp_path / "replay").targets, load_run(tmp_path / "imp").targets[:3], atol=1e-5)
-    assert "has no fitted camera" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "has no fitted camera" in err and "deeper than the recording" not in err
 
     # --without-slides: the same frames' poses, reached without the slide and twist
     # (through a fitted camera, which the note then leaves out)
@@ -241,6 +243,16 @@ def test_replay_takes_an_imported_runs_taps_in_order(twin_sheared_run: Path, tmp
     np.testing.assert_allclose(every2.targets, imported.targets[[0, 1, 3]], atol=1e-5)
     np.testing.assert_allclose(every2.label("theta_deg")[1:], imported.label("theta_deg")[[1, 3]], atol=1e-5)
     assert main(["run", str(tmp_path / "replay.yaml"), "--every-nth-tap", "2", "--out", str(tmp_path / "y")]) == 2
+
+    # a scenario that presses from another depth than the import's is told by how much
+    scenario["protocol"]["depth_mm"] = 3.0
+    (tmp_path / "deeper.yaml").write_text(yaml.safe_dump(scenario))
+    argv = ["run", str(tmp_path / "deeper.yaml"), "--taps-from", str(tmp_path / "imp"), "--first-taps", "1"]
+    assert main([*argv, "--out", str(tmp_path / "deeper"), "--workers", "1", "--quiet"]) == 0
+    err = capsys.readouterr().err
+    assert "protocol.depth_mm = 3 mm" in err and "from 2.5 mm" in err and "+0.5 mm deeper" in err
+    deeper = load_run(tmp_path / "deeper")
+    np.testing.assert_allclose(deeper.targets[1, 2] - imported.targets[1, 2], 0.5, atol=1e-5)
 
 
 def test_bad_targets_name_the_file_row_and_column(tmp_path: Path, capsys) -> None:

@@ -54,7 +54,7 @@ from twin.core.errors import UserError
 from twin.core.poses import Pose
 from twin.core.scenario import Scenario, ShearedTapProtocol, scenario_from_dict
 from twin.runs.protocols import sheared_tap_moves
-from twin.runs.record import RunRecorder, load_run
+from twin.runs.record import Run, RunRecorder, load_run
 from twin.sensing.tracker import PinTracker, camera_for_frame
 
 POSE_COLUMNS = tuple(f"pose_{k}" for k in range(1, 7))
@@ -224,6 +224,14 @@ def import_lab_recording(
         )
         recorder.meta["import"] = summary
     return summary
+
+
+def nominal_depth_mm(run: Run) -> float | None:
+    """The depth (mm) a sheared-taps run's taps are offsets from: for an imported lab
+    recording, the nominal it was imported at (`twin import-lab --depth-mm`; the lab does
+    not record it). None for a run of another protocol."""
+    protocol = run.meta["scenario"].get("protocol", {})
+    return float(protocol["depth_mm"]) if protocol.get("kind") == "sheared_taps" else None
 
 
 def with_taps_from(

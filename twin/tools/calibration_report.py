@@ -68,6 +68,11 @@ def report_markdown(r: dict) -> str:
         + ", ".join(f"{n} {g}" for g, n in r["samples_per_group"].items() if n)
         + f"); scenario {r['scenario']}.",
         f"Rest pin layout: {r['rest_pins']}.",
+        *(
+            f"The taps of {run} press from {depth:g} mm (for a lab import, its `--depth-mm`): `tcp.z_mm` is "
+            "measured from there."
+            for run, depth in r.get("nominal_depth_mm", {}).items()
+        ),
         "",
         "| pin RMS (px) | before | after |",
         "|---|---|---|",

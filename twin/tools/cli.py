@@ -18,8 +18,9 @@ from types import ModuleType
 
 from twin.core.errors import Terminated, UserError
 from twin.core.scenario import Scenario
-from twin.runs.lab_recording import import_lab_recording, with_taps_from
+from twin.runs.lab_recording import import_lab_recording, nominal_depth_mm, with_taps_from
 from twin.runs.parallel import one_blas_thread
+from twin.runs.record import load_run
 from twin.runs.run import resume_run, run_scenario
 from twin.runs.sim_env import check_reachable, render_scenario_view
 from twin.runs.spec import load_scenario, load_scenario_stimulus, scene_spec
@@ -97,6 +98,15 @@ def _cmd_run(args: argparse.Namespace) -> int:
         scenario = with_taps_from(
             scenario, Path(args.taps_from), args.first_taps, args.without_slides, args.every_nth_tap or 1
         )
+        recorded_depth = nominal_depth_mm(load_run(Path(args.taps_from)))
+        if recorded_depth is not None and abs(recorded_depth - scenario.protocol.depth_mm) > 1e-9:
+            print(
+                f"note: {args.scenario} presses to protocol.depth_mm = {scenario.protocol.depth_mm:g} mm, and "
+                f"{args.taps_from}'s taps are offsets from {recorded_depth:g} mm (the depth it was imported at): "
+                f"the replay presses {scenario.protocol.depth_mm - recorded_depth:+g} mm deeper than the recording "
+                "as imported",
+                file=sys.stderr,
+            )
         calibration = scenario.calibration()
         if calibration is None or calibration.camera.focal_px is None:
             print(
@@ -323,6 +333,8 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         if name in rest.get("at_fit", {}):
             flag = "  AT A BOUND: the cameras that meet them end there" if name in rest["at_fit_at_bound"] else ""
             print(f"    tied to them, at the fitted camera = {rest['at_fit'][name]:.5g}{flag}")
+    for run, depth in r["nominal_depth_mm"].items():
+        print(f"  {run}: its taps press from {depth:g} mm (an import's --depth-mm): tcp.z_mm is measured from there")
     for name, u in r["uncertainty"]["parameters"].items():
         flag = (
             ""

@@ -76,6 +76,7 @@ from twin.analysis.calibration_fit.uncertainty import uncertainty
 from twin.core.calibration import REST_OFFSET_LIMIT_PX, write_calibration
 from twin.core.errors import UserError
 from twin.core.scenario import Scenario
+from twin.runs.lab_recording import nominal_depth_mm
 from twin.runs.parallel import WorkerPool
 
 
@@ -213,6 +214,11 @@ def _calibrate(
         "status": "converged" if state["converged"] else "not converged",
         "stop_reason": state["stop"],
         "runs": [str(r) for r in run_dirs],
+        # the depth a sheared-taps run's taps are offsets from (an imported recording's: the nominal it was
+        # imported at, which the lab does not record): the fitted depth offset is from it
+        "nominal_depth_mm": {
+            str(r): d for r, run in zip(run_dirs, data.records) if (d := nominal_depth_mm(run)) is not None
+        },
         "scenario": scenario.source,
         "calibration_file": str(out / name),
         "samples": int(len(data.pins)),
