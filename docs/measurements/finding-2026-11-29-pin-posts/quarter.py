@@ -3,7 +3,9 @@ frame, then taps 0, 4, 8, ... with their frames, their rows renumbered and the s
 given taps cut to match, so that `twin run --taps-from OUT` replays those 1,250 taps and
 `twin compare OUT RUN` pairs them. A quarter spread over the whole set (the DigiTac set is
 ordered by edge angle: its first taps are not a sample of it).
-usage: quarter.py IMPORTED OUT"""
+usage: quarter.py IMPORTED OUT [EVERY [FIRST]]  (every EVERY-th tap from tap FIRST; 4, 0)
+       quarter.py IMPORTED OUT --slide-across-at-most MM  (the taps that slid at most MM
+       across the edge before their frame; finding-2026-12-02-edge-registration)"""
 
 import json
 import shutil
@@ -11,10 +13,23 @@ import sys
 from pathlib import Path
 
 source, out = Path(sys.argv[1]), Path(sys.argv[2])
+if len(sys.argv) > 3 and sys.argv[3] == "--slide-across-at-most":
+    limit = float(sys.argv[4])
+
+    def chosen(labels: dict) -> bool:
+        return abs(labels["slide_lateral_mm"]) <= limit
+else:
+    every = int(sys.argv[3]) if len(sys.argv) > 3 else 4
+    first = int(sys.argv[4]) if len(sys.argv) > 4 else 0
+
+    def chosen(labels: dict) -> bool:
+        return labels["tap"] % every == first
+
+
 meta = json.loads((source / "run.json").read_text())
 rows = [json.loads(line) for line in (source / "samples.jsonl").read_text().splitlines()]
 kept = [r for r in rows if r["labels"].get("no_contact")][:1]
-kept += [r for r in rows if not r["labels"].get("no_contact") and r["labels"]["tap"] % 4 == 0]
+kept += [r for r in rows if not r["labels"].get("no_contact") and chosen(r["labels"])]
 given = meta["scenario"]["protocol"]["given"]
 taps = []
 (out / "frames").mkdir(parents=True)
