@@ -168,12 +168,14 @@ def test_a_calibrated_material_maps_only_onto_parameters_the_model_has():
         "poisson": 0.5,
         "membrane_young_mpa": 0.0,
         "skin_held_deg": 90.0,
+        "skin_tension_n_m": 0.0,
         "tip_sway_mm_per_n": 0.0,
     }
     assert apply_dome_material(compliant, {"young_kpa": 50.0, "poisson": 0.5}).young == pytest.approx(5e4)
     assert apply_dome_material(compliant, {"membrane_young_mpa": 0.3}).membrane_young == pytest.approx(3e5)
     assert apply_dome_material(compliant, {"skin_held_deg": 70.0}).skin_held_deg == 70.0
     assert apply_dome_material(compliant, {"tip_sway_mm_per_n": 0.3}).tip_sway == pytest.approx(3e-4)
+    assert apply_dome_material(compliant, {"skin_tension_n_m": 50.0}).skin_tension == 50.0
     with pytest.raises(UserError, match="tip_sway_mm_per_n"):  # the flex grid's tip is its own MuJoCo body
         apply_dome_material(FIDELITY_LEVELS["default"], {"tip_sway_mm_per_n": 0.3})
     with pytest.raises(UserError, match="unknown_kpa"):
@@ -251,8 +253,14 @@ def test_pretension_lever_and_bending_modulus_are_scenario_settings_in_their_uni
     assert params.material[-4:] == (50.0, pytest.approx(4e-3), None, False)
     in_gel = dome_params(scenario_from_dict({**spec, "physics": {"pin_lever_mm": 3.0, "pins_in_gel": True}}))
     assert in_gel.pins_in_gel and in_gel.material[-1] is True
-    with pytest.raises(UserError, match=r"physics\.skin_tension_n_m.*membrane_young_mpa"):
+    with pytest.raises(UserError, match=r"skin_tension_n_m = 50 \(in `physics`.*membrane_young_mpa"):
         dome_params(scenario_from_dict({**spec, "physics": {"skin_tension_n_m": 50.0}}))
+    # a calibration's dome material may set the pretension (twin calibrate fits it), and is refused alike
+    calibrated = {"sensor": {"calibration": {"dome_material": {"membrane_young_mpa": 0.6, "skin_tension_n_m": 30.0}}}}
+    assert dome_params(scenario_from_dict({**spec, **calibrated})).skin_tension == 30.0
+    alone = {"sensor": {"calibration": {"dome_material": {"skin_tension_n_m": 30.0}}}}
+    with pytest.raises(UserError, match=r"skin_tension_n_m = 30 \(in `physics` or the calibration"):
+        dome_params(scenario_from_dict({**spec, **alone}))
     shell = {"membrane_young_mpa": 0.6, "skin_bending": True, "skin_bending_mpa": 4.0}
     assert dome_params(scenario_from_dict({**spec, "physics": shell})).bending_young == pytest.approx(4e6)
     with pytest.raises(UserError, match=r"physics\.skin_bending_mpa.*skin_bending: true"):

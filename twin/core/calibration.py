@@ -57,6 +57,12 @@ DOME_MATERIAL: dict[str, tuple[str, float, float, str]] = {
         50.0,
         "compliant dome with skin_bending: the skin shell's bending modulus (its membrane modulus unless set)",
     ),
+    "skin_tension_n_m": (
+        "N/m",
+        0.0,
+        200.0,
+        "compliant dome: the skin's pretension over the sealed gel (needs the skin membrane)",
+    ),
     "tip_sway_mm_per_n": (
         "mm/N",
         0.0,

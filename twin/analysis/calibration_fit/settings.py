@@ -34,6 +34,7 @@ PHYSICS = (
     "material.membrane_young_mpa",
     "material.skin_held_deg",
     "material.skin_bending_mpa",
+    "material.skin_tension_n_m",
     "material.tip_sway_mm_per_n",
     "friction",
     "tcp.x_mm",

@@ -63,8 +63,7 @@ class CompliantSettings(PhysicsSettings):
         None,
     )
     skin_tension_n_m: float | None = bounded(
-        0,
-        200,
+        *DOME_MATERIAL["skin_tension_n_m"][1:3],
         "N/m",
         "the skin's pretension over the sealed gel (twin.world.dome.compliant.compliance."
         "tension_stiffness; default 0; needs membrane_young_mpa > 0 here or in the calibration's dome_material)",
@@ -138,7 +137,8 @@ class CompliantBuilder:
             raise UserError(f"{source}: physics.skin_bending_mpa needs physics.skin_bending: true")
         if params.skin_tension and not params.membrane_young:
             raise UserError(
-                f"{source}: physics.skin_tension_n_m = {params.skin_tension:g} needs the skin membrane, "
+                f"{source}: skin_tension_n_m = {params.skin_tension:g} (in `physics` or the calibration's "
+                "dome_material) needs the skin membrane, "
                 f"membrane_young_mpa > 0 in `physics` or in the calibration's dome_material (neither sets it)"
             )
         return params
