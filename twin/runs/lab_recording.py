@@ -54,7 +54,7 @@ from twin.core.errors import UserError
 from twin.core.poses import Pose
 from twin.core.scenario import Scenario, ShearedTapProtocol, scenario_from_dict
 from twin.runs.protocols import sheared_tap_moves
-from twin.runs.record import Run, RunRecorder, load_run
+from twin.runs.record import Run, RunRecorder
 from twin.sensing.tracker import PinTracker, camera_for_frame
 
 POSE_COLUMNS = tuple(f"pose_{k}" for k in range(1, 7))
@@ -235,7 +235,7 @@ def nominal_depth_mm(run: Run) -> float | None:
 
 
 def with_taps_from(
-    scenario: Scenario, run_dir: Path, first: int | None = None, without_slides: bool = False, every: int = 1
+    scenario: Scenario, run: Run, first: int | None = None, without_slides: bool = False, every: int = 1
 ) -> Scenario:
     """`scenario` (a sheared-taps one) with the taps of a recorded sheared-taps run (an
     imported lab recording), in order: every `every`-th tap from the first (a sample spread
@@ -246,9 +246,9 @@ def with_taps_from(
         raise UserError(
             f"{scenario.source}: --taps-from needs a sheared_taps protocol, this one is {scenario.protocol.kind!r}"
         )
-    recorded = load_run(run_dir).meta["scenario"]["protocol"]
+    recorded = run.meta["scenario"]["protocol"]
     if recorded.get("kind") != "sheared_taps" or not recorded.get("given"):
-        raise UserError(f"{run_dir}: not a run of given sheared taps (an imported lab recording)")
+        raise UserError(f"{run.path}: not a run of given sheared taps (an imported lab recording)")
     given = recorded["given"][::every][:first]
     replay = scenario.with_changes(protocol={**scenario.protocol.model_dump(), "given": given, "taps": len(given)})
     return replay.with_changes(protocol=replay.protocol.without_slides().model_dump()) if without_slides else replay

@@ -95,10 +95,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
         if given and not args.taps_from:
             raise UserError(f"twin run: {option} replays a recording's taps; give --taps-from RUN")
     if scenario is not None and args.taps_from:
-        scenario = with_taps_from(
-            scenario, Path(args.taps_from), args.first_taps, args.without_slides, args.every_nth_tap or 1
-        )
-        recorded_depth = nominal_depth_mm(load_run(Path(args.taps_from)))
+        recorded = load_run(Path(args.taps_from))
+        scenario = with_taps_from(scenario, recorded, args.first_taps, args.without_slides, args.every_nth_tap or 1)
+        recorded_depth = nominal_depth_mm(recorded)
         if recorded_depth is not None and abs(recorded_depth - scenario.protocol.depth_mm) > 1e-9:
             print(
                 f"note: {args.scenario} presses to protocol.depth_mm = {scenario.protocol.depth_mm:g} mm, and "

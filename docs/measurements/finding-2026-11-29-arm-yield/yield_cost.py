@@ -9,10 +9,11 @@ from pathlib import Path
 
 from twin.core.scenario import load_scenario
 from twin.runs.lab_recording import with_taps_from
+from twin.runs.record import load_run
 from twin.runs.run import run_scenario
 
 scenario = load_scenario(sys.argv[1])
-recorded = Path(sys.argv[2])
+recorded = load_run(sys.argv[2])
 calibration = scenario.sensor.calibration
 rigid = scenario.with_changes(
     sensor={
