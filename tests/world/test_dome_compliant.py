@@ -169,6 +169,7 @@ def test_a_calibrated_material_maps_only_onto_parameters_the_model_has():
         "membrane_young_mpa": 0.0,
         "skin_held_deg": 90.0,
         "skin_tension_n_m": 0.0,
+        "apex_radius_mm": 20.0,
         "tip_sway_mm_per_n": 0.0,
     }
     assert apply_dome_material(compliant, {"young_kpa": 50.0, "poisson": 0.5}).young == pytest.approx(5e4)
@@ -176,6 +177,9 @@ def test_a_calibrated_material_maps_only_onto_parameters_the_model_has():
     assert apply_dome_material(compliant, {"skin_held_deg": 70.0}).skin_held_deg == 70.0
     assert apply_dome_material(compliant, {"tip_sway_mm_per_n": 0.3}).tip_sway == pytest.approx(3e-4)
     assert apply_dome_material(compliant, {"skin_tension_n_m": 50.0}).skin_tension == 50.0
+    assert apply_dome_material(compliant, {"apex_radius_mm": 30.0}).apex_radius == pytest.approx(0.03)
+    with pytest.raises(UserError, match="apex_radius_mm"):  # the flex grid's skin is its own MuJoCo mesh
+        apply_dome_material(FIDELITY_LEVELS["default"], {"apex_radius_mm": 30.0})
     with pytest.raises(UserError, match="tip_sway_mm_per_n"):  # the flex grid's tip is its own MuJoCo body
         apply_dome_material(FIDELITY_LEVELS["default"], {"tip_sway_mm_per_n": 0.3})
     with pytest.raises(UserError, match="unknown_kpa"):
@@ -235,9 +239,10 @@ def test_skin_bending_takes_the_membrane_from_the_calibration():
 
 
 def test_pretension_lever_and_bending_modulus_are_scenario_settings_in_their_units():
-    """`physics: {skin_tension_n_m, pin_lever_mm, skin_bending_mpa, pins_in_gel}` set the
-    skin's pretension (N/m), the pins' lever (mm → m), the shell's bending modulus (MPa →
-    Pa) and whether the tips move with the gel (default: posts);
+    """`physics: {skin_tension_n_m, pin_lever_mm, skin_bending_mpa, pins_in_gel,
+    apex_radius_mm}` set the skin's pretension (N/m), the pins' lever (mm → m), the shell's
+    bending modulus (MPa → Pa), whether the tips move with the gel (default: posts) and the
+    apex profile's radius (mm → m);
     a pretension without the skin membrane or a bending modulus without the shell is
     refused, naming the field, and a value out of bounds names its field too."""
     from twin.core.errors import UserError
@@ -267,6 +272,10 @@ def test_pretension_lever_and_bending_modulus_are_scenario_settings_in_their_uni
         dome_params(scenario_from_dict({**spec, "physics": {"membrane_young_mpa": 0.6, "skin_bending_mpa": 4.0}}))
     with pytest.raises(UserError, match="pin_lever_mm"):
         dome_params(scenario_from_dict({**spec, "physics": {"pin_lever_mm": 9.0}}))
+    # the apex profile's radius in mm, the dome's own 20 mm at least
+    assert dome_params(scenario_from_dict({**spec, "physics": {"apex_radius_mm": 30.0}})).apex_radius == 0.03
+    with pytest.raises(UserError, match="apex_radius_mm"):
+        dome_params(scenario_from_dict({**spec, "physics": {"apex_radius_mm": 15.0}}))
 
 
 @pytest.mark.parametrize("level", ["default", MEMBRANE, SHELL, SHELL_HELD_65])

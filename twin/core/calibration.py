@@ -63,6 +63,13 @@ DOME_MATERIAL: dict[str, tuple[str, float, float, str]] = {
         200.0,
         "compliant dome: the skin's pretension over the sealed gel (needs the skin membrane)",
     ),
+    "apex_radius_mm": (
+        "mm",
+        20.0,
+        60.0,
+        "compliant dome: the radius of the outer profile the object meets, a sphere through the apex "
+        "(20 = the dome's own)",
+    ),
     "tip_sway_mm_per_n": (
         "mm/N",
         0.0,

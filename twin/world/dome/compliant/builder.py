@@ -91,6 +91,14 @@ class CompliantSettings(PhysicsSettings):
         None,
     )
 
+    apex_radius_mm: float | None = bounded(
+        *DOME_MATERIAL["apex_radius_mm"][1:3],
+        "mm",
+        "the radius of curvature of the outer profile the object meets, a sphere through the apex "
+        "(twin.world.dome.compliant.physics.apex_lift; default 20, the dome's own)",
+        None,
+    )
+
     def changes(self) -> dict[str, Any]:
         """The settings given, as CompliantParams fields (SI)."""
         changes = {
@@ -106,6 +114,7 @@ class CompliantSettings(PhysicsSettings):
             "pin_lever": None if self.pin_lever_mm is None else self.pin_lever_mm * 1e-3,
             "pins_in_gel": self.pins_in_gel,
             "tip_sway": None if self.tip_sway_mm_per_n is None else self.tip_sway_mm_per_n * 1e-3,
+            "apex_radius": None if self.apex_radius_mm is None else self.apex_radius_mm * 1e-3,
         }
         return {k: v for k, v in changes.items() if v is not None}
 

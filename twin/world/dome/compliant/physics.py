@@ -106,6 +106,10 @@ class CompliantParams:
     tip_sway (m/N): the tip moves as a whole against the camera by this much per newton
       of net tangential contact force (twin.world.dome.compliant.compliance.sway_block),
       in series with the rest. 0 (the default) = none.
+    apex_radius (m): the radius of curvature of the outer profile the object meets, a
+      sphere through the apex (`apex_lift`); the compliance stays the geometry's dome's, as
+      Hertz theory pairs a curved profile with a half-space's compliance. At or below the
+      geometry's dome radius (the default, 20 mm) the gap is the sphere's own.
     """
 
     #: the largest Poisson's ratio (–) the model takes (the incompressible gel's ν = 0.5 is the model's own)
@@ -132,6 +136,7 @@ class CompliantParams:
     bending_young: float | None = None
     pins_in_gel: bool = False
     tip_sway: float = 0.0
+    apex_radius: float = 0.020
 
     def with_(self, **changes) -> CompliantParams:
         return replace(self, **changes)
@@ -217,6 +222,8 @@ class CompliantPhysics:
         self._ray_dist = np.zeros(n)
         self._ray_geom = np.zeros(n, np.int32)
         self._ray_normal = np.zeros(3 * n)
+        #: each node's lift along the dome's axis onto the flatter apex profile (m), None: the sphere's own
+        self._lift = apex_lift(self.surface.points, self.geometry.dome_outer_radius, params.apex_radius)
         #: geoms the dome can touch (the scene builds the object without collision when `contact` is off)
         self._collidable = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
         self._bounded = np.flatnonzero(self._collidable)
@@ -351,8 +358,16 @@ class CompliantPhysics:
         along_ray = self._ray_dist[hit] - r
         # The distance to the face's plane is the gap only near the hit point: a ray that
         # grazes a face far away (an edge's side wall seen past the edge) is not a contact.
-        near = along_ray < self.params.candidate_margin
-        gaps[hit] = np.where(near, along_ray * np.einsum("ij,ij->i", c, normals[hit]), along_ray)
+        margin = self.params.candidate_margin
+        normal_gap = along_ray * np.einsum("ij,ij->i", c, normals[hit])
+        if self._lift is None:
+            near = along_ray < margin
+        else:
+            # a node lifted along the axis (z) comes nearer a face by the lift's part along its normal
+            lift = self._lift[hit]
+            normal_gap -= lift * c[:, 2]
+            near = (along_ray < margin + lift) & (normal_gap < margin)
+        gaps[hit] = np.where(near, normal_gap, along_ray)
         return gaps, frames
 
     def _clearance(self) -> float:
@@ -369,7 +384,8 @@ class CompliantPhysics:
         rel = self._centre - d.geom_xpos[self._bounded]
         local = np.einsum("gji,gj->gi", d.geom_xmat[self._bounded].reshape(-1, 3, 3), rel) - box[:, :3]
         outside = np.maximum(np.abs(local) - box[:, 3:], 0.0)
-        return float(np.linalg.norm(outside, axis=1).min()) - self.geometry.dome_outer_radius
+        lift = 0.0 if self._lift is None else float(self._lift.max())
+        return float(np.linalg.norm(outside, axis=1).min()) - self.geometry.dome_outer_radius - lift
 
     def _out_of_reach(self, tool2world: np.ndarray) -> bool:
         """True, counted as an increment, where the dome at `tool2world` (4×4, m) is
@@ -506,6 +522,17 @@ class CompliantPhysics:
 
     def _fail(self, what: str) -> None:
         raise physics_error(self.scenario_name, f"increment {self._steps}", self.time, self.world2work, self._at, what)
+
+
+def apex_lift(points: np.ndarray, dome_radius: float, apex_radius: float | None) -> np.ndarray | None:
+    """(N,) m: how far each outer node (N, 3) m, tool frame, the dome's centre on the z axis
+    and its apex towards +z) rises along the axis onto a sphere of `apex_radius` (m) through
+    the apex: the flatter profile's sag is smaller than the dome's at the same distance from
+    the axis. None where `apex_radius` is None or not above `dome_radius` (m)."""
+    if apex_radius is None or apex_radius <= dome_radius * (1.0 + 1e-9):
+        return None
+    axis2 = np.minimum(np.einsum("ij,ij->i", points[:, :2], points[:, :2]), dome_radius**2)
+    return (dome_radius - np.sqrt(dome_radius**2 - axis2)) - (apex_radius - np.sqrt(apex_radius**2 - axis2))
 
 
 @lru_cache(maxsize=8)
