@@ -524,12 +524,12 @@ class CompliantPhysics:
         raise physics_error(self.scenario_name, f"increment {self._steps}", self.time, self.world2work, self._at, what)
 
 
-def apex_lift(points: np.ndarray, dome_radius: float, apex_radius: float | None) -> np.ndarray | None:
+def apex_lift(points: np.ndarray, dome_radius: float, apex_radius: float) -> np.ndarray | None:
     """(N,) m: how far each outer node (N, 3) m, tool frame, the dome's centre on the z axis
     and its apex towards +z) rises along the axis onto a sphere of `apex_radius` (m) through
     the apex: the flatter profile's sag is smaller than the dome's at the same distance from
-    the axis. None where `apex_radius` is None or not above `dome_radius` (m)."""
-    if apex_radius is None or apex_radius <= dome_radius * (1.0 + 1e-9):
+    the axis. None where `apex_radius` is not above `dome_radius` (m): the sphere's own gap."""
+    if apex_radius <= dome_radius * (1.0 + 1e-9):
         return None
     axis2 = np.minimum(np.einsum("ij,ij->i", points[:, :2], points[:, :2]), dome_radius**2)
     return (dome_radius - np.sqrt(dome_radius**2 - axis2)) - (apex_radius - np.sqrt(apex_radius**2 - axis2))
