@@ -34,6 +34,16 @@ class HeldSignals:
     def _note(self, signum: int, frame) -> None:
         self._noted.append(signum)
 
+    def _hold(self) -> None:
+        """Note the signals from now on; the handlers in place are kept for `deliver`."""
+        self._previous = {s: signal.signal(s, self._note) for s in STOP_SIGNALS}
+
+    def _release(self) -> None:
+        """Put the handlers back and hand on what is still noted."""
+        for signum, handler in self._previous.items():
+            signal.signal(signum, signal.SIG_DFL if handler is None else handler)
+        self.deliver()
+
     def deliver(self) -> None:
         """Hand the signals noted so far to the handlers in place before: a SIGINT raises
         KeyboardInterrupt here, a SIGTERM what the program's handler raises
@@ -58,13 +68,11 @@ def signals_held() -> Iterator[HeldSignals]:
     if threading.current_thread() is not threading.main_thread():
         yield held
         return
-    held._previous = {s: signal.signal(s, held._note) for s in STOP_SIGNALS}
+    held._hold()
     try:
         yield held
     finally:
-        for signum, handler in held._previous.items():
-            signal.signal(signum, signal.SIG_DFL if handler is None else handler)
-        held.deliver()
+        held._release()
 
 
 @contextlib.contextmanager

@@ -224,6 +224,8 @@ class CompliantPhysics:
         self._ray_normal = np.zeros(3 * n)
         #: each node's lift along the dome's axis onto the flatter apex profile (m), None: the sphere's own
         self._lift = apex_lift(self.surface.points, self.geometry.dome_outer_radius, params.apex_radius)
+        #: how far the profile stands out of the sphere at most (m): the sphere's clearance overstates the profile's by it
+        self._lift_max = 0.0 if self._lift is None else float(self._lift.max())
         #: geoms the dome can touch (the scene builds the object without collision when `contact` is off)
         self._collidable = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
         self._bounded = np.flatnonzero(self._collidable)
@@ -384,8 +386,7 @@ class CompliantPhysics:
         rel = self._centre - d.geom_xpos[self._bounded]
         local = np.einsum("gji,gj->gi", d.geom_xmat[self._bounded].reshape(-1, 3, 3), rel) - box[:, :3]
         outside = np.maximum(np.abs(local) - box[:, 3:], 0.0)
-        lift = 0.0 if self._lift is None else float(self._lift.max())
-        return float(np.linalg.norm(outside, axis=1).min()) - self.geometry.dome_outer_radius - lift
+        return float(np.linalg.norm(outside, axis=1).min()) - self.geometry.dome_outer_radius - self._lift_max
 
     def _out_of_reach(self, tool2world: np.ndarray) -> bool:
         """True, counted as an increment, where the dome at `tool2world` (4×4, m) is
