@@ -207,3 +207,45 @@ def test_the_along_edge_cells_weigh_the_drag_against_the_taps_orientation_signal
     for d in ("90", "270"):
         assert dragged[d]["sliding"]["radius_px"] > 5.0 * dragged[d]["pressed"]["radius_px"], dragged
     assert abs(wrap_deg(dragged["90"]["sliding"]["offset_deg"] - dragged["270"]["sliding"]["offset_deg"])) > 120.0
+
+    # Which part of the drag lands in that plane. No drag, no part; the two parts add as
+    # vectors to the whole (Minkowski's inequality bounds the RMS of the sum), and the
+    # drag's parts are printed.
+    assert "drag in the plane" in printed
+    for d in (90, 270):
+        assert all(v < 1e-6 for v in still[d]["drag_in_plane"].values()), still[d]
+        parts = dragged[str(d)]["drag_in_plane"]
+        assert parts["all"] > 1.0, parts
+        assert (
+            abs(parts["rigid_shift"] - parts["rest"]) - 1e-9
+            <= parts["all"]
+            <= parts["rigid_shift"] + parts["rest"] + 1e-9
+        )
+    # A drag that is a uniform shift of every pin is all rigid shift; one with no mean, none.
+    slid = load_run(slides)
+    first = {
+        (s["labels"]["direction_deg"], s["labels"]["theta_deg"]): np.asarray(s["pins_px"])
+        for s in slid.samples
+        if s["labels"]["sample_in_slide"] == 0
+    }
+    centre = slid.rest_pins_px.mean(axis=0)
+
+    def dragged_by(field) -> dict:
+        samples = [
+            s | {"pins_px": (pressed + field(pressed)).tolist()} if s["labels"]["sample_in_slide"] > 0 else s
+            for s in slid.samples
+            for pressed in [first[(s["labels"]["direction_deg"], s["labels"]["theta_deg"])]]
+        ]
+        return along_edge_reading(model, load_run(taps), Run(slid.path, slid.meta, samples))
+
+    shift = np.array([2.0, -1.0])
+    rigid = dragged_by(lambda pressed: np.broadcast_to(shift, pressed.shape))[90]["drag_in_plane"]
+    assert rigid["rest"] < 1e-9 and rigid["all"] == pytest.approx(rigid["rigid_shift"], rel=1e-9)
+    in_plane = np.linalg.norm(np.tile(shift, 127) @ model.pca_components[1:3].T)
+    assert rigid["all"] == pytest.approx(in_plane, rel=1e-6)
+
+    def swirl(pressed: np.ndarray) -> np.ndarray:
+        turn = 0.05 * (pressed - centre) @ np.array([[0.0, 1.0], [-1.0, 0.0]])
+        return turn - turn.mean(axis=0)
+
+    assert dragged_by(swirl)[90]["drag_in_plane"]["rigid_shift"] < 1e-9

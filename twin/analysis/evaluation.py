@@ -146,6 +146,29 @@ def _offset_deg(plane_px: np.ndarray, theta_deg: np.ndarray) -> dict[str, float]
     }
 
 
+def _drag_in_plane_px(model: PerceptionModel, slides: Run, sliding: np.ndarray) -> dict[str, float]:
+    """The along-edge drag's part in the taps' PC2–PC3 plane, RMS over the `sliding` samples
+    (px): "all" (the sliding frame's place there less its slide's unslid first sample's),
+    "rigid_shift" (the part of the drag's uniform shift, each pin moved by the drag's mean)
+    and "rest" (the rest of the drag, the field's non-uniform part); all = rigid_shift + rest
+    as vectors in the plane, so two large parts can cancel."""
+    theta, direction = slides.label("theta_deg"), slides.label("direction_deg")
+    first = slides.label("sample_in_slide") == 0
+    pressed = np.array([np.flatnonzero(first & (direction == direction[i]) & (theta == theta[i]))[0] for i in sliding])
+    slid_px, pressed_px = slides.pins_px[sliding], slides.pins_px[pressed]
+    shifted_px = pressed_px + (slid_px - pressed_px).mean(axis=1, keepdims=True)
+    at = {
+        name: model.pc23_px(px, slides.resolution)
+        for name, px in (("slid", slid_px), ("pressed", pressed_px), ("shifted", shifted_px))
+    }
+    parts = {
+        "all": at["slid"] - at["pressed"],
+        "rigid_shift": at["shifted"] - at["pressed"],
+        "rest": at["slid"] - at["shifted"],
+    }
+    return {name: float(np.sqrt(np.mean(np.sum(v**2, axis=1)))) for name, v in parts.items()}
+
+
 def along_edge_reading(model: PerceptionModel, taps: Run, slides: Run) -> dict | None:
     """Where the along-edge slides (90°, 270°) sit in the taps' PC2–PC3 plane, the plane the
     PCA + GP reads θ from: for the taps at the slides' lateral position, per depth, and for
@@ -153,8 +176,9 @@ def along_edge_reading(model: PerceptionModel, taps: Run, slides: Run) -> dict |
     frames' RMS radius (px, about the model's origin) and θ_PC23 − θ (deg, circular mean,
     with the RMS about it). Frames read as the taps do where their offset is the taps'; a
     drag that outweighs the taps' radius there turns it to the slide's own direction, the
-    two directions' 180° apart. {"lateral_mm", "taps": {depth: figures}, 90: {"pressed",
-    "sliding"}, 270: ...}; None without along-edge slides."""
+    two directions' 180° apart. Each direction's "drag_in_plane" (`_drag_in_plane_px`)
+    says which part of the drag lands there. {"lateral_mm", "taps": {depth: figures},
+    90: {"pressed", "sliding", "drag_in_plane"}, 270: ...}; None without along-edge slides."""
     direction, sample = slides.label("direction_deg"), slides.label("sample_in_slide")
     along = np.isin(direction, (90, 270))
     if not along.any():
@@ -174,6 +198,7 @@ def along_edge_reading(model: PerceptionModel, taps: Run, slides: Run) -> dict |
                 name: _offset_deg(model.pc23_px(slides.pins_px[m], slides.resolution), theta[m])
                 for name, m in phases.items()
             }
+            reading[d]["drag_in_plane"] = _drag_in_plane_px(model, slides, np.flatnonzero(phases["sliding"]))
     return reading
 
 

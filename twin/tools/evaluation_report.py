@@ -85,6 +85,13 @@ def format_along_edge_reading(reading: dict | None) -> str:
             lines.append(
                 f"  {d}° pressed: {figures(reading[d]['pressed'])};  sliding: {figures(reading[d]['sliding'])}"
             )
+    for d in (90, 270):
+        if d in reading:
+            drag = reading[d]["drag_in_plane"]
+            lines.append(
+                f"  {d}° drag in the plane: {drag['all']:.2f} px = its rigid shift's {drag['rigid_shift']:.2f} px"
+                f" + the rest's {drag['rest']:.2f} px (as vectors)"
+            )
     return "\n".join(lines)
 
 
