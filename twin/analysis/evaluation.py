@@ -153,8 +153,11 @@ def _drag_in_plane_px(model: PerceptionModel, slides: Run, sliding: np.ndarray) 
     and "rest" (the rest of the drag, the field's non-uniform part); all = rigid_shift + rest
     as vectors in the plane, so two large parts can cancel."""
     theta, direction = slides.label("theta_deg"), slides.label("direction_deg")
-    first = slides.label("sample_in_slide") == 0
-    pressed = np.array([np.flatnonzero(first & (direction == direction[i]) & (theta == theta[i]))[0] for i in sliding])
+    first = {
+        (direction[i], theta[i]): i for i in np.flatnonzero(slides.label("sample_in_slide") == 0)
+    }  # a slide recorded without its first sample has no pressed frame to compare with
+    sliding = np.array([i for i in sliding if (direction[i], theta[i]) in first], int)
+    pressed = np.array([first[direction[i], theta[i]] for i in sliding], int)
     slid_px, pressed_px = slides.pins_px[sliding], slides.pins_px[pressed]
     shifted_px = pressed_px + (slid_px - pressed_px).mean(axis=1, keepdims=True)
     at = {
