@@ -146,28 +146,27 @@ def _offset_deg(plane_px: np.ndarray, theta_deg: np.ndarray) -> dict[str, float]
     }
 
 
-def _drag_in_plane_px(model: PerceptionModel, slides: Run, sliding: np.ndarray) -> dict[str, float]:
+def _drag_in_plane_px(
+    model: PerceptionModel, slides: Run, pins_px: np.ndarray, plane_px: np.ndarray, sliding: np.ndarray
+) -> dict[str, float]:
     """The along-edge drag's part in the taps' PC2–PC3 plane, RMS over the `sliding` samples
     (px): "all" (the sliding frame's place there less its slide's unslid first sample's),
     "rigid_shift" (the part of the drag's uniform shift, each pin moved by the drag's mean)
     and "rest" (the rest of the drag, the field's non-uniform part); all = rigid_shift + rest
-    as vectors in the plane, so two large parts can cancel."""
+    as vectors in the plane, so two large parts can cancel. pins_px: the run's pins;
+    plane_px: their places in the plane (`PerceptionModel.pc23_px`), where the caller has them."""
     theta, direction = slides.label("theta_deg"), slides.label("direction_deg")
     first = {
         (direction[i], theta[i]): i for i in np.flatnonzero(slides.label("sample_in_slide") == 0)
     }  # a slide recorded without its first sample has no pressed frame to compare with
     sliding = np.array([i for i in sliding if (direction[i], theta[i]) in first], int)
     pressed = np.array([first[direction[i], theta[i]] for i in sliding], int)
-    slid_px, pressed_px = slides.pins_px[sliding], slides.pins_px[pressed]
-    shifted_px = pressed_px + (slid_px - pressed_px).mean(axis=1, keepdims=True)
-    at = {
-        name: model.pc23_px(px, slides.resolution)
-        for name, px in (("slid", slid_px), ("pressed", pressed_px), ("shifted", shifted_px))
-    }
+    shifted_px = pins_px[pressed] + (pins_px[sliding] - pins_px[pressed]).mean(axis=1, keepdims=True)
+    shifted = model.pc23_px(shifted_px, slides.resolution)
     parts = {
-        "all": at["slid"] - at["pressed"],
-        "rigid_shift": at["shifted"] - at["pressed"],
-        "rest": at["slid"] - at["shifted"],
+        "all": plane_px[sliding] - plane_px[pressed],
+        "rigid_shift": shifted - plane_px[pressed],
+        "rest": plane_px[sliding] - shifted,
     }
     return {name: float(np.sqrt(np.mean(np.sum(v**2, axis=1)))) for name, v in parts.items()}
 
@@ -193,15 +192,16 @@ def along_edge_reading(model: PerceptionModel, taps: Run, slides: Run) -> dict |
     for depth in sorted(set(t_depth[at].tolist())):
         m = at & (t_depth == depth)
         reading["taps"][float(depth)] = _offset_deg(model.pc23_px(taps.pins_px[m], taps.resolution), t_theta[m])
-    theta = slides.label("theta_deg")
+    theta, pins = slides.label("theta_deg"), slides.pins_px
+    plane = np.full((len(pins), 2), np.nan)
+    plane[along] = model.pc23_px(pins[along], slides.resolution)
     for d in (90, 270):
         phases = {"pressed": (direction == d) & (sample == 0), "sliding": (direction == d) & (sample > 0)}
         if all(m.any() for m in phases.values()):
-            reading[d] = {
-                name: _offset_deg(model.pc23_px(slides.pins_px[m], slides.resolution), theta[m])
-                for name, m in phases.items()
-            }
-            reading[d]["drag_in_plane"] = _drag_in_plane_px(model, slides, np.flatnonzero(phases["sliding"]))
+            reading[d] = {name: _offset_deg(plane[m], theta[m]) for name, m in phases.items()}
+            reading[d]["drag_in_plane"] = _drag_in_plane_px(
+                model, slides, pins, plane, np.flatnonzero(phases["sliding"])
+            )
     return reading
 
 
