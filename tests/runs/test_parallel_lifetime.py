@@ -15,6 +15,8 @@ from pathlib import Path
 import pytest
 import yaml
 
+from twin.core.errors import WorkerLostError
+from twin.runs.parallel import WorkerPool
 from twin.runs.record import load_run
 
 SCENARIO = {
@@ -57,9 +59,9 @@ def _alive(pid: int) -> bool:
         return False
 
 
-def _start(tmp_path: Path) -> tuple[subprocess.Popen, Path]:
+def _start(tmp_path: Path, scenario_dict: dict = SCENARIO) -> tuple[subprocess.Popen, Path]:
     scenario = tmp_path / "taps.yaml"
-    scenario.write_text(yaml.safe_dump(SCENARIO))
+    scenario.write_text(yaml.safe_dump(scenario_dict))
     out = tmp_path / "run"
     proc = subprocess.Popen(
         [sys.executable, "-m", "twin.tools.cli", "run", str(scenario), "--out", str(out), "--workers", "2", "--quiet"],
@@ -117,3 +119,84 @@ def test_an_interruption_keeps_every_chunk_the_workers_were_running(
     run = load_run(out)
     assert run.meta["status"] == "interrupted" and len(run.samples) % CHUNK == 0
     assert len(run.samples) >= max(seen, CHUNK * 2), (seen, len(run.samples))
+
+
+def test_a_run_whose_worker_is_killed_fails_and_keeps_its_chunks(tmp_path: Path) -> None:
+    """`twin run` with a worker killed outright (as by the out-of-memory killer): exit 1,
+    one line naming the signal, the run marked failed with whole chunks kept, and no
+    process left behind."""
+    many = SCENARIO | {"protocol": SCENARIO["protocol"] | {"orientations_deg": list(range(-160, 180, 20))}}
+    proc, out = _start(tmp_path, many)
+    samples = out / "samples.jsonl"
+    workers: list[int] = []
+
+    def two_workers_busy() -> bool:
+        children = _children(proc.pid)
+        direct = {p for p in children if _parent(p) == proc.pid}  # the forkserver, the resource tracker
+        workers[:] = sorted(p for p in children - direct if _alive(p))
+        return len(workers) >= 2 and samples.exists() and samples.read_bytes().count(b"\n") >= 1
+
+    _wait(two_workers_busy, proc, "two busy workers")
+    everyone = _children(proc.pid)
+    os.kill(workers[-1], signal.SIGKILL)
+    _, err = proc.communicate(timeout=180)
+    assert proc.returncode == 1, err.decode()
+    assert err.decode().startswith("failed: ") and "a worker process ended" in err.decode(), err.decode()
+    assert "killed by SIGKILL" in err.decode() and err.decode().count("\n") == 1, err.decode()
+    run = load_run(out)
+    assert run.meta["status"] == "failed" and len(run.samples) % CHUNK == 0
+    assert len(run.samples) < 3 * len(many["protocol"]["orientations_deg"])
+    deadline = time.monotonic() + 20.0
+    while any(_alive(p) for p in everyone) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not [p for p in everyone if _alive(p)], f"processes left of {sorted(everyone)}"
+
+
+def _parent(pid: int) -> int:
+    return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[1])
+
+
+def _die_once_the_other_runs(folder: str, send=None) -> None:
+    """Wait until the other job has started, then end this worker as the out-of-memory
+    killer would (SIGKILL)."""
+    started = Path(folder) / "started"
+    for _ in range(6000):
+        if started.exists():
+            break
+        time.sleep(0.01)
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+def _run_until_released(folder: str, send=None) -> None:
+    """A long job: mark it started, then wait for `released` (at most 120 s), then mark it
+    finished."""
+    (Path(folder) / "pid").write_text(str(os.getpid()))
+    (Path(folder) / "started").touch()
+    for _ in range(12000):
+        if (Path(folder) / "released").exists():
+            break
+        time.sleep(0.01)
+    (Path(folder) / "finished").touch()
+
+
+@pytest.mark.parametrize("streamed", [False, True], ids=["map_ordered", "map_streamed"])
+def test_a_worker_killed_outright_fails_the_map_at_once(tmp_path: Path, streamed: bool) -> None:
+    """One worker dies while the other is in a long job: the map raises WorkerLostError
+    naming the signal, without waiting for the other job (its result is lost with the
+    pool), and the other worker is stopped, though it blocks SIGTERM."""
+    jobs = [(str(tmp_path),)] * 2
+    with WorkerPool(workers=2) as pool:
+        map_ = pool.map_streamed if streamed else pool.map_ordered
+        fns = {0: _die_once_the_other_runs, 1: _run_until_released}
+        with pytest.raises(WorkerLostError, match=r"killed by SIGKILL \(signal 9"):
+            list(map_(_by_index, [(fns[i], job) for i, job in enumerate(jobs)]))
+        survivor = int((tmp_path / "pid").read_text())
+        assert not (tmp_path / "finished").exists(), "the map waited for the other worker's job"
+        assert not _alive(survivor), "the other worker was left running"
+        assert list(pool.map_ordered(abs, [(-1,), (-2,)])) == [1, 2]  # the pool starts new workers
+    (tmp_path / "released").touch()
+
+
+def _by_index(fn, job: tuple, send=None) -> None:
+    """Run fn(*job): one job function per job in one map."""
+    fn(*job)

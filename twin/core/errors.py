@@ -35,6 +35,12 @@ class HardwareError(TwinError):
     """The real rig failed: robot connection lost, camera gave no or a stale frame."""
 
 
+class WorkerLostError(TwinError):
+    """A local worker process ended without finishing its job (killed: the kernel's
+    out-of-memory killer sends SIGKILL). The run stops at once (records kept); the message
+    names the process and how it ended."""
+
+
 class LostPinsError(TwinError):
     """Too many pins could not be tracked in a frame: the run stops (records kept)."""
 

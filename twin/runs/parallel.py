@@ -13,11 +13,12 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from multiprocessing import get_context
 
 from threadpoolctl import threadpool_limits
 
-from twin.core.errors import UserError
+from twin.core.errors import UserError, WorkerLostError
 from twin.runs.interrupts import HeldSignals, signals_held, stop_signals_blocked
 
 
@@ -159,6 +160,9 @@ class WorkerPool:
         with signals_held() as held:
             try:
                 yield held
+            except BrokenProcessPool as broken:
+                lost = self._stop_broken()
+                raise WorkerLostError(lost) from broken
             except BaseException:
                 self._stop_local()
                 raise
@@ -225,6 +229,22 @@ class WorkerPool:
             )
         return self._pool
 
+    def _stop_broken(self) -> str:
+        """After a worker died: what ended it, then every other worker killed outright and
+        the pool stopped. The others block SIGTERM (stop_signals_blocked), so the pool's
+        own SIGTERM leaves them to finish their jobs, whose results are lost with the pool
+        (a chunk at a fine lattice takes minutes), or to wait for ever on a queue lock the
+        dead worker held."""
+        # the pool's processes by pid (`ProcessPoolExecutor.kill_workers` from Python 3.14)
+        processes = list((getattr(self._pool, "_processes", None) or {}).values())
+        ended = [p for p in processes if p.exitcode is not None and p.exitcode != 0]
+        for process in processes:
+            if process.exitcode is None:
+                process.kill()
+        self._stop_local()
+        how = "; ".join(f"process {p.pid} {_ending(p.exitcode)}" for p in ended) or "no exit status"
+        return f"a worker process ended without finishing its job: {how}. What was recorded so far is kept."
+
     def _stop_local(self) -> None:
         if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=True)
@@ -248,6 +268,16 @@ class WorkerPool:
         refs = [self._ray_remote.remote(fn, *job) for job in jobs]
         for ref in refs:
             yield ray.get(ref)
+
+
+def _ending(exitcode: int) -> str:
+    """How a process with this exit code ended, in words."""
+    if exitcode >= 0:
+        return f"exited with code {exitcode}"
+    name = signal.Signals(-exitcode).name if -exitcode in signal.valid_signals() else f"signal {-exitcode}"
+    if -exitcode == signal.SIGKILL:
+        return f"was killed by {name} (signal 9, as the kernel's out-of-memory killer does; see dmesg)"
+    return f"was killed by {name} (signal {-exitcode})"
 
 
 #: How long a wait for a worker lasts before the held signals are looked at again (s)
