@@ -5,7 +5,9 @@ given taps cut to match, so that `twin run --taps-from OUT` replays those 1,250 
 ordered by edge angle: its first taps are not a sample of it).
 usage: quarter.py IMPORTED OUT [EVERY [FIRST]]  (every EVERY-th tap from tap FIRST; 4, 0)
        quarter.py IMPORTED OUT --slide-across-at-most MM  (the taps that slid at most MM
-       across the edge before their frame; finding-2026-12-02-edge-registration)"""
+       across the edge before their frame; finding-2026-12-02-edge-registration)
+       quarter.py IMPORTED OUT EVERY FIRST --at-laterals L[,L...]  (of those, the taps whose
+       lateral_mm rounds to one of the L, mm; finding-2026-12-02-node-spacing)"""
 
 import json
 import shutil
@@ -21,9 +23,11 @@ if len(sys.argv) > 3 and sys.argv[3] == "--slide-across-at-most":
 else:
     every = int(sys.argv[3]) if len(sys.argv) > 3 else 4
     first = int(sys.argv[4]) if len(sys.argv) > 4 else 0
+    laterals = {int(v) for v in sys.argv[6].split(",")} if sys.argv[5:6] == ["--at-laterals"] else None
 
     def chosen(labels: dict) -> bool:
-        return labels["tap"] % every == first
+        at = laterals is None or round(labels["lateral_mm"]) in laterals
+        return labels["tap"] % every == first and at
 
 
 meta = json.loads((source / "run.json").read_text())
