@@ -38,10 +38,9 @@ def _children(pid: int) -> set[int]:
     for entry in Path("/proc").iterdir():
         if entry.name.isdigit():
             try:
-                stat = (entry / "stat").read_text()
+                parents[int(entry.name)] = _parent(int(entry.name))
             except OSError:
                 continue
-            parents[int(entry.name)] = int(stat.rsplit(")", 1)[1].split()[1])
     found, todo = set(), [pid]
     while todo:
         parent = todo.pop()
@@ -50,6 +49,11 @@ def _children(pid: int) -> set[int]:
                 found.add(child)
                 todo.append(child)
     return found
+
+
+def _parent(pid: int) -> int:
+    """The parent's process id (from /proc; OSError once `pid` is gone)."""
+    return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[1])
 
 
 def _alive(pid: int) -> bool:
@@ -152,11 +156,7 @@ def test_a_run_whose_worker_is_killed_fails_and_keeps_its_chunks(tmp_path: Path)
     assert not [p for p in everyone if _alive(p)], f"processes left of {sorted(everyone)}"
 
 
-def _parent(pid: int) -> int:
-    return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[1])
-
-
-def _die_once_the_other_runs(folder: str, send=None) -> None:
+def _die_once_the_other_runs(folder: str) -> None:
     """Wait until the other job has started, then end this worker as the out-of-memory
     killer would (SIGKILL)."""
     started = Path(folder) / "started"
@@ -167,7 +167,7 @@ def _die_once_the_other_runs(folder: str, send=None) -> None:
     os.kill(os.getpid(), signal.SIGKILL)
 
 
-def _run_until_released(folder: str, send=None) -> None:
+def _run_until_released(folder: str) -> None:
     """A long job: mark it started, then wait for `released` (at most 120 s), then mark it
     finished."""
     (Path(folder) / "pid").write_text(str(os.getpid()))
@@ -184,12 +184,11 @@ def test_a_worker_killed_outright_fails_the_map_at_once(tmp_path: Path, streamed
     """One worker dies while the other is in a long job: the map raises WorkerLostError
     naming the signal, without waiting for the other job (its result is lost with the
     pool), and the other worker is stopped, though it blocks SIGTERM."""
-    jobs = [(str(tmp_path),)] * 2
+    jobs = [(_die_once_the_other_runs, str(tmp_path)), (_run_until_released, str(tmp_path))]
     with WorkerPool(workers=2) as pool:
         map_ = pool.map_streamed if streamed else pool.map_ordered
-        fns = {0: _die_once_the_other_runs, 1: _run_until_released}
         with pytest.raises(WorkerLostError, match=r"killed by SIGKILL \(signal 9"):
-            list(map_(_by_index, [(fns[i], job) for i, job in enumerate(jobs)]))
+            list(map_(_call, jobs))
         survivor = int((tmp_path / "pid").read_text())
         assert not (tmp_path / "finished").exists(), "the map waited for the other worker's job"
         assert not _alive(survivor), "the other worker was left running"
@@ -197,6 +196,6 @@ def test_a_worker_killed_outright_fails_the_map_at_once(tmp_path: Path, streamed
     (tmp_path / "released").touch()
 
 
-def _by_index(fn, job: tuple, send=None) -> None:
-    """Run fn(*job): one job function per job in one map."""
-    fn(*job)
+def _call(fn, folder: str, send=None) -> None:
+    """fn(folder): a job function of its own for each job of one map."""
+    fn(folder)

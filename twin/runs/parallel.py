@@ -274,10 +274,10 @@ def _ending(exitcode: int) -> str:
     """How a process with this exit code ended, in words."""
     if exitcode >= 0:
         return f"exited with code {exitcode}"
-    name = signal.Signals(-exitcode).name if -exitcode in signal.valid_signals() else f"signal {-exitcode}"
-    if -exitcode == signal.SIGKILL:
-        return f"was killed by {name} (signal 9, as the kernel's out-of-memory killer does; see dmesg)"
-    return f"was killed by {name} (signal {-exitcode})"
+    number = -exitcode
+    name = signal.Signals(number).name if number in signal.valid_signals() else "a signal"
+    oom = ", as the kernel's out-of-memory killer does; see dmesg" if number == signal.SIGKILL else ""
+    return f"was killed by {name} (signal {number}{oom})"
 
 
 #: How long a wait for a worker lasts before the held signals are looked at again (s)

@@ -8,4 +8,4 @@ export MUJOCO_GL=egl PYOPENGL_PLATFORM=egl
 T=${TWIN_BIN:-.venv/bin}
 $T/twin run "$1.yaml" --taps-from "$2" --workers 2 --quiet --out "runs/$1_$3" > /dev/null
 $T/twin compare "$2" "runs/$1_$3" --out "runs/$1_$3_compare" --reach-at "$4" > "compare-$3-$1.txt"
-$T/python "$(dirname "$0")/spacing_table.py" "compare-$3-$1.txt"
+$T/python "$(dirname "$0")/../finding-2026-11-29-pin-posts/figure_rows.py" "compare-$3-$1.txt"
