@@ -1,7 +1,8 @@
 """A parallel run's worker processes end with it, even when it is killed outright
 (SIGKILL: checked by process id), and a SIGTERM keeps every sample the workers had
 finished or were working on, and so does Ctrl-C: the chunks in progress are recorded, not
-thrown away."""
+thrown away. A worker killed outright fails a run or a calibration at once, and the line
+says how to go on."""
 
 from __future__ import annotations
 
@@ -16,8 +17,10 @@ import pytest
 import yaml
 
 from twin.core.errors import WorkerLostError
+from twin.core.scenario import scenario_from_dict
 from twin.runs.parallel import WorkerPool
 from twin.runs.record import load_run
+from twin.runs.run import run_scenario
 
 SCENARIO = {
     "name": "lifetime_taps",
@@ -32,15 +35,22 @@ CHUNK = 3  # samples per orientation: a chunk (twin.runs.runner.chunk_moves)
 pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads process trees from /proc")
 
 
-def _children(pid: int) -> set[int]:
-    """Every live descendant of `pid` (from /proc)."""
+def _parents() -> dict[int, int]:
+    """Each live process's parent process id (from /proc; a process that ends while it is
+    read is left out)."""
     parents = {}
     for entry in Path("/proc").iterdir():
         if entry.name.isdigit():
             try:
-                parents[int(entry.name)] = _parent(int(entry.name))
+                parents[int(entry.name)] = int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1])
             except OSError:
                 continue
+    return parents
+
+
+def _children(pid: int, parents: dict[int, int] | None = None) -> set[int]:
+    """Every live descendant of `pid` (in `parents`, else a fresh `_parents()`)."""
+    parents = _parents() if parents is None else parents
     found, todo = set(), [pid]
     while todo:
         parent = todo.pop()
@@ -51,9 +61,11 @@ def _children(pid: int) -> set[int]:
     return found
 
 
-def _parent(pid: int) -> int:
-    """The parent's process id (from /proc; OSError once `pid` is gone)."""
-    return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[1])
+def _busy_workers(pid: int) -> list[int]:
+    """The live worker processes of the `twin` process `pid`: its descendants but its own
+    children (the forkserver, the resource tracker), from one look at /proc."""
+    parents = _parents()
+    return sorted(p for p in _children(pid, parents) if parents[p] != pid and _alive(p))
 
 
 def _alive(pid: int) -> bool:
@@ -61,6 +73,14 @@ def _alive(pid: int) -> bool:
         return "Z" not in Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
     except OSError:
         return False
+
+
+def _assert_all_end(pids: set[int] | list[int], within_s: float = 20.0) -> None:
+    """Every process of `pids` ends within `within_s`."""
+    deadline = time.monotonic() + within_s
+    while any(_alive(p) for p in pids) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not [p for p in pids if _alive(p)], f"processes left of {sorted(pids)}"
 
 
 def _start(tmp_path: Path, scenario_dict: dict = SCENARIO) -> tuple[subprocess.Popen, Path]:
@@ -96,10 +116,7 @@ def test_workers_end_when_the_parent_is_killed(tmp_path: Path) -> None:
     _wait(two_workers_busy, proc, "worker processes")
     proc.send_signal(signal.SIGKILL)
     proc.wait()
-    deadline = time.monotonic() + 20.0
-    while any(_alive(p) for p in workers) and time.monotonic() < deadline:
-        time.sleep(0.1)
-    assert not [p for p in workers if _alive(p)], f"processes left of {sorted(workers)}"
+    _assert_all_end(workers)
 
 
 @pytest.mark.parametrize("stop, exit_code", [("SIGTERM to the parent", 143), ("Ctrl-C to the process group", 130)])
@@ -135,9 +152,7 @@ def test_a_run_whose_worker_is_killed_fails_and_keeps_its_chunks(tmp_path: Path)
     workers: list[int] = []
 
     def two_workers_busy() -> bool:
-        children = _children(proc.pid)
-        direct = {p for p in children if _parent(p) == proc.pid}  # the forkserver, the resource tracker
-        workers[:] = sorted(p for p in children - direct if _alive(p))
+        workers[:] = _busy_workers(proc.pid)
         return len(workers) >= 2 and samples.exists() and samples.read_bytes().count(b"\n") >= 1
 
     _wait(two_workers_busy, proc, "two busy workers")
@@ -149,11 +164,54 @@ def test_a_run_whose_worker_is_killed_fails_and_keeps_its_chunks(tmp_path: Path)
     assert "killed by SIGKILL" in err.decode() and err.decode().count("\n") == 1, err.decode()
     run = load_run(out)
     assert run.meta["status"] == "failed" and len(run.samples) % CHUNK == 0
+    assert f"keeps its {len(run.samples)} samples: continue it with twin run --resume {out}" in err.decode()
     assert len(run.samples) < 3 * len(many["protocol"]["orientations_deg"])
-    deadline = time.monotonic() + 20.0
-    while any(_alive(p) for p in everyone) and time.monotonic() < deadline:
-        time.sleep(0.1)
-    assert not [p for p in everyone if _alive(p)], f"processes left of {sorted(everyone)}"
+    _assert_all_end(everyone)
+
+
+#: `twin calibrate` of the friction alone, over many short generations (a shrinking grid of four)
+FRICTION_ALONE = {
+    "parameters": {
+        "camera.focal_px": {"fit": False},
+        "camera.k1": {"fit": False},
+        "material.young_kpa": {"fit": False},
+        "tcp.z_mm": {"fit": False},
+        "friction": {"fit": True},
+    },
+    "rest_pins": False,
+    "optimiser": {"popsize": 4, "max_generations": 30, "tol_bracket": 1e-6},
+}
+
+
+def test_a_calibration_whose_worker_is_killed_fails_and_goes_on_from_its_checkpoint(tmp_path: Path) -> None:
+    """`twin calibrate --workers 2` with a pool worker killed outright after its first
+    generation: exit 1, one line naming the signal and the checkpoint, no process left; the
+    same command again goes on from that checkpoint (the generations before it kept)."""
+    run_scenario(scenario_from_dict(SCENARIO), tmp_path / "taps", workers=1, progress=False)
+    (tmp_path / "twin.yaml").write_text(yaml.safe_dump(SCENARIO))
+    (tmp_path / "settings.yaml").write_text(yaml.safe_dump(FRICTION_ALONE))
+    out = tmp_path / "cal"
+    command = [sys.executable, "-m", "twin.tools.cli", "calibrate", str(tmp_path / "taps"), "--out", str(out)]
+    command += ["--scenario", str(tmp_path / "twin.yaml"), "--settings", str(tmp_path / "settings.yaml"), "--quiet"]
+    proc = subprocess.Popen([*command, "--workers", "2"], stderr=subprocess.PIPE, start_new_session=True)
+    history = out / "history.jsonl"
+
+    def a_generation_done() -> bool:
+        return history.exists() and history.read_bytes().count(b"\n") >= 2 and len(_busy_workers(proc.pid)) >= 2
+
+    _wait(a_generation_done, proc, "a finished generation and two workers")
+    everyone = _children(proc.pid)
+    os.kill(_busy_workers(proc.pid)[-1], signal.SIGKILL)
+    _, err = proc.communicate(timeout=180)
+    assert proc.returncode == 1, err.decode()
+    message = err.decode()
+    assert message.startswith("failed: WorkerLostError: a worker process ended") and message.count("\n") == 1, message
+    assert "killed by SIGKILL" in message and f"{out / 'checkpoint.json'} keeps every finished generation" in message
+    _assert_all_end(everyone)
+    kept = history.read_text().splitlines()
+    again = subprocess.run([*command, "--workers", "1"], capture_output=True, timeout=600)
+    assert again.returncode == 0, again.stderr.decode()
+    assert history.read_text().splitlines()[: len(kept)] == kept  # went on, not started again
 
 
 def _die_once_the_other_runs(folder: str) -> None:
@@ -179,12 +237,16 @@ def _run_until_released(folder: str) -> None:
     (Path(folder) / "finished").touch()
 
 
+@pytest.mark.parametrize("dies_first", [True, False], ids=["dying_job_first", "dying_job_second"])
 @pytest.mark.parametrize("streamed", [False, True], ids=["map_ordered", "map_streamed"])
-def test_a_worker_killed_outright_fails_the_map_at_once(tmp_path: Path, streamed: bool) -> None:
+def test_a_worker_killed_outright_fails_the_map_at_once(tmp_path: Path, streamed: bool, dies_first: bool) -> None:
     """One worker dies while the other is in a long job: the map raises WorkerLostError
     naming the signal, without waiting for the other job (its result is lost with the
-    pool), and the other worker is stopped, though it blocks SIGTERM."""
+    pool), and the other worker is stopped, though it blocks SIGTERM. With the dying job
+    second, the worker that dies is the one the second job started, which the executor's
+    own watch can miss until the long job ends."""
     jobs = [(_die_once_the_other_runs, str(tmp_path)), (_run_until_released, str(tmp_path))]
+    jobs = jobs if dies_first else jobs[::-1]
     with WorkerPool(workers=2) as pool:
         map_ = pool.map_streamed if streamed else pool.map_ordered
         with pytest.raises(WorkerLostError, match=r"killed by SIGKILL \(signal 9"):

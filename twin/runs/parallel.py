@@ -100,7 +100,7 @@ class WorkerPool:
                 futures = [pool.submit(fn, *job) for job in jobs]
             for index, future in enumerate(futures):
                 try:
-                    result = _result(future, held)
+                    result = self._result(future, held)
                 except KeyboardInterrupt:  # Ctrl-C, SIGTERM: what the workers have finished is kept
                     yield from _finished_in_order(futures[index:])
                     raise
@@ -167,6 +167,24 @@ class WorkerPool:
                 self._stop_local()
                 raise
 
+    def _result(self, future, held: HeldSignals):
+        """The future's result, waited for in steps of WAIT_S; what `held` holds lands here."""
+        while True:
+            held.deliver()
+            try:
+                return future.result(timeout=WAIT_S)
+            except TimeoutError:
+                self._check_workers()
+
+    def _check_workers(self) -> None:
+        """Raise BrokenProcessPool if a local worker has died. The executor finds a dead
+        worker by itself only if its manager thread waits on that worker: one started by
+        the same `submit` that woke the thread may be missed until the next result
+        arrives (a job of minutes), so the waits look as well (CPython 3.11's submit wakes
+        the thread before it starts the process)."""
+        if any(p.exitcode not in (None, 0) for p in self._processes()):
+            raise BrokenProcessPool("a worker process died (found while waiting for a job)")
+
     def _next_item(self, index: int, future, waiting: dict[int, list], held: HeldSignals | None):
         """The next item job `index` sends (waits for it; what `held` holds lands here);
         items of other jobs go to `waiting`. Raises the job's exception once the items it
@@ -179,6 +197,7 @@ class WorkerPool:
             except queue.Empty:
                 if future.done() and future.exception() is not None:
                     raise future.exception() from None
+                self._check_workers()
                 continue
             if sender == index:
                 return item
@@ -229,21 +248,25 @@ class WorkerPool:
             )
         return self._pool
 
+    def _processes(self) -> list:
+        """The local pool's worker processes (multiprocessing.Process): the executor's
+        private `_processes` (Python 3.14 has `ProcessPoolExecutor.kill_workers`)."""
+        return list((getattr(self._pool, "_processes", None) or {}).values())
+
     def _stop_broken(self) -> str:
         """After a worker died: what ended it, then every other worker killed outright and
         the pool stopped. The others block SIGTERM (stop_signals_blocked), so the pool's
         own SIGTERM leaves them to finish their jobs, whose results are lost with the pool
         (a chunk at a fine lattice takes minutes), or to wait for ever on a queue lock the
         dead worker held."""
-        # the pool's processes by pid (`ProcessPoolExecutor.kill_workers` from Python 3.14)
-        processes = list((getattr(self._pool, "_processes", None) or {}).values())
+        processes = self._processes()
         ended = [p for p in processes if p.exitcode is not None and p.exitcode != 0]
         for process in processes:
             if process.exitcode is None:
                 process.kill()
         self._stop_local()
         how = "; ".join(f"process {p.pid} {_ending(p.exitcode)}" for p in ended) or "no exit status"
-        return f"a worker process ended without finishing its job: {how}. What was recorded so far is kept."
+        return f"a worker process ended without finishing its job: {how}"
 
     def _stop_local(self) -> None:
         if self._pool is not None:
@@ -282,16 +305,6 @@ def _ending(exitcode: int) -> str:
 
 #: How long a wait for a worker lasts before the held signals are looked at again (s)
 WAIT_S = 0.2
-
-
-def _result(future, held: HeldSignals):
-    """The future's result, waited for in steps of WAIT_S; what `held` holds lands here."""
-    while True:
-        held.deliver()
-        try:
-            return future.result(timeout=WAIT_S)
-        except TimeoutError:
-            continue
 
 
 def _finished_in_order(futures: list) -> Iterator:

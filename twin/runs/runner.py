@@ -20,6 +20,7 @@ from tqdm import tqdm
 
 from twin.control.contour import no_clock
 from twin.core.environment import Environment, Observation
+from twin.core.errors import WorkerLostError
 from twin.core.scenario import Scenario
 from twin.runs.backends import make_environment
 from twin.runs.parallel import default_workers, map_streamed
@@ -154,31 +155,37 @@ def record_protocol(
         if resume
         else RunRecorder(out, scenario, seed, scenario.backend, scenario.camera_model())
     )
-    with recorder:
-        jobs = remaining_chunks(chunks, recorder.count)
-        bar = tqdm(total=n_samples, initial=recorder.count, desc=scenario.name, unit="frame", disable=not progress)
+    try:
+        with recorder:
+            jobs = remaining_chunks(chunks, recorder.count)
+            bar = tqdm(total=n_samples, initial=recorder.count, desc=scenario.name, unit="frame", disable=not progress)
 
-        def record(s: Sample) -> None:
-            recorder.set_rest_pins(s.rest_px)
-            recorder.add(s.observation, s.move.pose, s.move.labels, s.pins_px, s.found)
-            bar.update(1)
+            def record(s: Sample) -> None:
+                recorder.set_rest_pins(s.rest_px)
+                recorder.add(s.observation, s.move.pose, s.move.labels, s.pins_px, s.found)
+                bar.update(1)
 
-        serial = scenario.backend != "sim" or (cluster is None and (workers or default_workers()) <= 1)
-        try:
-            if serial:  # record each sample as it is observed
-                for chunk, skip in jobs:
-                    run_chunk(scenario, seed, chunk, sink=record, skip=skip)
-            else:  # record each sample as soon as its worker observes it, in protocol order
-                for s in map_streamed(  # this process runs the first chunk while the workers start
-                    send_chunk,
-                    [(scenario, seed, c, skip) for c, skip in jobs],
-                    workers=workers,
-                    cluster=cluster,
-                    first_here=stream_chunk,
-                ):
-                    record(s)
-        finally:
-            bar.close()
-            close_worker_envs()
-        recorder.meta["wall_time_s"] = time.perf_counter() - wall
+            serial = scenario.backend != "sim" or (cluster is None and (workers or default_workers()) <= 1)
+            try:
+                if serial:  # record each sample as it is observed
+                    for chunk, skip in jobs:
+                        run_chunk(scenario, seed, chunk, sink=record, skip=skip)
+                else:  # record each sample as soon as its worker observes it, in protocol order
+                    for s in map_streamed(  # this process runs the first chunk while the workers start
+                        send_chunk,
+                        [(scenario, seed, c, skip) for c, skip in jobs],
+                        workers=workers,
+                        cluster=cluster,
+                        first_here=stream_chunk,
+                    ):
+                        record(s)
+            finally:
+                bar.close()
+                close_worker_envs()
+            recorder.meta["wall_time_s"] = time.perf_counter() - wall
+    except WorkerLostError as lost:  # a transient loss (the out-of-memory killer): the run can go on
+        raise WorkerLostError(
+            f"{lost}; the run keeps its {recorder.count} samples: continue it with "
+            f"twin run --resume {out} (with fewer --workers where memory ran out)"
+        ) from lost
     return Path(out)

@@ -69,12 +69,12 @@ import numpy as np
 
 from twin.analysis.calibration_fit.data import GROUPS, load_data
 from twin.analysis.calibration_fit.evaluator import Evaluator
-from twin.analysis.calibration_fit.search import optimise, search_key
+from twin.analysis.calibration_fit.search import CHECKPOINT, optimise, search_key
 from twin.analysis.calibration_fit.settings import CalibrationSettings
 from twin.analysis.calibration_fit.space import Space
 from twin.analysis.calibration_fit.uncertainty import uncertainty
 from twin.core.calibration import REST_OFFSET_LIMIT_PX, write_calibration
-from twin.core.errors import UserError
+from twin.core.errors import UserError, WorkerLostError
 from twin.core.scenario import Scenario
 from twin.runs.lab_recording import nominal_depth_mm
 from twin.runs.parallel import WorkerPool
@@ -96,8 +96,14 @@ def calibrate(
     report.json (the returned result), history.jsonl and checkpoint.json. The command
     (twin.tools.calibration_report.calibrate_and_report) adds report.md and residuals.png.
     workers / cluster: as twin.runs.parallel.WorkerPool, one pool for all the simulations."""
-    with WorkerPool(workers, cluster) as pool:
-        return _calibrate(run_dirs, scenario, out, settings, pool, progress, [Path(r) for r in held_out or []])
+    try:
+        with WorkerPool(workers, cluster) as pool:
+            return _calibrate(run_dirs, scenario, out, settings, pool, progress, [Path(r) for r in held_out or []])
+    except WorkerLostError as lost:  # a transient loss (the out-of-memory killer): the fit can go on
+        raise WorkerLostError(
+            f"{lost}; {out / CHECKPOINT} keeps every finished generation: the same twin calibrate "
+            "goes on from there (with fewer --workers where memory ran out)"
+        ) from lost
 
 
 def _camera_from_rest(ev: Evaluator, tips: np.ndarray) -> dict | None:
