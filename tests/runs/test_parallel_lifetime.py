@@ -10,13 +10,14 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
 import pytest
 import yaml
 
-from twin.core.errors import WorkerLostError
+from twin.core.errors import Terminated, WorkerLostError
 from twin.core.scenario import scenario_from_dict
 from twin.runs.parallel import WorkerPool
 from twin.runs.record import load_run
@@ -256,6 +257,42 @@ def test_a_worker_killed_outright_fails_the_map_at_once(tmp_path: Path, streamed
         assert not _alive(survivor), "the other worker was left running"
         assert list(pool.map_ordered(abs, [(-1,), (-2,)])) == [1, 2]  # the pool starts new workers
     (tmp_path / "released").touch()
+
+
+def test_a_map_that_keeps_nothing_running_stops_at_once_on_sigterm(tmp_path: Path) -> None:
+    """map_ordered(keep_running=False), as a calibration maps its candidates: a SIGTERM
+    while a worker is in a long job stops the map at once and kills that worker; the job
+    is not finished (with keep_running it would be, after up to 120 s)."""
+
+    def terminate_once_started() -> None:
+        started = tmp_path / "started"
+        for _ in range(6000):
+            if started.exists():
+                break
+            time.sleep(0.01)
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    def terminated(signum, frame) -> None:
+        raise Terminated
+
+    previous = signal.signal(signal.SIGTERM, terminated)
+    try:
+        with WorkerPool(workers=2) as pool:
+            sender = threading.Thread(target=terminate_once_started)
+            sender.start()
+            jobs = [(_run_until_released, str(tmp_path)), (_run_until_released, str(tmp_path / "other"))]
+            (tmp_path / "other").mkdir()
+            with pytest.raises(Terminated):
+                list(pool.map_ordered(_call, jobs, keep_running=False))
+            sender.join()
+            worker = int((tmp_path / "pid").read_text())
+            _assert_all_end([worker])
+            assert not (tmp_path / "finished").exists(), "the map waited for the running job"
+            assert list(pool.map_ordered(abs, [(-1,), (-2,)])) == [1, 2]  # the pool starts new workers
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+        (tmp_path / "released").touch()
+        (tmp_path / "other" / "released").touch()
 
 
 def _call(fn, folder: str, send=None) -> None:

@@ -84,9 +84,12 @@ class WorkerPool:
     def __exit__(self, *exc) -> None:
         self.close()
 
-    def map_ordered(self, fn: Callable, jobs: list[tuple]) -> Iterator:
+    def map_ordered(self, fn: Callable, jobs: list[tuple], keep_running: bool = True) -> Iterator:
         """Yield fn(*job) for each job, in order. A failed job, SIGINT or SIGTERM drops the
-        queued jobs (not run) and stops the local workers; the next call starts new ones."""
+        queued jobs (not run) and stops the local workers; the next call starts new ones.
+        keep_running: on SIGINT or SIGTERM, the jobs the workers are running are finished
+        and their results yielded; False: the workers are killed at once, for a caller
+        that would throw those results away (a calibration keeps whole generations)."""
         if self.cluster is not None:
             yield from self._map_ray(fn, jobs)
             return
@@ -102,6 +105,9 @@ class WorkerPool:
                 try:
                     result = self._result(future, held)
                 except KeyboardInterrupt:  # Ctrl-C, SIGTERM: what the workers have finished is kept
+                    if not keep_running:
+                        self._kill_local()
+                        raise
                     yield from _finished_in_order(futures[index:])
                     raise
                 yield result
@@ -259,14 +265,18 @@ class WorkerPool:
         own SIGTERM leaves them to finish their jobs, whose results are lost with the pool
         (a chunk at a fine lattice takes minutes), or to wait for ever on a queue lock the
         dead worker held."""
-        processes = self._processes()
-        ended = [p for p in processes if p.exitcode is not None and p.exitcode != 0]
-        for process in processes:
+        ended = [p for p in self._processes() if p.exitcode is not None and p.exitcode != 0]
+        self._kill_local()
+        how = "; ".join(f"process {p.pid} {_ending(p.exitcode)}" for p in ended) or "no exit status"
+        return f"a worker process ended without finishing its job: {how}"
+
+    def _kill_local(self) -> None:
+        """Kill every local worker outright and stop the pool, without waiting for their
+        jobs (the workers block SIGTERM, so the pool's own shutdown would)."""
+        for process in self._processes():
             if process.exitcode is None:
                 process.kill()
         self._stop_local()
-        how = "; ".join(f"process {p.pid} {_ending(p.exitcode)}" for p in ended) or "no exit status"
-        return f"a worker process ended without finishing its job: {how}"
 
     def _stop_local(self) -> None:
         if self._pool is not None:

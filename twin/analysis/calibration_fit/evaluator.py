@@ -120,7 +120,8 @@ class Evaluator:
         n_batches = max(1, min(len(moves), -(-self.parallelism // len(candidates))))
         batches = [moves[b::n_batches] for b in range(n_batches)]
         jobs = [(s, seed, batch) for s in scenarios for batch in batches]
-        results = list(self.pool.map_ordered(_replay_candidate, jobs))
+        # an interrupted generation is not kept (the checkpoint holds whole ones): no waiting for its running jobs
+        results = list(self.pool.map_ordered(_replay_candidate, jobs, keep_running=False))
         out: list[np.ndarray | None] = []
         for c in range(len(candidates)):
             done = results[c * n_batches : (c + 1) * n_batches]
