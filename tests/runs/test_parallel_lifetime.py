@@ -165,7 +165,7 @@ def test_a_run_whose_worker_is_killed_fails_and_keeps_its_chunks(tmp_path: Path)
     assert "killed by SIGKILL" in err.decode() and err.decode().count("\n") == 1, err.decode()
     run = load_run(out)
     assert run.meta["status"] == "failed" and len(run.samples) % CHUNK == 0
-    assert f"keeps its {len(run.samples)} samples: continue it with twin run --resume {out}" in err.decode()
+    assert f"keeps its {len(run.samples)} samples: continue it with: twin run --resume {out}" in err.decode()
     assert len(run.samples) < 3 * len(many["protocol"]["orientations_deg"])
     _assert_all_end(everyone)
 

@@ -40,6 +40,10 @@ class WorkerLostError(TwinError):
     out-of-memory killer sends SIGKILL). The run stops at once (records kept); the message
     names the process and how it ended."""
 
+    def going_on(self, how: str) -> WorkerLostError:
+        """The same loss, its message ending with how the caller's work goes on (`how`)."""
+        return WorkerLostError(f"{self}; {how} (with fewer --workers where memory ran out)")
+
 
 class LostPinsError(TwinError):
     """Too many pins could not be tracked in a frame: the run stops (records kept)."""

@@ -316,6 +316,11 @@ class RunRecorder:
             self.close("failed", f"{exc_type.__name__}: {exc}")
 
 
+def resume_hint(run_dir: Path) -> str:
+    """How to finish the unfinished run in `run_dir`, in words for a message."""
+    return f"continue it with: twin run --resume {run_dir}"
+
+
 def _append(fd: int, data: bytes) -> None:
     """Append `data` whole, or nothing: a write that fails part-way is cut back off."""
     start = os.lseek(fd, 0, os.SEEK_END)
@@ -418,7 +423,7 @@ class Run:
         why = {"killed": "killed before it finished (no end marker)", "running": "still being recorded"}
         return (
             f"{self.path}: run did not finish ({why.get(self.state, self.state)}; {len(self.samples)} samples); "
-            f"continue it with: twin run --resume {self.path}"
+            f"{resume_hint(self.path)}"
         )
 
     def label(self, key: str) -> np.ndarray:

@@ -25,7 +25,7 @@ from twin.core.scenario import Scenario
 from twin.runs.backends import make_environment
 from twin.runs.parallel import default_workers, map_streamed
 from twin.runs.protocols import Move, protocol_moves
-from twin.runs.record import RunRecorder
+from twin.runs.record import RunRecorder, resume_hint
 from twin.sensing.pins import PinReader
 
 
@@ -184,8 +184,5 @@ def record_protocol(
                 close_worker_envs()
             recorder.meta["wall_time_s"] = time.perf_counter() - wall
     except WorkerLostError as lost:  # a transient loss (the out-of-memory killer): the run can go on
-        raise WorkerLostError(
-            f"{lost}; the run keeps its {recorder.count} samples: continue it with "
-            f"twin run --resume {out} (with fewer --workers where memory ran out)"
-        ) from lost
+        raise lost.going_on(f"the run keeps its {recorder.count} samples: {resume_hint(Path(out))}") from lost
     return Path(out)

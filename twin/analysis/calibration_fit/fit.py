@@ -100,9 +100,8 @@ def calibrate(
         with WorkerPool(workers, cluster) as pool:
             return _calibrate(run_dirs, scenario, out, settings, pool, progress, [Path(r) for r in held_out or []])
     except WorkerLostError as lost:  # a transient loss (the out-of-memory killer): the fit can go on
-        raise WorkerLostError(
-            f"{lost}; {out / CHECKPOINT} keeps every finished generation: the same twin calibrate "
-            "goes on from there (with fewer --workers where memory ran out)"
+        raise lost.going_on(
+            f"{out / CHECKPOINT} keeps every finished generation: the same twin calibrate goes on from there"
         ) from lost
 
 
