@@ -99,6 +99,13 @@ class CompliantSettings(PhysicsSettings):
         None,
     )
 
+    edge_within_node: bool | None = Field(
+        default=None,
+        description="a node whose disc a face's edge crosses takes contact over the part of "
+        "its disc on the face (twin.world.dome.compliant.cut_nodes), so an edge is placed within "
+        "a node (default true); false = at whole nodes, the model before 2026-12-02",
+    )
+
     def changes(self) -> dict[str, Any]:
         """The settings given, as CompliantParams fields (SI)."""
         changes = {
@@ -115,6 +122,7 @@ class CompliantSettings(PhysicsSettings):
             "pins_in_gel": self.pins_in_gel,
             "tip_sway": None if self.tip_sway_mm_per_n is None else self.tip_sway_mm_per_n * 1e-3,
             "apex_radius": None if self.apex_radius_mm is None else self.apex_radius_mm * 1e-3,
+            "edge_within_node": self.edge_within_node,
         }
         return {k: v for k, v in changes.items() if v is not None}
 
@@ -127,8 +135,13 @@ class CompliantBuilder:
     parameters = CompliantParams
     levels: Mapping[str, CompliantParams] = COMPLIANT_LEVELS
     settings = CompliantSettings
-    #: each skin over the gel (SKIN_PHYSICS), and 1 mm increments (the default's are 0.5 mm)
-    presets: Mapping[str, Mapping[str, Any]] = {**SKIN_PHYSICS, "increment_1mm": {"increment_mm": 1.0}}
+    #: each skin over the gel (SKIN_PHYSICS), 1 mm increments (the default's are 0.5 mm), and
+    #: contact at whole nodes (the default places an edge within a node)
+    presets: Mapping[str, Mapping[str, Any]] = {
+        **SKIN_PHYSICS,
+        "increment_1mm": {"increment_mm": 1.0},
+        "whole_nodes": {"edge_within_node": False},
+    }
     quasi_static = True
 
     def params(

@@ -182,12 +182,37 @@ class CapSurface:
         points = np.concatenate([self.points, band_points])
         frames = np.concatenate([self.frames, band_frames])
         polar = np.arccos(np.clip(frames[:, 0, 2], -1.0, 1.0))
-        azimuth = np.arctan2(frames[:, 0, 1], frames[:, 0, 0])
-        triangles = Delaunay(np.column_stack([polar * np.cos(azimuth), polar * np.sin(azimuth)])).simplices
+        triangles = Delaunay(azimuthal_map(frames[:, 0])).simplices
         held = polar > math.radians(held_deg) - self.spacing / self.geometry.dome_outer_radius
         return SkinSheet(
             points, frames, triangles, held, self.geometry.dome_outer_radius, self.spacing, math.radians(held_deg)
         )
+
+    @cached_property
+    def triangulation(self) -> Delaunay:
+        """The nodes' Delaunay triangulation in the azimuthal equidistant map about the apex."""
+        return Delaunay(azimuthal_map(self.normals))
+
+    def interpolation(self, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The lattice's linear interpolation at the points of the dome in these unit
+        directions (k, 3) from its sphere centre: (k, 3) node indices and (k, 3) weights,
+        the corners of the map's triangle each point lies in and its barycentric
+        coordinates (beyond the cap: the nearest node alone)."""
+        where = azimuthal_map(directions)
+        tri = self.triangulation
+        simplex = tri.find_simplex(where)
+        inside = simplex >= 0
+        transform = tri.transform[simplex[inside]]
+        barycentric = np.einsum("kij,kj->ki", transform[:, :2], where[inside] - transform[:, 2])
+        nodes = np.zeros((len(where), 3), dtype=np.intp)
+        weights = np.zeros((len(where), 3))
+        nodes[inside] = tri.simplices[simplex[inside]]
+        weights[inside] = np.column_stack([barycentric, 1.0 - barycentric.sum(axis=1)])
+        outside = np.flatnonzero(~inside)
+        if len(outside):
+            nodes[outside, 0] = np.argmax(directions[outside] @ self.normals.T, axis=1)
+            weights[outside, 0] = 1.0
+        return nodes, weights
 
     def _on_dome(self, normals: np.ndarray) -> np.ndarray:
         g = self.geometry
@@ -397,6 +422,15 @@ def post_tips(
     tangential = base - normals[:, :, None, None] * normal_part[:, None, :, :]
     tip -= geometry.pin_length / geometry.dome_outer_radius * tangential
     return tip
+
+
+def azimuthal_map(directions: np.ndarray) -> np.ndarray:
+    """(N, 2) rad: unit directions (N, 3) from the dome's sphere centre in the azimuthal
+    equidistant map about the apex (polar angle along the azimuth), where the cap's lattice
+    is triangulated."""
+    polar = np.arccos(np.clip(directions[:, 2], -1.0, 1.0))
+    azimuth = np.arctan2(directions[:, 1], directions[:, 0])
+    return np.column_stack([polar * np.cos(azimuth), polar * np.sin(azimuth)])
 
 
 def _dofs(nodes: np.ndarray) -> np.ndarray:

@@ -38,19 +38,29 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, replace
-from functools import lru_cache
+from functools import cached_property, lru_cache
 from typing import ClassVar
 
 import mujoco
 import numpy as np
+from scipy import sparse
+from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 from twin.core.errors import PhysicsError
 from twin.core.poses import invert_transform, make_transform
 from twin.core.sensor import TacTipGeometry
 from twin.world.dome.base import Frame, physics_error
-from twin.world.dome.compliant.compliance import CapSurface, DomeCompliance
+from twin.world.dome.compliant.compliance import CapSurface, DomeCompliance, sway_block
 from twin.world.dome.compliant.contact import ContactNotConverged, solve_increment, unknowns_matrix
+from twin.world.dome.compliant.cut_nodes import (
+    FACING_DEG,
+    SAME_SURFACE_DEG,
+    CutNodes,
+    cut_nodes,
+    partial_disc_compliance,
+    sample_directions,
+)
 
 
 @dataclass(frozen=True)
@@ -110,6 +120,11 @@ class CompliantParams:
       sphere through the apex (`apex_lift`); the compliance stays the geometry's dome's, as
       Hertz theory pairs a curved profile with a half-space's compliance. At or below the
       geometry's dome radius (the default, 20 mm) the gap is the sphere's own.
+    edge_within_node: a node whose disc a face's boundary crosses (a straight edge's
+      corner) takes contact over the part of its disc on the face, with that part's gap,
+      compliance and centroid (twin.world.dome.compliant.cut_nodes), so an edge is placed
+      within a node. False: at whole nodes, each by the ray through its centre (to within
+      half a spacing; the model before 2026-12-02).
     """
 
     #: the largest Poisson's ratio (–) the model takes (the incompressible gel's ν = 0.5 is the model's own)
@@ -137,6 +152,7 @@ class CompliantParams:
     pins_in_gel: bool = False
     tip_sway: float = 0.0
     apex_radius: float = 0.020
+    edge_within_node: bool = True
 
     def with_(self, **changes) -> CompliantParams:
         return replace(self, **changes)
@@ -226,6 +242,14 @@ class CompliantPhysics:
         self._lift = apex_lift(self.surface.points, self.geometry.dome_outer_radius, params.apex_radius)
         #: how far the profile stands out of the sphere at most (m): the sphere's clearance overstates the profile's by it
         self._lift_max = 0.0 if self._lift is None else float(self._lift.max())
+        #: each node's disc's share on a face that ends within it, where `edge_within_node` (1: whole)
+        self._covered = np.ones(n)
+        self._cut: CutNodes | None = None
+        #: which nodes' discs are sampled for a face's boundary: those within two spacings of
+        #: a node near the object whose neighbours see different faces or none
+        self._neighbours = (
+            _neighbourhood(self.surface.points, 2.0 * params.spacing) if params.edge_within_node else None
+        )
         #: geoms the dome can touch (the scene builds the object without collision when `contact` is off)
         self._collidable = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
         self._bounded = np.flatnonzero(self._collidable)
@@ -239,7 +263,7 @@ class CompliantPhysics:
         #: from which a steady motion's next forces are extrapolated (`_warm_start`)
         self._before: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self.displacement = np.zeros((n, 3))  # m, tool frame
-        self._local: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # `_local_matrix`'s last
+        self._local: tuple[np.ndarray, ...] | None = None  # `_local_matrix`'s last
         self.rest_pins = self.geometry.pin_tip_points()
         self._pins = self.rest_pins.copy()
         self._steps = 0
@@ -370,7 +394,87 @@ class CompliantPhysics:
             normal_gap -= lift * c[:, 2]
             near = (along_ray < margin + lift) & (normal_gap < margin)
         gaps[hit] = np.where(near, normal_gap, along_ray)
+        if self.params.edge_within_node:
+            self._place_edges(gaps, frames, hit, along_ray, c)
         return gaps, frames
+
+    def _place_edges(
+        self, gaps: np.ndarray, frames: np.ndarray, hit: np.ndarray, along_ray: np.ndarray, inward: np.ndarray
+    ) -> None:
+        """Where a face's boundary crosses a node's disc, give the node the part on the face
+        (twin.world.dome.compliant.cut_nodes): its gap and contact frame (in `gaps` and
+        `frames`, in place), its covered share (`_covered`) and the centroid the pins take its
+        force at (`_cut`). `hit`, `along_ray` and `inward`: the centre rays' (the hit ones'),
+        as `_contact_geometry` found them."""
+        self._covered[:] = 1.0
+        self._cut = None
+        p = self.params
+        near = gaps < p.candidate_margin
+        if not near.any():
+            return
+        reach = p.candidate_margin + p.spacing
+        # the centre rays that see a face within reach, facing it, and that face's normal
+        normals = np.zeros((len(gaps), 3))
+        normals[hit] = inward
+        on_face = np.zeros(len(gaps), bool)
+        on_face[hit] = (along_ray < reach) & (
+            np.einsum("ij,ij->i", inward, self.surface.normals[hit]) > math.cos(math.radians(FACING_DEG))
+        )
+        # sampled: the nodes beside one near the object whose neighbourhood sees the face
+        # end, or turn as an edge does
+        neighbours, degree, (rows, cols) = self._neighbours
+        around = neighbours @ near.astype(float) > 0.0
+        seen = neighbours @ on_face.astype(float)
+        sampled = around & (seen > 0.0) & (seen < degree)
+        turned = (
+            on_face[rows]
+            & on_face[cols]
+            & (np.einsum("ij,ij->i", normals[rows], normals[cols]) < math.cos(math.radians(SAME_SURFACE_DEG)))
+        )
+        sampled[rows[turned]] |= around[rows[turned]]
+        nodes = np.flatnonzero(sampled)
+        if not len(nodes):
+            return
+        directions = self._sample_directions[nodes]
+        count = directions.shape[0] * directions.shape[1]
+        geom, dist, normal = np.zeros(count, np.int32), np.zeros(count), np.zeros(3 * count)
+        mujoco.mj_multiRay(
+            self.model,
+            self.data,
+            self._centre,
+            np.ascontiguousarray(directions.reshape(-1)),
+            None,
+            1,
+            -1,
+            geom,
+            dist,
+            normal,
+            count,
+            3.0 * self.geometry.dome_outer_radius,
+        )
+        shape = directions.shape[:2]
+        sample_hit = ((dist >= 0.0) & self._collidable[geom]).reshape(shape)
+        face = -normal.reshape(*shape, 3)
+        face *= np.sign(np.einsum("ksj,ksj->ks", face, directions))[..., None]  # into the object
+        lift = None if self._lift is None else self._lift[nodes]
+        along = (dist - self.geometry.dome_outer_radius).reshape(shape)
+        cut = cut_nodes(nodes, directions, sample_hit, along, face, geom.reshape(shape), lift, reach)
+        if not len(cut.nodes):
+            return
+        gaps[cut.nodes] = cut.gaps
+        meridian = self.surface.frames[cut.nodes, 1]
+        t1 = meridian - np.einsum("ij,ij->i", meridian, cut.normals)[:, None] * cut.normals
+        t1 /= np.linalg.norm(t1, axis=1)[:, None]
+        frames[cut.nodes] = np.stack([cut.normals, t1, np.cross(cut.normals, t1)], axis=1)
+        self._ray_geom[cut.nodes] = cut.geoms
+        self._covered[cut.nodes] = cut.covered
+        self._cut = cut
+
+    @cached_property
+    def _sample_directions(self) -> np.ndarray:
+        """(N, S, 3): the rays through each node's disc samples (twin.world.dome.compliant.cut_nodes)."""
+        s = self.surface
+        return sample_directions(s.points, s.tangents, self._centre, math.sqrt(s.area / math.pi))
 
     def _clearance(self) -> float:
         """A lower bound (m) on the distance from the dome's outer sphere to the object at
@@ -463,6 +567,7 @@ class CompliantPhysics:
             self.iterations += solution.iterations
             forces = np.einsum("ni,nij->nj", solution.forces, f)  # tool frame
             displacement = self.compliance.surface_displacement(candidates, forces, p.tip_sway)
+            self._add_partial_displacement(displacement, candidates, f, solution.forces)
             after = gaps - np.einsum("nj,nj->n", frames[:, 0], displacement)
             penetrating = after < -p.max_penetration
             penetrating[candidates] = False
@@ -476,7 +581,7 @@ class CompliantPhysics:
         self.forces = np.zeros_like(self.forces)
         self.forces[candidates] = forces
         self.displacement = displacement
-        self._pins = self.rest_pins + self.compliance.pin_displacement(candidates, forces, p.tip_sway)
+        self._pins = self.rest_pins + self.compliance.pin_displacement(*self._pin_loads(candidates, forces), p.tip_sway)
         self.step_seconds += time.perf_counter() - t0
         self._check(after)
 
@@ -492,17 +597,57 @@ class CompliantPhysics:
                 return 2.0 * self.forces[candidates] - forces[candidates]
         return self.forces[candidates]
 
+    def _add_partial_displacement(
+        self, displacement: np.ndarray, nodes: np.ndarray, frames: np.ndarray, local_forces: np.ndarray
+    ) -> None:
+        """Add to `displacement` (N, 3) m, tool frame, what the cut ones among `nodes` yield
+        more under their forces (m, 3) N in their contact frames (m, 3, 3), as the smaller
+        discs they press with: `_local_matrix`'s `partial_disc_compliance`."""
+        cut = self._covered[nodes] < 1.0
+        if cut.any():
+            extra = self._local[4][cut] * local_forces[cut]
+            displacement[nodes[cut]] += np.einsum("ni,nij->nj", extra, frames[cut])
+
+    def _pin_loads(self, nodes: np.ndarray, forces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The nodes and forces (N, tool frame) the pins take: a cut node's force moved to
+        the centroid of its part on the face, shared among the lattice's nodes there by
+        linear interpolation (CapSurface.interpolation)."""
+        cut = self._cut
+        if cut is None:
+            return nodes, forces
+        moved = np.isin(nodes, cut.nodes)
+        if not moved.any():
+            return nodes, forces
+        order = np.searchsorted(cut.nodes, nodes[moved])
+        corners, weights = self.surface.interpolation(cut.centroids[order])
+        shared = (weights[..., None] * forces[moved][:, None, :]).reshape(-1, 3)
+        return np.concatenate([nodes[~moved], corners.ravel()]), np.concatenate([forces[~moved], shared])
+
     def _local_matrix(self, nodes: np.ndarray, frames: np.ndarray) -> np.ndarray:
         """(3m, 3m) m/N: the compliance among `nodes` in their contact frames (m, 3, 3), as
-        the contact solve's unknowns see it (`unknowns_matrix`). Kept while the nodes and
-        their frames stay the same, as on a slide over one face (on the sweep probe's
-        slides across and along the edge, 132 of 340 solves kept it); recomputed bit for
-        bit otherwise."""
+        the contact solve's unknowns see it (`unknowns_matrix`), a cut node's own term
+        raised as for the part of its disc on the face (`partial_disc_compliance`, kept in
+        `_local` for `_add_partial_displacement`). Kept while the nodes, their frames and
+        their covered shares stay the same, as on a slide over one face (on the sweep
+        probe's slides across and along the edge, 132 of 340 solves kept it); recomputed
+        bit for bit otherwise."""
         kept = self._local
-        if kept is not None and np.array_equal(kept[0], nodes) and np.array_equal(kept[1], frames):
-            return kept[2]
-        local = unknowns_matrix(self.compliance.local_block(nodes, frames, self.params.tip_sway))
-        self._local = (nodes.copy(), frames.copy(), local)
+        covered = self._covered[nodes]
+        if (
+            kept is not None
+            and np.array_equal(kept[0], nodes)
+            and np.array_equal(kept[1], frames)
+            and np.array_equal(kept[2], covered)
+        ):
+            return kept[3]
+        block = self.compliance.local_block(nodes, frames)
+        own = np.diagonal(block).reshape(-1, 3)  # each node's self-compliance in its frame, m/N
+        extra = partial_disc_compliance(covered, own)
+        block[np.diag_indices_from(block)] += extra.ravel()
+        if self.params.tip_sway:
+            block += sway_block(frames, self.params.tip_sway)
+        local = unknowns_matrix(block)
+        self._local = (nodes.copy(), frames.copy(), covered, local, extra)
         return local
 
     def _check(self, gaps_after: np.ndarray) -> None:
@@ -523,6 +668,19 @@ class CompliantPhysics:
 
     def _fail(self, what: str) -> None:
         raise physics_error(self.scenario_name, f"increment {self._steps}", self.time, self.world2work, self._at, what)
+
+
+def _neighbourhood(
+    points: np.ndarray, radius: float
+) -> tuple[sparse.csr_matrix, np.ndarray, tuple[np.ndarray, np.ndarray]]:
+    """The nodes (N, 3) m within `radius` (m) of each other, each its own too: the (N, N)
+    0/1 matrix, each node's count (N,) and the pairs (rows, cols) of its nonzeros."""
+    pairs = cKDTree(points).query_pairs(radius, output_type="ndarray")
+    n = len(points)
+    rows = np.concatenate([pairs[:, 0], pairs[:, 1], np.arange(n)])
+    cols = np.concatenate([pairs[:, 1], pairs[:, 0], np.arange(n)])
+    matrix = sparse.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+    return matrix, np.asarray(matrix.sum(axis=1)).ravel(), (rows, cols)
 
 
 def apex_lift(points: np.ndarray, dome_radius: float, apex_radius: float) -> np.ndarray | None:
