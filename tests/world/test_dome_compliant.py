@@ -337,3 +337,62 @@ def test_increments_out_of_reach_cast_no_rays_and_change_nothing():
     solved, reference = taps(False)
     assert physics.steps == reference.steps and reference.skipped == 0 and physics.skipped > 0.2 * physics.steps
     assert np.array_equal(skipped, solved)
+
+
+def test_the_lattice_interpolates_linearly_within_its_triangles():
+    """CapSurface.interpolation, which moves a cut node's force to its part's centroid:
+    at points up to a disc's radius from random nodes, the weights are ≥ 0, sum to 1 and
+    reproduce the point's own map coordinates (linear precision); at a node, all of it on
+    that node."""
+    from twin.core.sensor import TacTipGeometry
+    from twin.world.dome.compliant.compliance import CapSurface, azimuthal_map
+
+    surface = CapSurface(TacTipGeometry(), 0.0015, 65.0)
+    rng = np.random.default_rng(0)
+    nodes = rng.choice(np.flatnonzero(~surface.rim), 200, replace=False)
+    radius = np.sqrt(surface.area / np.pi)
+    offset = rng.uniform(-1, 1, (200, 2)) * radius / np.sqrt(2)
+    points = surface.points[nodes] + np.einsum("nk,nkj->nj", offset, surface.tangents[nodes])
+    directions = points - [0.0, 0.0, surface.geometry.sphere_centre_z]
+    directions /= np.linalg.norm(directions, axis=1)[:, None]
+    corners, weights = surface.interpolation(directions, nodes)
+    assert weights.min() >= -1e-9 and np.allclose(weights.sum(axis=1), 1.0)
+    mapped = np.einsum("nk,nkj->nj", weights, azimuthal_map(surface.normals)[corners])
+    assert np.abs(mapped - azimuthal_map(directions)).max() < 1e-12
+    at_nodes, on_node = surface.interpolation(surface.normals[nodes], nodes)
+    assert np.allclose(np.einsum("nk,nk->n", on_node, at_nodes == nodes[:, None]), 1.0)
+
+
+@pytest.mark.parametrize("offset", [-0.6, -0.3, 0.0, 0.3, 0.6])
+def test_a_straight_boundary_covers_a_disc_as_its_segment_does(offset):
+    """twin.world.dome.compliant.cut_nodes on a disc whose samples see a flat face on one
+    side of a straight line `offset` radii from the centre: the covered share is the
+    circular segment's area fraction to within the samples' resolution (0.1: a row of up to
+    three of the 19 samples on the line; measured 0.00–0.09), the centroid lies on the
+    face's side of the line, and the gap and normal are the face's."""
+    from twin.world.dome.compliant.cut_nodes import DISC_SAMPLES, cut_nodes
+
+    radius, depth = 1e-3, 2e-4  # m; the face stands `depth` into the dome everywhere
+    xy = DISC_SAMPLES[:, :2] * radius
+    directions = np.column_stack([xy, np.ones(len(xy))])  # near-vertical rays through the disc
+    directions /= np.linalg.norm(directions, axis=1)[:, None]
+    on_face = xy[:, 0] < offset * radius
+    along = np.where(on_face, -depth / directions[:, 2], 1.0)
+    normals = np.tile([0.0, 0.0, -1.0], (len(xy), 1))  # as a ray cast gives it
+    cut = cut_nodes(
+        np.array([7]),
+        directions[None],
+        on_face[None],
+        along[None],
+        normals[None],
+        np.zeros((1, len(xy)), int),
+        None,
+        1e-3,
+    )
+    d = offset  # the segment x < d·r of the unit disc
+    fraction = (np.arccos(-d) + d * np.sqrt(1 - d * d)) / np.pi
+    assert cut.nodes.tolist() == [7]
+    assert cut.covered[0] == pytest.approx(fraction, abs=0.1)
+    assert cut.centroids[0, 0] / cut.centroids[0, 2] < offset * radius
+    assert cut.gaps[0] == pytest.approx(-depth, rel=1e-9)
+    assert cut.normals[0] == pytest.approx([0.0, 0.0, 1.0])

@@ -84,7 +84,7 @@ import hashlib
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -188,31 +188,35 @@ class CapSurface:
             points, frames, triangles, held, self.geometry.dome_outer_radius, self.spacing, math.radians(held_deg)
         )
 
-    @cached_property
+    @property
     def triangulation(self) -> Delaunay:
-        """The nodes' Delaunay triangulation in the azimuthal equidistant map about the apex."""
-        return Delaunay(azimuthal_map(self.normals))
+        """The nodes' Delaunay triangulation in the azimuthal equidistant map about the apex
+        (one per lattice in a process: `_triangulated`)."""
+        return _triangulated(self)[0]
 
-    def interpolation(self, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def interpolation(self, directions: np.ndarray, nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The lattice's linear interpolation at the points of the dome in these unit
-        directions (k, 3) from its sphere centre: (k, 3) node indices and (k, 3) weights,
-        the corners of the map's triangle each point lies in and its barycentric
-        coordinates (beyond the cap: the nearest node alone)."""
+        directions (k, 3) from its sphere centre, each near its node of `nodes` (k,) (within
+        its disc: it is looked for among that node's triangles first): (k, 3) node indices
+        and (k, 3) weights, the corners of the map's triangle each point lies in and its
+        barycentric coordinates (beyond the cap: the nearest node alone)."""
         where = azimuthal_map(directions)
-        tri = self.triangulation
-        simplex = tri.find_simplex(where)
-        inside = simplex >= 0
-        transform = tri.transform[simplex[inside]]
-        barycentric = np.einsum("kij,kj->ki", transform[:, :2], where[inside] - transform[:, 2])
-        nodes = np.zeros((len(where), 3), dtype=np.intp)
-        weights = np.zeros((len(where), 3))
-        nodes[inside] = tri.simplices[simplex[inside]]
-        weights[inside] = np.column_stack([barycentric, 1.0 - barycentric.sum(axis=1)])
-        outside = np.flatnonzero(~inside)
+        tri, indptr, fans = _triangulated(self)
+        simplex, weights = _in_fan(tri.transform, indptr, fans, np.asarray(nodes, np.int64), where)
+        elsewhere = np.flatnonzero(simplex < 0)
+        if len(elsewhere):
+            simplex[elsewhere] = tri.find_simplex(where[elsewhere])
+            inside = elsewhere[simplex[elsewhere] >= 0]
+            transform = tri.transform[simplex[inside]]
+            barycentric = np.einsum("kij,kj->ki", transform[:, :2], where[inside] - transform[:, 2])
+            weights[inside] = np.column_stack([barycentric, 1.0 - barycentric.sum(axis=1)])
+        corners = tri.simplices[np.maximum(simplex, 0)]
+        outside = np.flatnonzero(simplex < 0)
         if len(outside):
-            nodes[outside, 0] = np.argmax(directions[outside] @ self.normals.T, axis=1)
-            weights[outside, 0] = 1.0
-        return nodes, weights
+            corners[outside] = 0
+            corners[outside, 0] = np.argmax(directions[outside] @ self.normals.T, axis=1)
+            weights[outside] = [1.0, 0.0, 0.0]
+        return corners, weights
 
     def _on_dome(self, normals: np.ndarray) -> np.ndarray:
         g = self.geometry
@@ -431,6 +435,39 @@ def azimuthal_map(directions: np.ndarray) -> np.ndarray:
     polar = np.arccos(np.clip(directions[:, 2], -1.0, 1.0))
     azimuth = np.arctan2(directions[:, 1], directions[:, 0])
     return np.column_stack([polar * np.cos(azimuth), polar * np.sin(azimuth)])
+
+
+@lru_cache(maxsize=8)
+def _triangulated(surface: CapSurface) -> tuple[Delaunay, np.ndarray, np.ndarray]:
+    """The lattice's triangulation in the azimuthal map (`CapSurface.triangulation`) and each
+    node's triangles in it, as a CSR pattern: (indptr (N + 1,), triangle indices)."""
+    tri = Delaunay(azimuthal_map(surface.normals))
+    owner = tri.simplices.ravel()
+    order = np.argsort(owner, kind="stable")
+    triangles = np.repeat(np.arange(len(tri.simplices)), 3)[order]
+    return tri, np.searchsorted(owner[order], np.arange(surface.count + 1)), triangles
+
+
+@compiled
+def _in_fan(
+    transform: np.ndarray, indptr: np.ndarray, fans: np.ndarray, nodes: np.ndarray, where: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The triangle among each node's (`fans`, CSR with `indptr`) that holds its point `where`
+    (k, 2) of the map, by the triangulation's barycentric `transform`, and the point's
+    barycentric coordinates in it: (k,) triangle indices (−1 if none) and (k, 3) weights."""
+    found = np.full(len(nodes), -1, np.int64)
+    weights = np.zeros((len(nodes), 3))
+    for k in range(len(nodes)):
+        for f in range(indptr[nodes[k]], indptr[nodes[k] + 1]):
+            t = fans[f]
+            dx, dy = where[k, 0] - transform[t, 2, 0], where[k, 1] - transform[t, 2, 1]
+            b0 = transform[t, 0, 0] * dx + transform[t, 0, 1] * dy
+            b1 = transform[t, 1, 0] * dx + transform[t, 1, 1] * dy
+            if b0 >= -1e-12 and b1 >= -1e-12 and 1.0 - b0 - b1 >= -1e-12:
+                found[k] = t
+                weights[k, 0], weights[k, 1], weights[k, 2] = b0, b1, 1.0 - b0 - b1
+                break
+    return found, weights
 
 
 def _dofs(nodes: np.ndarray) -> np.ndarray:

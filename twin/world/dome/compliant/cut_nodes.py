@@ -29,6 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from twin.world.dome.compiled import compiled
+
 
 def _hexagonal_samples(rings: int) -> np.ndarray:
     """(S, 3): points of a hexagonal grid within the unit disc, `rings` rings about the
@@ -76,6 +78,52 @@ class CutNodes:
     centroids: np.ndarray
 
 
+def boundary_nodes(
+    indptr: np.ndarray,
+    indices: np.ndarray,
+    gaps: np.ndarray,
+    on_face: np.ndarray,
+    normals: np.ndarray,
+    within: float,
+) -> np.ndarray:
+    """(N,) bool: the nodes whose discs are sampled: those whose neighbourhood sees a face
+    end (`on_face` (N,) bool: the centre ray meets a face it faces, within reach) or turn by
+    more than `SAME_SURFACE_DEG` (normals (N, 3): the face's, into the object), where the
+    node or a neighbour on the face lies `within` (m) of the object (gaps (N,) m: the
+    centre rays'). The neighbourhoods: a CSR pattern (`indptr`, `indices`), each node its
+    own neighbour too, reaching farther than a disc's radius plus the lattice's widest gap."""
+    return _boundary_nodes(indptr, indices, gaps, on_face, normals, within, math.cos(math.radians(SAME_SURFACE_DEG)))
+
+
+@compiled
+def _boundary_nodes(
+    indptr: np.ndarray,
+    indices: np.ndarray,
+    gaps: np.ndarray,
+    on_face: np.ndarray,
+    normals: np.ndarray,
+    within: float,
+    turn: float,
+) -> np.ndarray:
+    n = len(gaps)
+    sampled = np.zeros(n, np.bool_)
+    for i in range(n):
+        close = gaps[i] < within
+        ends = False
+        for k in range(indptr[i], indptr[i + 1]):
+            j = indices[k]
+            if on_face[j] != on_face[i]:
+                ends = True
+            elif on_face[i] and (
+                normals[i, 0] * normals[j, 0] + normals[i, 1] * normals[j, 1] + normals[i, 2] * normals[j, 2] < turn
+            ):
+                ends = True
+            if on_face[j] and gaps[j] < within:
+                close = True
+        sampled[i] = ends and close
+    return sampled
+
+
 def sample_directions(points: np.ndarray, tangents: np.ndarray, centre: np.ndarray, radius: float) -> np.ndarray:
     """(N, S, 3): unit directions from the sphere `centre` (3,) m through each node's
     `DISC_SAMPLES` on the disc of `radius` (m) about the node, in its tangent plane (points
@@ -90,43 +138,98 @@ def cut_nodes(
     directions: np.ndarray,
     hit: np.ndarray,
     along: np.ndarray,
-    face_normals: np.ndarray,
+    ray_normals: np.ndarray,
     geoms: np.ndarray,
     lift: np.ndarray | None,
     reach: float,
 ) -> CutNodes:
     """The cut ones among `nodes` (k,), from the rays through their samples: directions
     (k, S, 3) unit; hit (k, S) whether a ray met a face; along (k, S) m: how far beyond the
-    dome's outer surface it met it; face_normals (k, S, 3): the face's normal into the
-    object; geoms (k, S); lift (k,) m: each node's lift onto a flatter apex profile along
-    the dome's axis (None: the sphere's own; twin.world.dome.compliant.physics.apex_lift).
+    dome's outer surface it met it; ray_normals (k, S, 3): the face's unit normal as the ray
+    cast gave it (either way); geoms (k, S); lift (k,) m: each node's lift onto a flatter
+    apex profile along the dome's axis (None: the sphere's own;
+    twin.world.dome.compliant.physics.apex_lift).
 
     A sample covers its node's disc where its ray meets a face within `reach` (m) beyond the
     dome, facing it (`FACING_DEG`), and on the surface of the disc's most penetrated sample
     (within `SAME_SURFACE_DEG` of its normal)."""
-    weights = DISC_SAMPLES[:, 2]
-    facing = np.einsum("ksj,ksj->ks", face_normals, directions)
-    valid = hit & (along < reach) & (facing > math.cos(math.radians(FACING_DEG)))
-    gap = along * facing
-    if lift is not None:
-        gap = gap - lift[:, None] * face_normals[..., 2]
-    deepest = np.argmin(np.where(valid, gap, np.inf), axis=1)
-    rows = np.arange(len(nodes))
-    surface_normal = face_normals[rows, deepest]
-    same = valid & (np.einsum("ksj,kj->ks", face_normals, surface_normal) > math.cos(math.radians(SAME_SURFACE_DEG)))
-    covered = same.astype(float) @ weights
-    cut = (covered > 0.0) & (covered < 1.0 - 1e-9)
-    share = np.where(same, weights, 0.0)[cut] / covered[cut, None]
-    centroids = np.einsum("ks,ksj->kj", share, directions[cut])
-    normals = np.einsum("ks,ksj->kj", share, face_normals[cut])
+    covered, gaps, normals, centroids, deepest = _cover(
+        directions,
+        hit,
+        along,
+        ray_normals,
+        np.zeros(len(nodes)) if lift is None else lift,
+        DISC_SAMPLES[:, 2],
+        reach,
+        math.cos(math.radians(FACING_DEG)),
+        math.cos(math.radians(SAME_SURFACE_DEG)),
+    )
+    cut = np.flatnonzero((covered > 0.0) & (covered < 1.0 - 1e-9))
     return CutNodes(
         nodes=np.asarray(nodes)[cut],
         covered=covered[cut],
-        gaps=np.einsum("ks,ks->k", share, np.where(same[cut], gap[cut], 0.0)),
-        normals=normals / np.linalg.norm(normals, axis=1)[:, None],
-        geoms=geoms[rows[cut], deepest[cut]],
-        centroids=centroids / np.linalg.norm(centroids, axis=1)[:, None],
+        gaps=gaps[cut],
+        normals=normals[cut],
+        geoms=geoms[cut, deepest[cut]],
+        centroids=centroids[cut],
     )
+
+
+@compiled
+def _cover(
+    directions: np.ndarray,
+    hit: np.ndarray,
+    along: np.ndarray,
+    ray_normals: np.ndarray,
+    lift: np.ndarray,
+    weights: np.ndarray,
+    reach: float,
+    facing_at_least: float,
+    same_at_least: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per disc (`cut_nodes`): the covered share (k,), the mean gap over it (k,) m, the
+    face's mean normal into the object (k, 3) and the part's centroid direction (k, 3),
+    both unit, and the most penetrated sample (k,)."""
+    k_count, s_count = hit.shape
+    covered = np.zeros(k_count)
+    gaps = np.zeros(k_count)
+    normals = np.zeros((k_count, 3))
+    centroids = np.zeros((k_count, 3))
+    deepest = np.zeros(k_count, np.int64)
+    face = np.zeros((s_count, 3))
+    gap = np.zeros(s_count)
+    valid = np.zeros(s_count, np.bool_)
+    for k in range(k_count):
+        best = np.inf
+        for s in range(s_count):
+            facing = -(
+                ray_normals[k, s, 0] * directions[k, s, 0]
+                + ray_normals[k, s, 1] * directions[k, s, 1]
+                + ray_normals[k, s, 2] * directions[k, s, 2]
+            )
+            sign = -1.0 if facing >= 0.0 else 1.0  # into the object, whichever way the face was hit
+            for a in range(3):
+                face[s, a] = sign * ray_normals[k, s, a]
+            facing = abs(facing)
+            gap[s] = along[k, s] * facing - lift[k] * face[s, 2]
+            valid[s] = hit[k, s] and along[k, s] < reach and facing > facing_at_least
+            if valid[s] and gap[s] < best:
+                best, deepest[k] = gap[s], s
+        if best == np.inf:
+            continue
+        d = deepest[k]
+        for s in range(s_count):
+            if valid[s] and face[s, 0] * face[d, 0] + face[s, 1] * face[d, 1] + face[s, 2] * face[d, 2] > same_at_least:
+                w = weights[s]
+                covered[k] += w
+                gaps[k] += w * gap[s]
+                for a in range(3):
+                    normals[k, a] += w * face[s, a]
+                    centroids[k, a] += w * directions[k, s, a]
+        gaps[k] /= covered[k]
+        normals[k] /= np.sqrt(normals[k, 0] ** 2 + normals[k, 1] ** 2 + normals[k, 2] ** 2)
+        centroids[k] /= np.sqrt(centroids[k, 0] ** 2 + centroids[k, 1] ** 2 + centroids[k, 2] ** 2)
+    return covered, gaps, normals, centroids, deepest
 
 
 def partial_disc_compliance(covered: np.ndarray, own: np.ndarray) -> np.ndarray:

@@ -38,7 +38,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, replace
-from functools import cached_property, lru_cache
+from functools import lru_cache
 from typing import ClassVar
 
 import mujoco
@@ -55,8 +55,8 @@ from twin.world.dome.compliant.compliance import CapSurface, DomeCompliance, swa
 from twin.world.dome.compliant.contact import ContactNotConverged, solve_increment, unknowns_matrix
 from twin.world.dome.compliant.cut_nodes import (
     FACING_DEG,
-    SAME_SURFACE_DEG,
     CutNodes,
+    boundary_nodes,
     cut_nodes,
     partial_disc_compliance,
     sample_directions,
@@ -245,11 +245,8 @@ class CompliantPhysics:
         #: each node's disc's share on a face that ends within it, where `edge_within_node` (1: whole)
         self._covered = np.ones(n)
         self._cut: CutNodes | None = None
-        #: which nodes' discs are sampled for a face's boundary: those within two spacings of
-        #: a node near the object whose neighbours see different faces or none
-        self._neighbours = (
-            _neighbourhood(self.surface.points, 2.0 * params.spacing) if params.edge_within_node else None
-        )
+        #: where edges are placed within nodes: each node's neighbours and its discs' rays (`_edge_lattice`)
+        self._edge_lattice = _edge_lattice(self.surface) if params.edge_within_node else None
         #: geoms the dome can touch (the scene builds the object without collision when `contact` is off)
         self._collidable = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
         self._bounded = np.flatnonzero(self._collidable)
@@ -420,22 +417,12 @@ class CompliantPhysics:
         on_face[hit] = (along_ray < reach) & (
             np.einsum("ij,ij->i", inward, self.surface.normals[hit]) > math.cos(math.radians(FACING_DEG))
         )
-        # sampled: the nodes beside one near the object whose neighbourhood sees the face
-        # end, or turn as an edge does
-        neighbours, degree, (rows, cols) = self._neighbours
-        around = neighbours @ near.astype(float) > 0.0
-        seen = neighbours @ on_face.astype(float)
-        sampled = around & (seen > 0.0) & (seen < degree)
-        turned = (
-            on_face[rows]
-            & on_face[cols]
-            & (np.einsum("ij,ij->i", normals[rows], normals[cols]) < math.cos(math.radians(SAME_SURFACE_DEG)))
-        )
-        sampled[rows[turned]] |= around[rows[turned]]
+        indptr, indices, rays = self._edge_lattice
+        sampled = boundary_nodes(indptr, indices, gaps, on_face, normals, p.candidate_margin)
         nodes = np.flatnonzero(sampled)
         if not len(nodes):
             return
-        directions = self._sample_directions[nodes]
+        directions = rays[nodes]
         count = directions.shape[0] * directions.shape[1]
         geom, dist, normal = np.zeros(count, np.int32), np.zeros(count), np.zeros(3 * count)
         mujoco.mj_multiRay(
@@ -454,11 +441,11 @@ class CompliantPhysics:
         )
         shape = directions.shape[:2]
         sample_hit = ((dist >= 0.0) & self._collidable[geom]).reshape(shape)
-        face = -normal.reshape(*shape, 3)
-        face *= np.sign(np.einsum("ksj,ksj->ks", face, directions))[..., None]  # into the object
-        lift = None if self._lift is None else self._lift[nodes]
         along = (dist - self.geometry.dome_outer_radius).reshape(shape)
-        cut = cut_nodes(nodes, directions, sample_hit, along, face, geom.reshape(shape), lift, reach)
+        lift = None if self._lift is None else self._lift[nodes]
+        cut = cut_nodes(
+            nodes, directions, sample_hit, along, normal.reshape(*shape, 3), geom.reshape(shape), lift, reach
+        )
         if not len(cut.nodes):
             return
         gaps[cut.nodes] = cut.gaps
@@ -469,12 +456,6 @@ class CompliantPhysics:
         self._ray_geom[cut.nodes] = cut.geoms
         self._covered[cut.nodes] = cut.covered
         self._cut = cut
-
-    @cached_property
-    def _sample_directions(self) -> np.ndarray:
-        """(N, S, 3): the rays through each node's disc samples (twin.world.dome.compliant.cut_nodes)."""
-        s = self.surface
-        return sample_directions(s.points, s.tangents, self._centre, math.sqrt(s.area / math.pi))
 
     def _clearance(self) -> float:
         """A lower bound (m) on the distance from the dome's outer sphere to the object at
@@ -615,11 +596,11 @@ class CompliantPhysics:
         cut = self._cut
         if cut is None:
             return nodes, forces
-        moved = np.isin(nodes, cut.nodes)
+        moved = self._covered[nodes] < 1.0
         if not moved.any():
             return nodes, forces
         order = np.searchsorted(cut.nodes, nodes[moved])
-        corners, weights = self.surface.interpolation(cut.centroids[order])
+        corners, weights = self.surface.interpolation(cut.centroids[order], cut.nodes[order])
         shared = (weights[..., None] * forces[moved][:, None, :]).reshape(-1, 3)
         return np.concatenate([nodes[~moved], corners.ravel()]), np.concatenate([forces[~moved], shared])
 
@@ -670,17 +651,22 @@ class CompliantPhysics:
         raise physics_error(self.scenario_name, f"increment {self._steps}", self.time, self.world2work, self._at, what)
 
 
-def _neighbourhood(
-    points: np.ndarray, radius: float
-) -> tuple[sparse.csr_matrix, np.ndarray, tuple[np.ndarray, np.ndarray]]:
-    """The nodes (N, 3) m within `radius` (m) of each other, each its own too: the (N, N)
-    0/1 matrix, each node's count (N,) and the pairs (rows, cols) of its nonzeros."""
-    pairs = cKDTree(points).query_pairs(radius, output_type="ndarray")
+@lru_cache(maxsize=8)
+def _edge_lattice(surface: CapSurface) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What placing edges within nodes needs of a lattice, once per lattice in a process: each
+    node's neighbours within 1.6 spacings (a disc's radius, 0.53 spacings, plus the
+    lattice's widest gap), each its own too, as a CSR pattern (indptr (N + 1,), indices),
+    and the unit rays from the dome's sphere centre through each node's disc samples (N, S,
+    3) (twin.world.dome.compliant.cut_nodes.sample_directions)."""
+    points = surface.points
+    pairs = cKDTree(points).query_pairs(1.6 * surface.spacing, output_type="ndarray")
     n = len(points)
     rows = np.concatenate([pairs[:, 0], pairs[:, 1], np.arange(n)])
     cols = np.concatenate([pairs[:, 1], pairs[:, 0], np.arange(n)])
-    matrix = sparse.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
-    return matrix, np.asarray(matrix.sum(axis=1)).ravel(), (rows, cols)
+    pattern = sparse.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+    centre = np.array([0.0, 0.0, surface.geometry.sphere_centre_z])
+    rays = sample_directions(points, surface.tangents, centre, math.sqrt(surface.area / math.pi))
+    return pattern.indptr, pattern.indices, rays
 
 
 def apex_lift(points: np.ndarray, dome_radius: float, apex_radius: float) -> np.ndarray | None:
