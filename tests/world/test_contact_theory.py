@@ -50,11 +50,12 @@ def _env(
     x_mm: float = 0.0,
     enclosed: bool = True,
     skin: dict | None = None,
+    edge_within_node: bool = False,
 ) -> SimEnvironment:
     """The compliant dome over the rectangle; `enclosed` False: the open half-space that
     Hertz and Cattaneo–Mindlin describe (the sealed gel's volume balance is not theirs);
     `skin`: scenario `physics` entries of a skin (SKIN_PHYSICS)."""
-    physics = {"gel_enclosed": enclosed, **(skin or {})}
+    physics = {"gel_enclosed": enclosed, "edge_within_node": edge_within_node, **(skin or {})}
     if spacing_mm is not None:
         physics["surface_spacing_mm"] = spacing_mm
     scenario = scenario_from_dict(
@@ -259,7 +260,7 @@ def test_mesh_refinement_of_the_pins(edge_mm):
 
     def frames(spacing_mm: float) -> list[np.ndarray]:
         x = 60.0 + edge_mm
-        env = _env(spacing_mm=spacing_mm, x_mm=x)
+        env = _env(spacing_mm=spacing_mm, x_mm=x, edge_within_node=True)
         out = []
         for pose in (Pose(x, 0, 3, 0, 0, 0), Pose(x, 3, 3, 0, 0, 0)):
             env.move_to(pose)
@@ -281,7 +282,7 @@ def test_an_edge_moving_between_nodes_moves_the_force_and_the_pins_smoothly():
     pins jumped, bends of up to 4.7 px."""
     forces, pins = [], []
     for x in np.round(np.arange(59.0, 61.51, 0.1), 3):
-        env = _env(("contact",), x_mm=float(x))
+        env = _env(("contact",), x_mm=float(x), edge_within_node=True)
         env.move_to(Pose(float(x), 0, 3, 0, 0, 0))
         forces.append(env.observe_frame().contact_force)
         pins.append(env.observe().pins_px)

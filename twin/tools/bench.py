@@ -466,9 +466,9 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
     where the flex default is not among the levels). Besides the levels, the compliant
     default with each skin (twin.world.dome.compliant.SKIN_PHYSICS), as levels
     `default+membrane`, `default+shell`, `default+shell_held_65`, with 1 mm increments
-    (`default+increment_1mm`, scenario `physics: {increment_mm: 1}`), and with contact at
-    whole nodes (`default+whole_nodes`, `physics: {edge_within_node: false}`: what placing
-    an edge within a node costs).
+    (`default+increment_1mm`, scenario `physics: {increment_mm: 1}`), and with an edge
+    placed within a node (`default+edge_within_node`, `physics: {edge_within_node: true}`:
+    what that costs).
     """
 
     contour = ContourProtocol()

@@ -103,7 +103,7 @@ class CompliantSettings(PhysicsSettings):
         default=None,
         description="a node whose disc a face's edge crosses takes contact over the part of "
         "its disc on the face (twin.world.dome.compliant.cut_nodes), so an edge is placed within "
-        "a node (default true); false = at whole nodes, the model before 2026-12-02",
+        "a node (default false: contact at whole nodes, an edge to within half a spacing)",
     )
 
     def changes(self) -> dict[str, Any]:
@@ -136,11 +136,11 @@ class CompliantBuilder:
     levels: Mapping[str, CompliantParams] = COMPLIANT_LEVELS
     settings = CompliantSettings
     #: each skin over the gel (SKIN_PHYSICS), 1 mm increments (the default's are 0.5 mm), and
-    #: contact at whole nodes (the default places an edge within a node)
+    #: an edge placed within a node (the default's contact is at whole nodes)
     presets: Mapping[str, Mapping[str, Any]] = {
         **SKIN_PHYSICS,
         "increment_1mm": {"increment_mm": 1.0},
-        "whole_nodes": {"edge_within_node": False},
+        "edge_within_node": {"edge_within_node": True},
     }
     quasi_static = True
 
