@@ -244,6 +244,26 @@ def test_frictionless_slide_ends_where_a_press_ends():
     assert frictional > 2.0  # px: the slide's shear is held by static friction
 
 
+def _assert_refined(
+    poses: tuple[Pose, ...], x_mm: float, edge_within_node: bool, rms_px: float, worst_px: float
+) -> None:
+    """The pins along `poses` on 1.5 mm nodes lie within `rms_px` RMS and `worst_px` at worst
+    of those on 0.75 mm nodes, frame by frame (the sensor starting above x = `x_mm`)."""
+
+    def frames(spacing_mm: float) -> list[np.ndarray]:
+        env = _env(spacing_mm=spacing_mm, x_mm=x_mm, edge_within_node=edge_within_node)
+        out = []
+        for pose in poses:
+            env.move_to(pose)
+            out.append(env.observe().pins_px)
+        return out
+
+    for coarse, fine in zip(frames(1.5), frames(0.75)):
+        distance = np.linalg.norm(coarse - fine, axis=1)
+        assert np.sqrt(np.mean(distance**2)) < rms_px
+        assert distance.max() < worst_px
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("edge_mm", [-0.5, 0.0, 0.75, 1.0])
 def test_mesh_refinement_of_the_pins(edge_mm):
@@ -258,19 +278,9 @@ def test_mesh_refinement_of_the_pins(edge_mm):
     nodes 0.11–0.45 and 0.71–2.92 px; docs/dome/compliant.md,
     "Where the edge falls between nodes")."""
 
-    def frames(spacing_mm: float) -> list[np.ndarray]:
-        x = 60.0 + edge_mm
-        env = _env(spacing_mm=spacing_mm, x_mm=x, edge_within_node=True)
-        out = []
-        for pose in (Pose(x, 0, 3, 0, 0, 0), Pose(x, 3, 3, 0, 0, 0)):
-            env.move_to(pose)
-            out.append(env.observe().pins_px)
-        return out
-
-    for coarse, fine in zip(frames(1.5), frames(0.75)):
-        distance = np.linalg.norm(coarse - fine, axis=1)
-        assert np.sqrt(np.mean(distance**2)) < 0.25
-        assert distance.max() < 1.5
+    x = 60.0 + edge_mm
+    poses = (Pose(x, 0, 3, 0, 0, 0), Pose(x, 3, 3, 0, 0, 0))
+    _assert_refined(poses, x, edge_within_node=True, rms_px=0.25, worst_px=1.5)
 
 
 @pytest.mark.slow
@@ -282,18 +292,8 @@ def test_mesh_refinement_of_the_pins_at_whole_nodes():
     spacing; with the edge elsewhere between the nodes the worst pin is up to 2.9 px
     (docs/dome/compliant.md, "Where the edge falls between nodes")."""
 
-    def frames(spacing_mm: float) -> list[np.ndarray]:
-        env = _env(spacing_mm=spacing_mm, x_mm=60.0)
-        out = []
-        for pose in (Pose(60, 0, 3, 0, 0, 0), Pose(60, 4, 3, 0, 0, 0), Pose(57, 4, 3, 0, 0, 0)):
-            env.move_to(pose)
-            out.append(env.observe().pins_px)
-        return out
-
-    for coarse, fine in zip(frames(1.5), frames(0.75)):
-        distance = np.linalg.norm(coarse - fine, axis=1)
-        assert np.sqrt(np.mean(distance**2)) < 0.4
-        assert distance.max() < 2.0
+    poses = (Pose(60, 0, 3, 0, 0, 0), Pose(60, 4, 3, 0, 0, 0), Pose(57, 4, 3, 0, 0, 0))
+    _assert_refined(poses, 60.0, edge_within_node=False, rms_px=0.4, worst_px=2.0)
 
 
 def test_an_edge_moving_between_nodes_moves_the_force_and_the_pins_smoothly():

@@ -624,9 +624,11 @@ class CompliantPhysics:
         ):
             return kept[3]
         block = self.compliance.local_block(nodes, frames)
-        own = np.diagonal(block).reshape(-1, 3)  # each node's self-compliance in its frame, m/N
-        extra = partial_disc_compliance(covered, own)
-        block[np.diag_indices_from(block)] += extra.ravel()
+        extra = np.zeros((len(nodes), 3))
+        if (covered < 1.0).any():
+            own = np.diagonal(block).reshape(-1, 3)  # each node's self-compliance in its frame, m/N
+            extra = partial_disc_compliance(covered, own)
+            block[np.diag_indices_from(block)] += extra.ravel()
         if self.params.tip_sway:
             block += sway_block(frames, self.params.tip_sway)
         local = unknowns_matrix(block)
