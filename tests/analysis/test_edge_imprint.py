@@ -39,11 +39,12 @@ def _fields(seed: int = 1) -> dict[str, np.ndarray]:
     }
 
 
-def _sheared(displacement, n: int, seed: int, noise_px: float) -> Run:
+def _sheared(displacement, n: int, seed: int, noise_px: float, noise_seed: int | None = None) -> Run:
     """A sheared-taps run (lateral −2.5 … 2.5 mm, θ ±45°) with pins = rest +
-    `displacement(tap)` (127, 2) px + Gaussian noise."""
+    `displacement(tap)` (127, 2) px + Gaussian noise (drawn from `noise_seed`; default
+    seed + 1): the taps are the seed's, so two runs of one seed hold the same taps."""
     protocol = ShearedTapProtocol(taps=n, seed=seed, lateral_range_mm=[-2.5, 2.5])
-    rng = np.random.default_rng(seed + 1)
+    rng = np.random.default_rng(seed + 1 if noise_seed is None else noise_seed)
     samples = []
     for k, tap in enumerate(drawn_sheared_taps(protocol)):
         pins = REST + displacement(tap) + rng.normal(0, noise_px, REST.shape)
@@ -55,12 +56,16 @@ def _sheared(displacement, n: int, seed: int, noise_px: float) -> Run:
     return Run(Path("synthetic"), meta, samples)
 
 
-def sheared_run(n: int = 1500, seed: int = 0, noise_px: float = 0.01) -> Run:
-    """A sheared-taps run with pins = rest + the fields × the tap's values."""
+def sheared_run(
+    n: int = 1500, seed: int = 0, noise_px: float = 0.01, fade: dict | None = None, noise_seed: int | None = None
+) -> Run:
+    """A sheared-taps run with pins = rest + the fields × the tap's values (`fade`: the
+    signal's size per lateral bin, FADE unless given)."""
     f = _fields()
+    fades = FADE if fade is None else fade
 
     def displacement(tap) -> np.ndarray:
-        fade = FADE[float(np.round(tap.lateral_mm)) + 0.0]
+        fade = fades[float(np.round(tap.lateral_mm)) + 0.0]
         return (
             fade * tap.theta_deg / 45.0 * f["theta"]
             + tap.slide_along_mm / fade * f["along"]
@@ -69,7 +74,7 @@ def sheared_run(n: int = 1500, seed: int = 0, noise_px: float = 0.01) -> Run:
             + tap.depth_offset_mm * f["depth"]
         )
 
-    return _sheared(displacement, n, seed, noise_px)
+    return _sheared(displacement, n, seed, noise_px, noise_seed)
 
 
 @pytest.fixture(scope="module")
@@ -385,9 +390,10 @@ def test_closest_pins_is_the_nearest_pair_against_its_rest_spacing() -> None:
     assert rows[-2.0] == pytest.approx({"min": 0.3, "median": 0.3, "lost": 0.5})
 
 
-def _write(run: Run, out: Path, name: str, x0_mm: float = 0.0) -> Path:
+def _write(run: Run, out: Path, name: str, x0_mm: float = 0.0, step: int = 1) -> Path:
     """`run` recorded to `out` by the run recorder, after a no-contact frame (as a sheared-taps
-    run has), its targets from x = `x0_mm` on."""
+    run has), its targets from x = `x0_mm` on; `step`: only every step-th tap, at the target
+    it has in the whole run (a replay of every step-th tap of a recording)."""
     from twin.core.environment import Observation
     from twin.core.poses import Pose
     from twin.core.scenario import scenario_from_dict
@@ -400,7 +406,7 @@ def _write(run: Run, out: Path, name: str, x0_mm: float = 0.0) -> Path:
         rest = {"lateral_mm": 9.9, "theta_deg": 0.0, "depth_mm": -5.0, "tap": -1, "no_contact": True}
         hover = Pose(x0_mm - 10, 0, -5)
         recorder.add(Observation(0.0, hover), hover, rest, REST, np.ones(127, bool))
-        for k, s in enumerate(run.samples):
+        for k, s in list(enumerate(run.samples))[::step]:
             target = Pose(x0_mm + k, 0, 3)
             recorder.add(Observation(float(k), target), target, s["labels"], np.array(s["pins_px"]), np.ones(127, bool))
     return out
@@ -443,6 +449,63 @@ def test_compare_and_evaluate_print_the_edge_figures(run: Run, tmp_path: Path, c
     assert main(["evaluate", "--train", str(small), "--test", str(small), "--out", str(tmp_path / "eval")]) == 0
     printed = capsys.readouterr().out
     assert "drag / orientation signal" in printed and (tmp_path / "eval" / "edge_figures.json").is_file()
+
+
+def test_compare_reads_both_runs_on_the_taps_they_share(run: Run, tmp_path: Path, capsys) -> None:
+    """A replay of every fourth tap of a recording that gives the recording's pins: `twin
+    compare` takes the recording's figures from those taps, not from all of its own (a
+    bin's signal ratio moves with the draw of taps), and every figure's difference is nil
+    in every paired resample: the signal's 0 ± 0, the others' factor 1 ×÷ 1 (drawn apart,
+    the two runs' figures would scatter by the draw)."""
+    import json
+
+    from twin.tools.cli import main
+
+    a = _write(run, tmp_path / "a", "rig")
+    b = _write(run, tmp_path / "b", "twin", step=4)
+    assert main(["compare", str(a), str(b), "--out", str(tmp_path / "cmp"), "--resamples", "4"]) == 0
+    printed = capsys.readouterr().out
+    quarter = E.signal_profile(Run(run.path, run.meta, run.samples[::4]))[3.0]
+    whole = E.signal_profile(run)[3.0]
+    assert max(abs(quarter[l] - whole[l]) for l in quarter) > 0.02  # the case is exercised
+    result = json.loads((tmp_path / "cmp" / "comparison.json").read_text())
+    assert result["shared_taps"] == 1 + len(run.samples[::4])  # the no-contact frame and the replayed taps
+    for tag in "ab":
+        profile = {float(l): v for l, v in result["edge_figures"][tag]["signal_profile"]["3.0"].items()}
+        assert profile == pytest.approx(quarter, abs=1e-6)  # a record keeps 7 significant digits
+    differences = result["edge_figure_differences"]
+    assert differences["taps"] == len(run.samples[::4]) and differences["resamples"] == 4
+    assert {r["figure"] for r in differences["rows"]} == {"signal", "theta_pc23", "drag/signal"}
+    for r in differences["rows"]:
+        assert r["b"] == pytest.approx(r["a"], rel=1e-6) and r["spread"] == pytest.approx(0.0, abs=1e-6), r
+    assert f"B against A on the same {len(run.samples[::4])} taps" in printed and "+0.00 ± 0.00" in printed
+
+
+def test_the_paired_spread_is_the_scatter_of_the_difference_over_new_taps() -> None:
+    """B's signal ratio less A's on the same 400 taps (B's edge fades otherwise, each run
+    with its own 0.3 px of noise): the standard deviation a paired bootstrap estimates from
+    one pair of runs, averaged over 3 such pairs, against the difference's scatter over 16
+    pairs each on new taps and new noise: between half and 1.5 times it in every bin
+    (measured 0.67–0.80: the bootstrap reads this scatter about a quarter low; one pair's
+    estimate alone scatters from 0.44 to 1.47 times it with 500 taps). Resampling A and B
+    apart would give 2–12 times the scatter, since the draw of taps moves both ratios alike."""
+    from twin.analysis.calibration_fit.figures import paired_figure_spread
+
+    fade_b = {-2.0: 0.6, -1.0: 0.8, 0.0: 1.0, 1.0: 1.1, 2.0: 1.5}
+
+    def pair(seed: int) -> tuple[Run, Run]:
+        a = sheared_run(400, seed=seed, noise_px=0.3)
+        return a, sheared_run(400, seed=seed, noise_px=0.3, fade=fade_b, noise_seed=10_000 + seed)
+
+    bins = [l for l in FADE if l != 0.0]
+    differences = []
+    for seed in range(16):
+        va, vb = (figure_values(r) for r in pair(seed))
+        differences.append([vb["signal", l] - va["signal", l] for l in bins])
+    scatter = np.std(differences, axis=0, ddof=1)
+    estimates = [paired_figure_spread(*pair(100 + k), 12, seed=k) for k in range(3)]
+    estimated = np.mean([[e["signal", l] for l in bins] for e in estimates], axis=0)
+    assert np.all((estimated / scatter > 0.5) & (estimated / scatter < 1.5)), (bins, estimated, scatter)
 
 
 def test_calibration_simulates_a_square_lab_camera(tmp_path: Path) -> None:

@@ -10,36 +10,15 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from scipy.spatial import cKDTree
 from skimage.metrics import structural_similarity
 
-from twin.analysis.edge_imprint import REACH_AT_MM, edge_figures
+from twin.analysis.calibration_fit.figures import figure_values, paired_figure_spread
+from twin.analysis.edge_imprint import REACH_AT_MM, edge_figures, is_sheared
 from twin.analysis.evaluation import along_edge_drag_px, orientation_signal_px
 from twin.core.errors import UserError
+from twin.runs.pairing import pair_samples, shared_taps
 from twin.runs.record import Run, jsonable, load_run
 from twin.sensing.perception import PerceptionModel, angle_error_deg
-
-POSE_TOLERANCE = 1e-3  # targets are paired when equal to within 1e-3 mm / deg in every coordinate
-
-
-def pair_samples(a: Run, b: Run) -> list[tuple[int, int]]:
-    """Index pairs (i in a, j in b) with the same target pose (within POSE_TOLERANCE in every
-    coordinate); each target used once, in order. A tolerance, not rounding: a record's
-    targets are written to 7 significant digits, and rounding a replayed 41.37949958° and
-    its record's 41.3795° to 1e-3 gave 41.379 against 41.380."""
-    targets_b = np.array([s["target"] for s in b.samples], float).reshape(-1, 6)
-    if not len(targets_b):
-        return []
-    tree = cKDTree(targets_b)
-    used = np.zeros(len(targets_b), bool)
-    pairs = []
-    for i, s in enumerate(a.samples):
-        for j in sorted(tree.query_ball_point(np.asarray(s["target"], float), POSE_TOLERANCE, p=np.inf)):
-            if not used[j]:
-                used[j] = True
-                pairs.append((i, j))
-                break
-    return pairs
 
 
 def paired_runs(a: Run, b: Run) -> tuple[list[tuple[int, int]], str]:
@@ -101,6 +80,41 @@ def perception_error(run: Run, model) -> dict | None:
     }
 
 
+#: bootstrap resamples of the shared taps for the edge figures' differences (`twin compare --resamples`)
+FIGURE_RESAMPLES = 50
+
+
+def _taps(run: Run, indices: list[int]) -> Run:
+    """`run` with only the samples at `indices`, in that order."""
+    return Run(run.path, run.meta, [run.samples[k] for k in indices])
+
+
+def figure_differences(a: Run, b: Run, resamples: int, seed: int) -> dict:
+    """B's edge figures against A's on the same taps (`a` and `b` hold them in the same
+    order): per figure and lateral bin, both values and the standard deviation of their
+    difference over `resamples` paired bootstrap resamples (twin.analysis.calibration_fit.
+    figures.paired_figure_spread; in the figure's miss units: the ratio's difference for
+    the signal, the log of B / A for θ_PC23 and drag / signal)."""
+    values_a, values_b = figure_values(a), figure_values(b)
+    spread = paired_figure_spread(a, b, resamples, seed)
+    rows = [
+        {
+            "figure": figure,
+            "lateral_mm": l,
+            "a": values_a[figure, l],
+            "b": values_b[figure, l],
+            "spread": spread[figure, l],
+        }
+        for figure, l in sorted(spread)
+    ]
+    return {
+        "taps": sum(not s["labels"].get("no_contact") for s in a.samples),
+        "resamples": resamples,
+        "seed": seed,
+        "rows": rows,
+    }
+
+
 #: tap protocols on the straight edge whose runs compare by the edge figures even unpaired
 EDGE_TAP_KINDS = ("taps", "sheared_taps")
 
@@ -114,6 +128,8 @@ def compare_runs(
     slides_a: Path | None = None,
     slides_b: Path | None = None,
     reach_at: tuple[float, ...] = REACH_AT_MM,
+    resamples: int = FIGURE_RESAMPLES,
+    seed: int = 0,
 ) -> dict:
     """Pair the runs' samples by target pose and write comparison.json to `out` (the plots:
     twin.tools.comparison_report).
@@ -127,7 +143,15 @@ def compare_runs(
     (twin.analysis.edge_imprint; `slides_a`, `slides_b`: a plain tap run's slides run for
     the along-edge drag; `reach_at`: the lateral positions of the reach profile, mm), and compare by those alone when they share no target pose in
     contact (both start with a no-contact frame at one pose) or differ in resolution (a
-    lab camera's 256×256 beside the twin's 640×480: pins compare through the figures)."""
+    lab camera's 256×256 beside the twin's 640×480: pins compare through the figures).
+
+    Where the runs share taps (twin.runs.pairing.shared_taps: a replay of a recording, or
+    of some of its taps), the tap figures of both come from those taps alone: a lateral
+    bin's signal ratio moves by 0.13–0.25 from one quarter of the DigiTac set's taps to
+    another, so figures from different taps do not compare. Two sheared-tap runs that
+    share taps also get the difference of each edge figure (B against A) and its standard
+    deviation over `resamples` bootstrap resamples of the shared taps, the same draw for
+    both (seeded by `seed`): "edge_figure_differences"."""
     a, b = load_run(dir_a), load_run(dir_b)
     name_a, name_b = a.meta["scenario"]["name"], b.meta["scenario"]["name"]
     kind, kind_b = a.meta["scenario"]["protocol"]["kind"], b.meta["scenario"]["protocol"]["kind"]
@@ -159,15 +183,22 @@ def compare_runs(
     elif model_path is not None:
         model = PerceptionModel.load(model_path)
         result["perception_a"], result["perception_b"] = perception_error(a, model), perception_error(b, model)
+    shared = shared_taps(a, b) if edge_taps and kind == kind_b else []
+    if not any(not a.samples[i]["labels"].get("no_contact") for i, _ in shared):
+        shared = []  # a no-contact frame at one pose alone is no shared tap
+    result["shared_taps"] = len(shared)
+    taps_a, taps_b = (_taps(a, [i for i, _ in shared]), _taps(b, [j for _, j in shared])) if shared else (a, b)
     if kind == "taps":  # what each sensor's taps carry of the edge's orientation, by lateral position
-        result["orientation_signal_px"] = {"a": orientation_signal_px(a), "b": orientation_signal_px(b)}
+        result["orientation_signal_px"] = {"a": orientation_signal_px(taps_a), "b": orientation_signal_px(taps_b)}
     elif kind == "slides":  # how far each sensor's skin is dragged along the edge
         result["along_edge_drag_px"] = {"a": along_edge_drag_px(a), "b": along_edge_drag_px(b)}
     if edge_taps:  # what each sensor's taps carry of the edge, and how a slide drags its pins
         result["edge_figures"] = {
             tag: edge_figures(run, None if slides is None else load_run(slides), reach_at)
-            for tag, run, slides in (("a", a, slides_a), ("b", b, slides_b))
+            for tag, run, slides in (("a", taps_a, slides_a), ("b", taps_b, slides_b))
         }
+        if shared and is_sheared(taps_a) and is_sheared(taps_b):
+            result["edge_figure_differences"] = figure_differences(taps_a, taps_b, resamples, seed)
         in_contact = [(i, j) for i, j in pair_samples(a, b) if not a.samples[i]["labels"].get("no_contact")]
         if kind != kind_b or not in_contact or a.resolution != b.resolution:
             result.update(pairing=None, n_pairs=0, n_a=len(a.samples), n_b=len(b.samples))

@@ -249,6 +249,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         slides_a=Path(args.slides_a) if args.slides_a else None,
         slides_b=Path(args.slides_b) if args.slides_b else None,
         **_reach_at(args),
+        **({} if args.resamples is None else {"resamples": args.resamples}),
+        seed=args.seed,
     )
     _warn(r["unfinished"])
     if not r["n_pairs"]:
@@ -288,12 +290,17 @@ def _cmd_compare(args: argparse.Namespace) -> int:
                 )
             )
     if "edge_figures" in r:
+        report = _command_module("twin.tools.edge_figures_report")
+        if r["shared_taps"]:
+            print(f"edge figures on the {r['shared_taps']} samples both runs have (the same taps)")
         print(
-            _command_module("twin.tools.edge_figures_report").format_edge_figures(
+            report.format_edge_figures(
                 [r["edge_figures"]["a"], r["edge_figures"]["b"]],
                 [f"A: {r['edge_figures']['a']['name']}", f"B: {r['edge_figures']['b']['name']}"],
             )
         )
+        if "edge_figure_differences" in r:
+            print(report.format_figure_differences(r["edge_figure_differences"]))
     print(f"wrote {args.out}/comparison.json and plots")
     if args.video:
         print(
@@ -565,6 +572,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--slides-b", default=None, metavar="RUN", help="the same for run B")
     _add_reach_at(p)
+    p.add_argument(
+        "--resamples",
+        type=bounded_int(0, 1000, "(bootstrap resamples)"),
+        default=None,
+        help="sheared taps both runs share: bootstrap resamples of them for each edge figure's difference "
+        "(default 50; 0: none)",
+    )
+    p.add_argument("--seed", type=SEED, default=0, help="seed of those resamples")
     p.set_defaults(func=_cmd_compare)
 
     p = sub.add_parser(

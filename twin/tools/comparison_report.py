@@ -10,7 +10,7 @@ import matplotlib
 import matplotlib.pyplot as plt
 import numpy as np
 
-from twin.analysis.comparison import compare_runs, displacements, paired_runs, pin_differences
+from twin.analysis.comparison import FIGURE_RESAMPLES, compare_runs, displacements, paired_runs, pin_differences
 from twin.analysis.edge_imprint import REACH_AT_MM
 from twin.runs.record import Run, load_run
 
@@ -24,6 +24,8 @@ def compare_and_report(
     slides_a: Path | None = None,
     slides_b: Path | None = None,
     reach_at: tuple[float, ...] = REACH_AT_MM,
+    resamples: int = FIGURE_RESAMPLES,
+    seed: int = 0,
 ) -> dict:
     """`twin compare`: comparison.json (twin.analysis.comparison.compare_runs) and its plots in
     `out` (no plots for runs compared by their edge figures alone, which share no sample)."""
@@ -36,6 +38,8 @@ def compare_and_report(
         slides_a=slides_a,
         slides_b=slides_b,
         reach_at=reach_at,
+        resamples=resamples,
+        seed=seed,
     )
     if not result["n_pairs"]:
         return result

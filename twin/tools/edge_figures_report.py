@@ -3,6 +3,8 @@ TacTip's runs and the twin's read side by side in `twin compare` and `twin evalu
 
 from __future__ import annotations
 
+import math
+
 WIDTH = 22
 
 
@@ -108,4 +110,37 @@ def format_edge_figures(figures: list[dict], labels: list[str] | None = None) ->
             for f in figures
         )
     )
+    return "\n".join(lines)
+
+
+#: the columns of `format_figure_differences`: figure, heading
+DIFFERENCE_COLUMNS = (
+    ("signal", "signal / l = 0's, B − A"),
+    ("theta_pc23", "θ_PC23 per mm, B / A"),
+    ("drag/signal", "drag / signal, B / A"),
+)
+
+
+def format_figure_differences(differences: dict) -> str:
+    """`twin compare`'s edge figures of B against A on the taps both have
+    (twin.analysis.comparison.figure_differences): the signal ratio's difference ± its
+    paired bootstrap standard deviation; θ_PC23's and drag / signal's factor B / A ×÷ the
+    factor of one standard deviation (their spread is in log units)."""
+    rows = {(r["figure"], r["lateral_mm"]): r for r in differences["rows"]}
+    lines = [
+        f"  B against A on the same {differences['taps']} taps (± one standard deviation over "
+        f"{differences['resamples']} bootstrap resamples of them, the same for both; seed {differences['seed']}):",
+        " " * 34 + "".join(heading.rjust(WIDTH + 4) for _, heading in DIFFERENCE_COLUMNS),
+    ]
+    for l in sorted({l for _, l in rows}, reverse=True):
+        cells = []
+        for figure, _ in DIFFERENCE_COLUMNS:
+            row = rows.get((figure, l))
+            if row is None:
+                cells.append("—")
+            elif figure == "signal":
+                cells.append(f"{row['b'] - row['a']:+.2f} ± {row['spread']:.2f}")
+            else:
+                cells.append(f"{row['b'] / row['a']:.2f} ×÷ {math.exp(row['spread']):.2f}" if row["a"] > 0 else "—")
+        lines.append(f"    l {l:+g} mm".ljust(34) + "".join(c.rjust(WIDTH + 4) for c in cells))
     return "\n".join(lines)

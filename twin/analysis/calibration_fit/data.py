@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 
 from twin.analysis.calibration_fit.settings import Weights
-from twin.analysis.comparison import pair_samples
 from twin.core.errors import UserError
 from twin.core.scenario import Scenario, scenario_from_dict
+from twin.runs.pairing import pair_samples
 from twin.runs.record import Run, load_run
 from twin.runs.replay import replay_chunks
 

@@ -122,16 +122,50 @@ def figure_spread(
     values = figure_values(run, shift_apart) if values is None else values
     if resamples == 0:
         return dict.fromkeys(values, 0.0)
-    rest = [s for s in run.samples if s["labels"].get("no_contact")]
-    taps = [s for s in run.samples if not s["labels"].get("no_contact")]
-    rng = np.random.default_rng(seed)
     drawn: dict[tuple[str, float], list[float]] = {k: [] for k in values}
-    for _ in range(resamples):
-        pick = rng.integers(0, len(taps), len(taps))
-        for k, v in figure_values(Run(run.path, run.meta, rest + [taps[i] for i in pick]), shift_apart).items():
+    for (resampled,) in _resampled([run], resamples, seed):
+        for k, v in figure_values(resampled, shift_apart).items():
             if k in drawn:
                 drawn[k].append(_scale(k[0], v))
     return {k: float(np.std(v)) if len(v) > 1 else 0.0 for k, v in drawn.items()}
+
+
+def paired_figure_spread(a: Run, b: Run, resamples: int, seed: int) -> Figures:
+    """The standard deviation (in each figure's miss's units) of b's figure less a's over
+    `resamples` bootstrap resamples of their taps, the same taps drawn for both: `a` and
+    `b` hold the same taps in the same order (a recording and its replay on the taps they
+    share, twin.runs.pairing.shared_taps), so what the draw of taps does to both figures
+    alike drops out of the difference. Only figures both runs have; 0 for each when
+    `resamples` is 0."""
+    keys = set(figure_values(a)) & set(figure_values(b))
+    if resamples == 0:
+        return dict.fromkeys(keys, 0.0)
+    drawn: dict[tuple[str, float], list[float]] = {k: [] for k in keys}
+    for ra, rb in _resampled([a, b], resamples, seed):
+        va, vb = figure_values(ra), figure_values(rb)
+        for k in keys:
+            if k in va and k in vb:
+                drawn[k].append(_scale(k[0], vb[k]) - _scale(k[0], va[k]))
+    return {k: float(np.std(v)) if len(v) > 1 else 0.0 for k, v in drawn.items()}
+
+
+def _resampled(runs: list[Run], resamples: int, seed: int):
+    """`resamples` times, the runs (the same taps in the same order) with their taps drawn
+    with replacement, the same draw for each run; no-contact frames kept (seeded)."""
+    split = [
+        (
+            [s for s in run.samples if s["labels"].get("no_contact")],
+            [s for s in run.samples if not s["labels"].get("no_contact")],
+        )
+        for run in runs
+    ]
+    n = len(split[0][1])
+    if any(len(taps) != n for _, taps in split):
+        raise ValueError(f"resampling runs together needs the same taps in each: {[len(t) for _, t in split]}")
+    rng = np.random.default_rng(seed)
+    for _ in range(resamples):
+        pick = rng.integers(0, n, n)
+        yield [Run(run.path, run.meta, rest + [taps[i] for i in pick]) for run, (rest, taps) in zip(runs, split)]
 
 
 @dataclass
