@@ -147,8 +147,8 @@ def compare_runs(
 
     Where the runs share taps (twin.runs.pairing.shared_taps: a replay of a recording, or
     of some of its taps), the tap figures of both come from those taps alone: a lateral
-    bin's signal ratio moves by 0.13–0.25 from one quarter of the DigiTac set's taps to
-    another, so figures from different taps do not compare. Two sheared-tap runs that
+    bin's signal ratio differs by 0.13–0.33 between quarters of the DigiTac set's taps,
+    so figures from different taps do not compare. Two sheared-tap runs that
     share taps also get the difference of each edge figure (B against A) and its standard
     deviation over `resamples` bootstrap resamples of the shared taps, the same draw for
     both (seeded by `seed`): "edge_figure_differences"."""
