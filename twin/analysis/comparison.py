@@ -96,7 +96,7 @@ def figure_differences(a: Run, b: Run, resamples: int, seed: int) -> dict:
     figures.paired_figure_spread; in the figure's miss units: the ratio's difference for
     the signal, the log of B / A for θ_PC23 and drag / signal)."""
     values_a, values_b = figure_values(a), figure_values(b)
-    spread = paired_figure_spread(a, b, resamples, seed)
+    spread = paired_figure_spread(a, b, resamples, seed, (values_a, values_b))
     rows = [
         {
             "figure": figure,
@@ -183,7 +183,8 @@ def compare_runs(
     elif model_path is not None:
         model = PerceptionModel.load(model_path)
         result["perception_a"], result["perception_b"] = perception_error(a, model), perception_error(b, model)
-    shared = shared_taps(a, b) if edge_taps and kind == kind_b else []
+    by_target = pair_samples(a, b) if edge_taps else []
+    shared = shared_taps(a, b, by_target) if edge_taps and kind == kind_b else []
     if not any(not a.samples[i]["labels"].get("no_contact") for i, _ in shared):
         shared = []  # a no-contact frame at one pose alone is no shared tap
     result["shared_taps"] = len(shared)
@@ -199,7 +200,7 @@ def compare_runs(
         }
         if shared and is_sheared(taps_a) and is_sheared(taps_b):
             result["edge_figure_differences"] = figure_differences(taps_a, taps_b, resamples, seed)
-        in_contact = [(i, j) for i, j in pair_samples(a, b) if not a.samples[i]["labels"].get("no_contact")]
+        in_contact = [(i, j) for i, j in by_target if not a.samples[i]["labels"].get("no_contact")]
         if kind != kind_b or not in_contact or a.resolution != b.resolution:
             result.update(pairing=None, n_pairs=0, n_a=len(a.samples), n_b=len(b.samples))
             return _written(result, out)

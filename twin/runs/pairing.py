@@ -50,8 +50,10 @@ def _same_tap(a: dict, b: dict) -> bool:
     return True
 
 
-def shared_taps(a: Run, b: Run) -> list[tuple[int, int]]:
+def shared_taps(a: Run, b: Run, pairs: list[tuple[int, int]] | None = None) -> list[tuple[int, int]]:
     """The pairs of `pair_samples` that are the same tap in both runs (`TAP_LABELS` equal
     within LABEL_TOLERANCE), in a's order: the taps a replay shares with its recording.
-    Runs whose targets coincide but whose taps differ share none."""
-    return [(i, j) for i, j in pair_samples(a, b) if _same_tap(a.samples[i]["labels"], b.samples[j]["labels"])]
+    Runs whose targets coincide but whose taps differ share none. `pairs`: the runs'
+    `pair_samples`, where the caller has them."""
+    pairs = pair_samples(a, b) if pairs is None else pairs
+    return [(i, j) for i, j in pairs if _same_tap(a.samples[i]["labels"], b.samples[j]["labels"])]

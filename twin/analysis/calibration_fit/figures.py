@@ -130,14 +130,18 @@ def figure_spread(
     return {k: float(np.std(v)) if len(v) > 1 else 0.0 for k, v in drawn.items()}
 
 
-def paired_figure_spread(a: Run, b: Run, resamples: int, seed: int) -> Figures:
+def paired_figure_spread(
+    a: Run, b: Run, resamples: int, seed: int, values: tuple[Figures, Figures] | None = None
+) -> Figures:
     """The standard deviation (in each figure's miss's units) of b's figure less a's over
     `resamples` bootstrap resamples of their taps, the same taps drawn for both: `a` and
     `b` hold the same taps in the same order (a recording and its replay on the taps they
     share, twin.runs.pairing.shared_taps), so what the draw of taps does to both figures
     alike drops out of the difference. Only figures both runs have; 0 for each when
-    `resamples` is 0."""
-    keys = set(figure_values(a)) & set(figure_values(b))
+    `resamples` is 0. `values`: the runs' own figures (`figure_values`), where the caller
+    has them."""
+    values_a, values_b = (figure_values(a), figure_values(b)) if values is None else values
+    keys = set(values_a) & set(values_b)
     if resamples == 0:
         return dict.fromkeys(keys, 0.0)
     drawn: dict[tuple[str, float], list[float]] = {k: [] for k in keys}

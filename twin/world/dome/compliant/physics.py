@@ -39,7 +39,7 @@ import math
 import time
 from dataclasses import dataclass, replace
 from functools import lru_cache
-from typing import ClassVar
+from typing import ClassVar, NamedTuple
 
 import mujoco
 import numpy as np
@@ -198,6 +198,16 @@ SKIN_PHYSICS: dict[str, dict[str, float | bool]] = {
 }
 
 
+class _LocalMatrix(NamedTuple):
+    """`CompliantPhysics._local_matrix`'s last matrix and what it was built for."""
+
+    nodes: np.ndarray  # (m,) candidate nodes
+    frames: np.ndarray  # (m, 3, 3) their contact frames
+    covered: np.ndarray  # (m,) each one's covered share of its disc
+    matrix: np.ndarray  # (3m, 3m) m/N, `unknowns_matrix` of their compliance
+    partial: np.ndarray  # (m, 3) m/N, each cut one's partial-disc term (0 where whole)
+
+
 class CompliantPhysics:
     """Moves the sensor and solves the dome's frictional contact at every increment.
 
@@ -262,7 +272,7 @@ class CompliantPhysics:
         #: from which a steady motion's next forces are extrapolated (`_warm_start`)
         self._before: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self.displacement = np.zeros((n, 3))  # m, tool frame
-        self._local: tuple[np.ndarray, ...] | None = None  # `_local_matrix`'s last
+        self._local: _LocalMatrix | None = None  # `_local_matrix`'s last
         self.rest_pins = self.geometry.pin_tip_points()
         self._pins = self.rest_pins.copy()
         self._steps = 0
@@ -588,7 +598,7 @@ class CompliantPhysics:
         discs they press with: `_local_matrix`'s `partial_disc_compliance`."""
         cut = self._covered[nodes] < 1.0
         if cut.any():
-            extra = self._local[4][cut] * local_forces[cut]
+            extra = self._local.partial[cut] * local_forces[cut]
             displacement[nodes[cut]] += np.einsum("ni,nij->nj", extra, frames[cut])
 
     def _pin_loads(self, nodes: np.ndarray, forces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -618,11 +628,11 @@ class CompliantPhysics:
         covered = self._covered[nodes]
         if (
             kept is not None
-            and np.array_equal(kept[0], nodes)
-            and np.array_equal(kept[1], frames)
-            and np.array_equal(kept[2], covered)
+            and np.array_equal(kept.nodes, nodes)
+            and np.array_equal(kept.frames, frames)
+            and np.array_equal(kept.covered, covered)
         ):
-            return kept[3]
+            return kept.matrix
         block = self.compliance.local_block(nodes, frames)
         extra = np.zeros((len(nodes), 3))
         if (covered < 1.0).any():
@@ -632,7 +642,7 @@ class CompliantPhysics:
         if self.params.tip_sway:
             block += sway_block(frames, self.params.tip_sway)
         local = unknowns_matrix(block)
-        self._local = (nodes.copy(), frames.copy(), covered, local, extra)
+        self._local = _LocalMatrix(nodes.copy(), frames.copy(), covered, local, extra)
         return local
 
     def _check(self, gaps_after: np.ndarray) -> None:
