@@ -458,8 +458,10 @@ def test_recovers_where_the_base_holds_the_skin(tmp_path, monkeypatch) -> None:
         ({"arm_yield_mm_per_n": [0.2, 0.0, 0.0]}, "arm.x_mm_per_n", 0.2, 0.01),
         # the pin grid repeats every 60°, so only an edge says how the sensor is turned on its mount
         ({"tcp_roll_deg": 20.0}, "tcp.roll_deg", 20.0, 0.5),
+        # a mount's tilt moves the contact across the dome; it shows where the dome presses the flat
+        ({"tcp_tilt_deg": [0.0, 2.0]}, "tcp.tilt_y_deg", 2.0, 0.2),
     ],
-    ids=["arm_yield", "mount_roll"],
+    ids=["arm_yield", "mount_roll", "mount_tilt"],
 )
 def test_recovers_the_rig(tmp_path, monkeypatch, calibration, parameter, truth, tolerance) -> None:
     """What the rig does to the taps, the taps measure: a "real" rig (rendered with camera

@@ -1,6 +1,6 @@
 """What a calibration says about the rig rather than the sensor, in the simulated rig
 (twin.runs.sim_env): the arm's yield to the contact force (`arm_yield_mm_per_n`) and the
-sensor's roll on its mount (`tcp_roll_deg`).
+sensor's roll and tilt on its mount (`tcp_roll_deg`, `tcp_tilt_deg`).
 
 Scene: the rectangle, whose +x edge is the work line x = 60 mm (tests/world/
 test_physics_hard_cases.py)."""
@@ -36,7 +36,7 @@ def _env(calibration: dict | None, start: Pose) -> SimEnvironment:
 
 def _pressed(calibration: dict | None, pose: Pose = PRESSED):
     """The observation after pressing from 5 mm above `pose` down to it."""
-    env = _env(calibration, Pose(pose.x, pose.y, -5.0, 0.0, 0.0, pose.gamma))
+    env = _env(calibration, Pose(pose.x, pose.y, -5.0, pose.alpha, pose.beta, pose.gamma))
     env.move_to(pose, 10.0)
     return env, env.observe()
 
@@ -84,6 +84,20 @@ def test_a_rolled_sensor_presses_as_the_straight_one_turned_by_the_roll():
     np.testing.assert_allclose(rolled.pins_px, turned.pins_px, atol=1e-6)
     assert np.sqrt(np.mean(np.sum((rolled.pins_px - straight.pins_px) ** 2, axis=1))) > 1.0  # px
     assert rolled.pose.gamma == pytest.approx(10.0, abs=1e-9)  # the TCP's pose, as commanded
+
+
+def test_a_tilted_mount_presses_as_the_straight_one_tilted_by_the_arm():
+    """Well onto the object: a mount tilted 2° about the tool's x and turned 25° about its
+    axis is the straight mount commanded with that tilt and turn, R = Rz(γ + roll)·Rx(α).
+    The TCP's pose reads as commanded, and the tilt moves the pins, as the contact moves
+    R·sin 2° ≈ 0.7 mm across the dome."""
+    _, tilted = _pressed({"tcp_tilt_deg": [2.0, 0.0], "tcp_roll_deg": 25.0}, Pose(40.0, 0.0, 3.0, 0.0, 0.0, 10.0))
+    _, commanded = _pressed(None, Pose(40.0, 0.0, 3.0, 2.0, 0.0, 35.0))
+    _, straight = _pressed({"tcp_roll_deg": 25.0}, Pose(40.0, 0.0, 3.0, 0.0, 0.0, 10.0))
+    np.testing.assert_allclose(tilted.pins_px, commanded.pins_px, atol=1e-6)
+    assert np.sqrt(np.mean(np.sum((tilted.pins_px - straight.pins_px) ** 2, axis=1))) > 0.1  # px
+    assert (tilted.pose.alpha, tilted.pose.beta) == pytest.approx((0.0, 0.0), abs=1e-9)
+    assert tilted.pose.gamma == pytest.approx(10.0, abs=1e-9)
 
 
 def test_a_yield_whose_force_is_path_dependent_still_settles(tmp_path) -> None:

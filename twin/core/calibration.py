@@ -15,6 +15,8 @@
 |                      |             | TCP (tool frame)                          | by it                       |
 | tcp_roll_deg         | deg         | the dome and its camera turned about the  | the robot's TCP corrected   |
 |                      |             | TCP's axis (the sensor's mounting roll)   | by it                       |
+| tcp_tilt_deg         | deg         | the dome's axis tilted from the TCP's     | the robot's TCP corrected   |
+|                      |             | about its x and y (the mount's tilt)      | by it                       |
 | arm_yield_mm_per_n   | mm/N        | the TCP yields by it × the contact's      | —  (the real arm yields by  |
 |                      |             | normal force (work frame)                 | itself)                     |
 
@@ -125,6 +127,8 @@ class Calibration(StrictModel):
     friction: float | None = bounded(0.0, 3.0, "dimensionless", "skin–stimulus Coulomb coefficient", None)
     tcp_offset_mm: bounded_list(-20.0, 20.0, "mm", length=3) = [0.0, 0.0, 0.0]
     tcp_roll_deg: float = bounded(-180.0, 180.0, "deg", "the sensor turned about its own axis from the TCP", 0.0)
+    # the mount's tilt: the dome's axis turned about the tool's x then y before the roll (Pose's α, β)
+    tcp_tilt_deg: bounded_list(-15.0, 15.0, "deg", length=2) = [0.0, 0.0]
     arm_yield_mm_per_n: bounded_list(-2.0, 2.0, "mm/N", length=3) = [0.0, 0.0, 0.0]
     notes: str = ""
 
@@ -175,9 +179,9 @@ class Calibration(StrictModel):
 
     @property
     def tcp2apex(self) -> np.ndarray:
-        """4×4 (m): the dome apex and its camera relative to the commanded TCP (tcp_offset_mm,
-        tcp_roll_deg about the tool's z)."""
-        return Pose(*self.tcp_offset_mm, 0.0, 0.0, self.tcp_roll_deg).to_matrix()
+        """4×4 (m): the dome apex and its camera relative to the commanded TCP (tcp_offset_mm;
+        tcp_tilt_deg about the tool's x and y, then tcp_roll_deg about its z: Pose's α, β, γ)."""
+        return Pose(*self.tcp_offset_mm, *self.tcp_tilt_deg, self.tcp_roll_deg).to_matrix()
 
     @property
     def arm_yield_m_per_n(self) -> np.ndarray:

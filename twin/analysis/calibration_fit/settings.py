@@ -42,6 +42,8 @@ PHYSICS = (
     "tcp.y_mm",
     "tcp.z_mm",
     "tcp.roll_deg",
+    "tcp.tilt_x_deg",
+    "tcp.tilt_y_deg",
     "arm.x_mm_per_n",
     "arm.y_mm_per_n",
     "arm.z_mm_per_n",

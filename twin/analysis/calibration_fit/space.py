@@ -18,6 +18,8 @@ from twin.runs.spec import dome_params, load_scenario_stimulus
 from twin.world.dome.material import dome_material_of
 
 RENDER_EFFECTS = {"render", "camera_noise", "lighting"}
+#: the mount's tilt about the tool's x and y (Calibration.tcp_tilt_deg)
+TCP_TILT = ("tcp.tilt_x_deg", "tcp.tilt_y_deg")
 #: the arm's yield per newton of contact normal force, work frame (Calibration.arm_yield_mm_per_n)
 ARM_YIELD = ("arm.x_mm_per_n", "arm.y_mm_per_n", "arm.z_mm_per_n")
 
@@ -35,6 +37,7 @@ def scenario_values(scenario: Scenario) -> dict[str, float]:
     values["friction"] = load_scenario_stimulus(scenario).friction
     values.update(zip(("tcp.x_mm", "tcp.y_mm", "tcp.z_mm"), calibration.tcp_offset_mm))
     values["tcp.roll_deg"] = calibration.tcp_roll_deg
+    values.update(zip(TCP_TILT, calibration.tcp_tilt_deg))
     values.update(zip(ARM_YIELD, calibration.arm_yield_mm_per_n))
     return {n: float(v) for n, v in values.items()}
 
@@ -132,6 +135,7 @@ class Space:
             friction=v["friction"],
             tcp_offset_mm=[v["tcp.x_mm"], v["tcp.y_mm"], v["tcp.z_mm"]],
             tcp_roll_deg=v["tcp.roll_deg"],
+            tcp_tilt_deg=[v[n] for n in TCP_TILT],
             arm_yield_mm_per_n=[v[n] for n in ARM_YIELD],
             notes=base.notes,
         )
@@ -146,6 +150,7 @@ class Space:
             friction=cal.friction,
             tcp_offset_mm=cal.tcp_offset_mm,
             tcp_roll_deg=cal.tcp_roll_deg,
+            tcp_tilt_deg=cal.tcp_tilt_deg,
             arm_yield_mm_per_n=cal.arm_yield_mm_per_n,
         )
         effects = [e for e in self.scenario.effects if e not in RENDER_EFFECTS]
