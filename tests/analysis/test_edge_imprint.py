@@ -244,6 +244,43 @@ def test_turned_taps_read_the_orientation_without_the_rigid_shifts() -> None:
         assert figures["pc23_deg_per_mm"] < 0.5
 
 
+@pytest.mark.parametrize("fixed_deg", [90.0, -90.0, 0.0])
+def test_a_fixed_imprint_onto_the_object_offsets_the_mean_frame_from_a_turn(fixed_deg: float) -> None:
+    """Taps whose orientation imprint a·S(2θ)·r/ρ turns about the plane's centre, plus, onto
+    the object (l < −0.5 mm), a fixed imprint c·S(φ)·r/ρ (a tilted mount's). In one scale the
+    pair's coordinates are a·(cos 2θ, sin 2θ) + c·(cos φ, sin φ), so a bin's mean frame is
+    a·(mean cos 2θ, mean sin 2θ) + c·(cos φ, sin φ) and the θ term points along the slope of
+    (cos 2θ, sin 2θ) on θ, nearly (0, 1): with the bin's own θ the offset is about
+    atan2(c sin φ, a·2/π + c cos φ) = ±38° for φ = ±90°, none for φ = 0 (the fixed imprint
+    only moves the frame outwards), and none off the object."""
+    fixed = 1.0  # px, c
+    phi = np.radians(fixed_deg)
+
+    def turn(f: float) -> np.ndarray:
+        return np.array([[np.cos(f), np.sin(f)], [np.sin(f), -np.cos(f)]])
+
+    def displacement(tap) -> np.ndarray:
+        d = ORIENT_PX * CENTRED @ turn(np.radians(2 * tap.theta_deg)).T / RHO
+        d = d + tap.depth_offset_mm * DEPTH_PX_PER_MM * CENTRED / RHO + tap.slide_along_mm * np.array([1.0, -0.5])
+        return d + (fixed * CENTRED @ turn(phi).T / RHO if tap.lateral_mm < -0.5 else 0.0)
+
+    run = _sheared(displacement, 1500, 4, 0.01)
+    theta, bins = np.radians(run.label("theta_deg")), np.round(run.label("lateral_mm")) + 0.0
+    figures = E.along_edge_turn_sheared(run)
+    assert sorted(figures) == [-2.0, -1.0, 0.0, 1.0, 2.0]
+    for l, f in figures.items():
+        t = theta[bins == l]
+        pair = ORIENT_PX * np.column_stack([np.cos(2 * t), np.sin(2 * t)])
+        mean = pair.mean(axis=0) + (fixed * np.array([np.cos(phi), np.sin(phi)]) if l < 0 else 0.0)
+        ahead = (t - t.mean()) @ (pair - pair.mean(axis=0))
+        ahead /= np.linalg.norm(ahead)
+        outwards = np.array([ahead[1], -ahead[0]]) * np.sign(mean @ [ahead[1], -ahead[0]])
+        expected = np.degrees(np.arctan2(mean @ ahead, mean @ outwards))
+        # the bin's draw of θ moves it by about 4° (a·0.71/√300 along the θ term against a·2/π)
+        assert abs(expected - (38.1 * np.sin(phi) if l < 0 else 0.0)) < 10.0
+        assert f["offset_deg"] == pytest.approx(expected, abs=0.5), l
+
+
 def test_taps_over_a_full_turn_are_not_turned_and_keep_their_shifts() -> None:
     """Taps whose angles span a full turn: their PCs are those of their frames as recorded."""
     thetas = np.arange(-180.0, 180.0, 20.0)

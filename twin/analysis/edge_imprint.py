@@ -401,7 +401,8 @@ def along_edge_turn_sheared(
     """Sheared taps, per lateral bin, for a 1 mm slide along the edge: "raw_deg_per_mm" (its
     pin field along the orientation direction, in degrees of θ: g_a·g_θ / |g_θ|²),
     "pc23_deg_per_mm" (how far it turns θ_PC23 from the bin's mean frame), "plane_share"
-    (its energy in the taps' PC2–PC3 plane) and "radius_px" (the bin's RMS radius in that plane).
+    (its energy in the taps' PC2–PC3 plane), "radius_px" (the bin's RMS radius in that plane)
+    and "offset_deg" (`pressed_offset_deg`).
     `fits`: the run's `sheared_fits`, where the caller has them."""
     fits = sheared_fits(run) if fits is None else fits
     pcs = pcs or tap_pcs(run, fits)
@@ -416,8 +417,24 @@ def along_edge_turn_sheared(
             "plane_share": pcs.plane_share(g_a),
             "radius_px": float(np.sqrt(np.mean(np.sum(p**2, axis=1)))),
             "translation_share": translation_share(g_a),
+            "offset_deg": pressed_offset_deg(pcs, f),
         }
     return out
+
+
+def pressed_offset_deg(pcs: TapPCs, fit: BinFit) -> float:
+    """The angle (deg) of a bin's mean frame in PC2–PC3 from the direction a pure turn about
+    the plane's centre would put it: perpendicular to the θ term's direction in the plane,
+    on the mean frame's side. Positive: the frame sits ahead along increasing θ, as a fixed
+    imprint added to the bin's taps (a tilted mount's) would put it; 0: the taps turn about
+    the centre, as the paper's reading of θ_PC23 assumes."""
+    m = pcs.in_plane(fit.mean_z)[0]
+    ahead = pcs.in_plane(fit.mean_z + fit.gradients["theta_deg"])[0] - m
+    ahead /= np.linalg.norm(ahead)
+    radial = np.array([ahead[1], -ahead[0]])
+    if m @ radial < 0:
+        radial = -radial
+    return float(np.degrees(np.arctan2(m @ ahead, m @ radial)))
 
 
 def along_edge_turn_slides(

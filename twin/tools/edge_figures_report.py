@@ -96,6 +96,7 @@ def format_edge_figures(figures: list[dict], labels: list[str] | None = None) ->
             ("plane_share", "drag energy in the taps' PC2–PC3, %", "{:.1f}", 100.0),
             ("translation_share", "drag energy in a rigid shift, %", "{:.0f}", 100.0),
             ("radius_px", "the taps' PC2–PC3 radius, px", "{:.1f}", 1.0),
+            ("offset_deg", "the mean frame's offset in PC2–PC3 from a turn about the centre, deg", "{:+.0f}", 1.0),
         ):
             lines.append(f"   {what}:")
             lines += _rows_by_lateral(figures, "along_edge", field, fmt, scale)
