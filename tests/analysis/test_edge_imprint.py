@@ -196,22 +196,29 @@ ORIENT_PX = 2.0  # the orientation imprint at the RMS radius
 DEPTH_PX_PER_MM = 3.0  # the radial dilation per mm of depth offset, at the RMS radius
 
 
-def _imprint_run(n: int = 1500, seed: int = 3) -> Run:
+def _pattern(phi_rad: float) -> np.ndarray:
+    """S(φ)·r/ρ (127, 2): S(φ) = [[cos φ, sin φ], [sin φ, −cos φ]], r the rest pin about the
+    centre; S(2θ) turns with an edge at θ, and S(0), S(90°) span the rotating pair."""
+    s = np.array([[np.cos(phi_rad), np.sin(phi_rad)], [np.sin(phi_rad), -np.cos(phi_rad)]])
+    return CENTRED @ s.T / RHO
+
+
+def _imprint_run(n: int = 1500, seed: int = 3, extra=None) -> Run:
     """Sheared taps over θ ±45° whose pins hold: a rigid shift b·n(θ) along the edge normal
-    n = (cos θ, sin θ); an orientation imprint a·S(2θ)·r/ρ (S(φ) = [[cos φ, sin φ], [sin φ,
-    −cos φ]], r the rest pin about the centre); a radial dilation with the depth offset;
-    slides along and across the edge that shift every pin rigidly; a twist that turns them."""
+    n = (cos θ, sin θ); an orientation imprint a·S(2θ)·r/ρ (`_pattern`); a radial dilation
+    with the depth offset; slides along and across the edge that shift every pin rigidly; a
+    twist that turns them; and `extra(tap)` (127, 2) px where given."""
 
     def displacement(tap) -> np.ndarray:
-        t, phi = np.radians(tap.theta_deg), np.radians(2 * tap.theta_deg)
-        turn = np.array([[np.cos(phi), np.sin(phi)], [np.sin(phi), -np.cos(phi)]])
+        t = np.radians(tap.theta_deg)
         return (
             EDGE_SHIFT_PX * np.array([np.cos(t), np.sin(t)])
-            + ORIENT_PX * CENTRED @ turn.T / RHO
+            + ORIENT_PX * _pattern(2 * t)
             + tap.depth_offset_mm * DEPTH_PX_PER_MM * CENTRED / RHO
             + tap.slide_along_mm * np.array([1.0, -0.5])
             + tap.slide_lateral_mm * np.array([0.5, 1.0])
             + tap.twist_deg * 0.3 * CENTRED[:, ::-1] * [-1.0, 1.0] / RHO
+            + (0.0 if extra is None else extra(tap))
         )
 
     return _sheared(displacement, n, seed, 0.01)
@@ -246,8 +253,9 @@ def test_turned_taps_read_the_orientation_without_the_rigid_shifts() -> None:
 
 @pytest.mark.parametrize("fixed_deg", [90.0, -90.0, 0.0])
 def test_a_fixed_imprint_onto_the_object_offsets_the_mean_frame_from_a_turn(fixed_deg: float) -> None:
-    """Taps whose orientation imprint a·S(2θ)·r/ρ turns about the plane's centre, plus, onto
-    the object (l < −0.5 mm), a fixed imprint c·S(φ)·r/ρ (a tilted mount's). In one scale the
+    """`_imprint_run`'s taps, whose orientation imprint a·S(2θ)·r/ρ turns about the plane's
+    centre (its shifts, dilation and twist lie outside the pair), plus, onto the object
+    (l < −0.5 mm), a fixed imprint c·S(φ)·r/ρ (a tilted mount's). In one scale the
     pair's coordinates are a·(cos 2θ, sin 2θ) + c·(cos φ, sin φ), so a bin's mean frame is
     a·(mean cos 2θ, mean sin 2θ) + c·(cos φ, sin φ) and the θ term points along the slope of
     (cos 2θ, sin 2θ) on θ, nearly (0, 1): with the bin's own θ the offset is about
@@ -255,16 +263,7 @@ def test_a_fixed_imprint_onto_the_object_offsets_the_mean_frame_from_a_turn(fixe
     only moves the frame outwards), and none off the object."""
     fixed = 1.0  # px, c
     phi = np.radians(fixed_deg)
-
-    def turn(f: float) -> np.ndarray:
-        return np.array([[np.cos(f), np.sin(f)], [np.sin(f), -np.cos(f)]])
-
-    def displacement(tap) -> np.ndarray:
-        d = ORIENT_PX * CENTRED @ turn(np.radians(2 * tap.theta_deg)).T / RHO
-        d = d + tap.depth_offset_mm * DEPTH_PX_PER_MM * CENTRED / RHO + tap.slide_along_mm * np.array([1.0, -0.5])
-        return d + (fixed * CENTRED @ turn(phi).T / RHO if tap.lateral_mm < -0.5 else 0.0)
-
-    run = _sheared(displacement, 1500, 4, 0.01)
+    run = _imprint_run(extra=lambda tap: fixed * _pattern(phi) if tap.lateral_mm < -0.5 else 0.0)
     theta, bins = np.radians(run.label("theta_deg")), np.round(run.label("lateral_mm")) + 0.0
     figures = E.along_edge_turn_sheared(run)
     assert sorted(figures) == [-2.0, -1.0, 0.0, 1.0, 2.0]

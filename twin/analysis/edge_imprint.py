@@ -368,10 +368,15 @@ class TapPCs:
         p = self.in_plane(z)
         return np.degrees(np.arctan2(p[:, 1], p[:, 0]))
 
+    def field_in_plane(self, field: np.ndarray) -> np.ndarray:
+        """(2,) px: a displacement field's (254,) part in the PC2–PC3 plane (no mean taken:
+        a field moves a frame by this much there)."""
+        return self.components[list(self.pair)] @ field
+
     def plane_share(self, field: np.ndarray) -> float:
         """The share of a displacement field's energy (254,) in the PC2–PC3 plane (of its
         whole energy, any rigid shift in it included)."""
-        return float(np.sum((self.components[list(self.pair)] @ field) ** 2) / np.sum(field**2))
+        return float(np.sum(self.field_in_plane(field) ** 2) / np.sum(field**2))
 
 
 def tap_pcs(run: Run, fits: list[BinFit] | None = None) -> TapPCs:
@@ -429,7 +434,7 @@ def pressed_offset_deg(pcs: TapPCs, fit: BinFit) -> float:
     imprint added to the bin's taps (a tilted mount's) would put it; 0: the taps turn about
     the centre, as the paper's reading of θ_PC23 assumes."""
     m = pcs.in_plane(fit.mean_z)[0]
-    ahead = pcs.in_plane(fit.mean_z + fit.gradients["theta_deg"])[0] - m
+    ahead = pcs.field_in_plane(fit.gradients["theta_deg"])
     ahead /= np.linalg.norm(ahead)
     radial = np.array([ahead[1], -ahead[0]])
     if m @ radial < 0:
