@@ -103,6 +103,45 @@ def test_signal_profile_is_the_fade_relative_to_the_edge_through_the_centre(run:
     assert profile[3.0] == pytest.approx({l: v / spread[0.0] for l, v in spread.items()}, rel=0.01)
 
 
+def test_the_signal_by_depth_is_its_growth_with_the_press() -> None:
+    """An orientation field that grows by 30 % per mm of depth offset: each band of the taps'
+    offsets reads fade × (1 + 0.3 × the band's mean offset) × its angles' spread, over the
+    bands' mean at l = 0; the one pooled row cannot show that growth."""
+    growth = 0.3
+    f = _fields()
+
+    def displacement(tap) -> np.ndarray:
+        fade = FADE[float(np.round(tap.lateral_mm)) + 0.0] * (1.0 + growth * tap.depth_offset_mm)
+        return (
+            fade * tap.theta_deg / 45.0 * f["theta"]
+            + tap.slide_lateral_mm * f["across"]
+            + tap.depth_offset_mm * f["depth"]
+        )
+
+    run = _sheared(displacement, 3000, 5, 0.01)
+    table = E.signal_by_depth(run)
+    offset, theta = run.label("depth_offset_mm"), run.label("theta_deg")
+    bins = np.round(run.label("lateral_mm")) + 0.0
+    edges = np.linspace(offset.min(), offset.max(), E.DEPTH_BANDS + 1)
+    band = np.clip(np.searchsorted(edges, offset, side="right") - 1, 0, E.DEPTH_BANDS - 1)
+    expected = [
+        {
+            l: fade * (1 + growth * offset[m].mean()) * theta[m].std()
+            for l, fade in FADE.items()
+            if (m := (band == k) & (bins == l)).any()
+        }
+        for k in range(E.DEPTH_BANDS)
+    ]
+    centre = np.mean([row[0.0] for row in expected])
+    assert list(table) == [round(3.0 + 0.5 * (edges[k] + edges[k + 1]), 2) for k in range(E.DEPTH_BANDS)]
+    for row, want in zip(table.values(), expected):
+        assert row == pytest.approx({l: v / centre for l, v in want.items()}, rel=0.02)
+    shallow, _, deep = table.values()
+    assert deep[0.0] / shallow[0.0] == pytest.approx((1 + growth * 2 / 3) / (1 - growth * 2 / 3), rel=0.05)
+    plain = Run(Path("synthetic"), {"scenario": {"protocol": {"kind": "taps"}}, "rest_pins_px": REST.tolist()}, [])
+    assert E.signal_by_depth(plain) == {}  # plain taps: their profile is per depth already
+
+
 def test_along_edge_drag_in_degrees_per_mm(run: Run) -> None:
     """g_a·g_θ / |g_θ|² = (K/45 / fade) / (fade / 45) deg/mm = K / fade²; the rigid shift is
     orthogonal to θ's field, so it adds nothing but is most of the drag's energy."""
@@ -462,6 +501,7 @@ def test_compare_and_evaluate_print_the_edge_figures(run: Run, tmp_path: Path, c
     assert "no paired samples" in printed and "drag / orientation signal" in printed
     assert "orientation signal in a rigid shift of the pins, %" in printed
     assert "orientation signal by ring of pins" in printed
+    assert "orientation signal / its mean at l = 0 over the depths, the sheared taps 2.33 mm deep:" in printed
     header = next(line for line in printed.splitlines() if line.startswith("edge figures"))
     assert "A: rig" in header and "B: twin" in header
     figures = json.loads((tmp_path / "cmp" / "comparison.json").read_text())["edge_figures"]

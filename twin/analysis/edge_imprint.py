@@ -56,6 +56,8 @@ from twin.sensing.perception import pca_fit, pins_to_vectors
 SHEARED_TERMS = ("theta_deg", "slide_along_mm", "slide_lateral_mm", "twist_deg", "depth_offset_mm", "lateral_in_bin_mm")
 SLIDE_TERMS = SHEARED_TAP_MOTION
 REACH_BINS = 10
+#: the equal ranges of depth offset a sheared run's signal is split into by depth
+DEPTH_BANDS = 3
 #: the lateral positions (mm) of the reach profile unless asked for others: 4 mm onto and off the object
 REACH_AT_MM = (-4.0, 4.0)
 #: how far (mm) a tap's lateral position may lie from an l asked for and count as there
@@ -206,6 +208,29 @@ def signal_profile(
             for d, row in rows.items()
         }
     return {d: {l: v / row[0.0] for l, v in row.items()} for d, row in rows.items() if row.get(0.0)}
+
+
+def signal_by_depth(run: Run, bands: int = DEPTH_BANDS) -> dict[float, dict[float, float]]:
+    """{depth_mm: {lateral_mm: signal over its mean at l = 0}} of a sheared-taps run, its
+    taps split into `bands` equal ranges of their depth offset (keyed by the nominal depth
+    plus the range's middle, 0.01 mm): how the signal grows with depth, which the run's one
+    row (`signal_profile`) pools. A band's signal is the θ term of `sheared_fits` on its taps
+    alone; the bands' l = 0 values average to 1. Empty for plain taps, whose profile is per
+    depth already, and where a band has no l = 0."""
+    if not is_sheared(run):
+        return {}
+    ok = usable(run)
+    offset = run.label("depth_offset_mm")
+    edges = np.linspace(offset[ok].min(), offset[ok].max(), bands + 1)
+    signal = {}
+    for k in range(bands):
+        inside = ok & (offset >= edges[k]) & ((offset < edges[k + 1]) if k < bands - 1 else (offset <= edges[k + 1]))
+        depth = round(_nominal_depth(run) + 0.5 * (edges[k] + edges[k + 1]), 2) + 0.0
+        signal[depth] = {f.lateral_mm: f.spread_px["theta_deg"] for f in sheared_fits(_subset(run, inside))}
+    if not all(row.get(0.0) for row in signal.values()):
+        return {}
+    centre = float(np.mean([row[0.0] for row in signal.values()]))
+    return {d: {l: v / centre for l, v in row.items()} for d, row in signal.items()}
 
 
 def pin_rings(rest_px: np.ndarray) -> np.ndarray:
@@ -596,7 +621,7 @@ def edge_figures(taps: Run, slides: Run | None = None, reach_at: tuple[float, ..
     """Every figure of this module for one sensor: a tap run (plain or sheared) and, for
     plain taps, a slides run for the along-edge drag (its slides at their first lateral
     position). `reach_at`: the l (mm) of the reach profiles; those with no tap within 0.5 mm
-    are left out. Keys: signal_profile, signal_shift_share, reach (l → ten bins),
+    are left out. Keys: signal_profile, signal_by_depth, signal_shift_share, reach (l → ten bins),
     signal_rings (at the reach's l and l = 0), closest_pins, pcs_explained,
     pcs_turned, drag_over_signal and along_edge (l → figures; sheared taps, or plain taps
     with slides)."""
@@ -607,6 +632,7 @@ def edge_figures(taps: Run, slides: Run | None = None, reach_at: tuple[float, ..
         "name": taps.meta["scenario"]["name"],
         "kind": taps.meta["scenario"]["protocol"]["kind"],
         "signal_profile": signal_profile(taps, fits=fits),
+        "signal_by_depth": signal_by_depth(taps),
         "signal_shift_share": signal_shift_share(taps, fits),
         "reach": {l: reach_profile(taps, l) for l in reach_at if np.any(np.abs(lateral - l) <= NEAR_L_MM + 1e-9)},
         "signal_rings": signal_rings(taps, (*reach_at, 0.0), fits),
