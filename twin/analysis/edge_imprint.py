@@ -435,6 +435,8 @@ def along_edge_turn_sheared(
     and "offset_deg" (`pressed_offset_deg`).
     `fits`: the run's `sheared_fits`, where the caller has them."""
     fits = sheared_fits(run) if fits is None else fits
+    if not fits:  # no bin with enough taps (a small run, or a resample of one)
+        return {}
     pcs = pcs or tap_pcs(run, fits)
     out = {}
     for f in fits:

@@ -78,7 +78,8 @@ def _plot(a: Run, b: Run, ia: np.ndarray, ib: np.ndarray, diff: np.ndarray, out:
         )
         ax.set_xlim(0, 640)
         ax.set_ylim(480, 0)
-    axes[2].hist(np.sqrt(np.nanmean(diff**2, axis=1)), bins=40, color="tab:blue")
+    with_pins = np.isfinite(diff).any(axis=1)  # a recording's frame without pins has no difference
+    axes[2].hist(np.sqrt(np.nanmean(diff[with_pins] ** 2, axis=1)), bins=40, color="tab:blue")
     axes[2].set_xlabel("per-sample pin RMS difference (px)")
     axes[2].set_ylabel("samples")
     fig.tight_layout()
