@@ -216,10 +216,10 @@ def signal_by_depth(run: Run, bands: int = DEPTH_BANDS) -> dict[float, dict[floa
     plus the range's middle, 0.01 mm): how the signal grows with depth, which the run's one
     row (`signal_profile`) pools. A band's signal is the θ term of `sheared_fits` on its taps
     alone; the bands' l = 0 values average to 1. Empty for plain taps, whose profile is per
-    depth already, and where a band has no l = 0."""
-    if not is_sheared(run):
+    depth already, for a run without a usable tap, and where a band has no l = 0."""
+    ok = usable(run) if is_sheared(run) else np.zeros(0, bool)
+    if not ok.any():
         return {}
-    ok = usable(run)
     offset = run.label("depth_offset_mm")
     edges = np.linspace(offset[ok].min(), offset[ok].max(), bands + 1)
     signal = {}
