@@ -84,11 +84,6 @@ def perception_error(run: Run, model) -> dict | None:
 FIGURE_RESAMPLES = 50
 
 
-def _taps(run: Run, indices: list[int]) -> Run:
-    """`run` with only the samples at `indices`, in that order."""
-    return Run(run.path, run.meta, [run.samples[k] for k in indices])
-
-
 def figure_differences(a: Run, b: Run, resamples: int, seed: int) -> dict:
     """B's edge figures against A's on the same taps (`a` and `b` hold them in the same
     order): per figure and lateral bin, both values and the standard deviation of their
@@ -188,7 +183,7 @@ def compare_runs(
     if not any(not a.samples[i]["labels"].get("no_contact") for i, _ in shared):
         shared = []  # a no-contact frame at one pose alone is no shared tap
     result["shared_taps"] = len(shared)
-    taps_a, taps_b = (_taps(a, [i for i, _ in shared]), _taps(b, [j for _, j in shared])) if shared else (a, b)
+    taps_a, taps_b = (a.subset([i for i, _ in shared]), b.subset([j for _, j in shared])) if shared else (a, b)
     if kind == "taps":  # what each sensor's taps carry of the edge's orientation, by lateral position
         result["orientation_signal_px"] = {"a": orientation_signal_px(taps_a), "b": orientation_signal_px(taps_b)}
     elif kind == "slides":  # how far each sensor's skin is dragged along the edge

@@ -200,7 +200,7 @@ def signal_profile(
         signal = {f.lateral_mm: f.spread_px["theta_deg"] for f in fits}
         rows = {_nominal_depth(run): signal}
     else:
-        rows = orientation_signal_px(_subset(run, usable(run)))
+        rows = orientation_signal_px(run.subset(usable(run)))
     if without_shift:
         shares = signal_shift_share(run, fits)
         rows = {
@@ -217,16 +217,19 @@ def signal_by_depth(run: Run, bands: int = DEPTH_BANDS) -> dict[float, dict[floa
     row (`signal_profile`) pools. A band's signal is the θ term of `sheared_fits` on its taps
     alone; the bands' l = 0 values average to 1. Empty for plain taps, whose profile is per
     depth already, for a run without a usable tap, and where a band has no l = 0."""
-    ok = usable(run) if is_sheared(run) else np.zeros(0, bool)
+    if not is_sheared(run):
+        return {}
+    ok = usable(run)
     if not ok.any():
         return {}
     offset = run.label("depth_offset_mm")
     edges = np.linspace(offset[ok].min(), offset[ok].max(), bands + 1)
+    band = np.searchsorted(edges[1:-1], offset, side="right")  # the top edge in the last band
     signal = {}
     for k in range(bands):
-        inside = ok & (offset >= edges[k]) & ((offset < edges[k + 1]) if k < bands - 1 else (offset <= edges[k + 1]))
         depth = round(_nominal_depth(run) + 0.5 * (edges[k] + edges[k + 1]), 2) + 0.0
-        signal[depth] = {f.lateral_mm: f.spread_px["theta_deg"] for f in sheared_fits(_subset(run, inside))}
+        fits = sheared_fits(run.subset(ok & (band == k)))
+        signal[depth] = {f.lateral_mm: f.spread_px["theta_deg"] for f in fits}
     if not all(row.get(0.0) for row in signal.values()):
         return {}
     centre = float(np.mean([row[0.0] for row in signal.values()]))
@@ -264,7 +267,7 @@ def signal_rings(
         fits = sheared_fits(run) if fits is None else fits
         rows = {_nominal_depth(run): {f.lateral_mm: f.pin_signal_px for f in fits}}
     else:
-        rows = orientation_signal_by_pin_px(_subset(run, usable(run)))
+        rows = orientation_signal_by_pin_px(run.subset(usable(run)))
     n_rings = rings.max() + 1
     table: dict[float, dict[float, list[float]]] = {}
     for d, row in rows.items():
@@ -318,10 +321,6 @@ def drag_over_signal(run: Run, fits: list[BinFit] | None = None) -> dict[float, 
         drag, signal = f.spread_px["slides"], f.spread_px["theta_deg"]
         table[f.lateral_mm] = {"drag_px": drag, "signal_px": signal, "ratio": drag / signal if signal > 0 else math.nan}
     return table
-
-
-def _subset(run: Run, mask: np.ndarray) -> Run:
-    return Run(run.path, run.meta, [s for s, m in zip(run.samples, mask) if m])
 
 
 # ------------------------------------------------------------------ PCs over a turn

@@ -385,6 +385,13 @@ class Run:
         pins = self.samples[index]["pins_px"]
         return np.full((127, 2), np.nan) if pins is None else np.asarray(pins, float)
 
+    def subset(self, keep) -> Run:
+        """This run with only some of its samples: at the indices `keep` (in that order) or
+        where the boolean mask `keep` is true."""
+        keep = np.asarray(keep)
+        indices = np.flatnonzero(keep) if keep.dtype == bool else keep.astype(int)
+        return Run(self.path, self.meta, [self.samples[k] for k in indices])
+
     @property
     def rest_pins_px(self) -> np.ndarray:
         """(127, 2) px: the pins at rest; runs recorded before rest pins were kept fall back

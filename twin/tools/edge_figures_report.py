@@ -47,10 +47,9 @@ def format_edge_figures(figures: list[dict], labels: list[str] | None = None) ->
     for depth, profiles in _depth_groups(figures, "signal_profile"):
         lines.append(f"  orientation signal / its value at l = 0, {depth}:")
         lines += _rows_by_lateral([{"signal_profile": p} for p in profiles], "signal_profile", None, "{:.2f}")
-    if any(f.get("signal_by_depth") for f in figures):
-        for depth, profiles in _depth_groups(figures, "signal_by_depth"):
-            lines.append(f"  orientation signal / its mean at l = 0 over the depths, the sheared taps {depth}:")
-            lines += _rows_by_lateral([{"s": p} for p in profiles], "s", None, "{:.2f}")
+    for depth, profiles in _depth_groups(figures, "signal_by_depth"):
+        lines.append(f"  orientation signal / its mean at l = 0 over the depths, the sheared taps {depth}:")
+        lines += _rows_by_lateral([{"s": p} for p in profiles], "s", None, "{:.2f}")
     for depth, shares in _depth_groups(figures, "signal_shift_share"):
         lines.append(f"  orientation signal in a rigid shift of the pins, %, {depth}:")
         lines += _rows_by_lateral([{"s": s} for s in shares], "s", None, "{:.0f}", 100.0)

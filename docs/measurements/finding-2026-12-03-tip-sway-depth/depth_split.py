@@ -15,8 +15,7 @@ RESAMPLES = 30
 
 
 def signal_px(run: Run, mask: np.ndarray) -> dict[float, float]:
-    taps = Run(run.path, run.meta, [s for s, m in zip(run.samples, mask) if m])
-    return {f.lateral_mm: f.spread_px["theta_deg"] for f in sheared_fits(taps)}
+    return {f.lateral_mm: f.spread_px["theta_deg"] for f in sheared_fits(run.subset(mask))}
 
 
 def main(recorded: str, *replays: str) -> None:
@@ -25,15 +24,13 @@ def main(recorded: str, *replays: str) -> None:
     for path in replays:
         twin = load_run(path)
         pairs = shared_taps(real, twin)
-        a = Run(real.path, real.meta, [real.samples[i] for i, _ in pairs])
-        b = Run(twin.path, twin.meta, [twin.samples[j] for _, j in pairs])
+        a, b = real.subset([i for i, _ in pairs]), twin.subset([j for _, j in pairs])
         print(f"== {path}: {len(pairs)} shared taps; l = +5 … −5 mm")
         offset = a.label("depth_offset_mm")
         edges = np.linspace(np.nanmin(offset), np.nanmax(offset), DEPTH_BANDS + 1)
+        band = np.searchsorted(edges[1:-1], offset, side="right")  # as signal_by_depth splits them
         for k in range(DEPTH_BANDS):
-            inside = (offset >= edges[k]) & (
-                (offset < edges[k + 1]) if k < DEPTH_BANDS - 1 else (offset <= edges[k + 1])
-            )
+            inside = (band == k) & np.isfinite(offset)
             rows = {name: signal_px(run, inside) for name, run in (("recording", a), ("replay", b))}
             draws = {name: [] for name in rows}
             idx = np.flatnonzero(inside)
