@@ -14,7 +14,7 @@ import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
-from multiprocessing import get_context
+from multiprocessing import connection, get_context
 
 from threadpoolctl import threadpool_limits
 
@@ -188,7 +188,7 @@ class WorkerPool:
         the same `submit` that woke the thread may be missed until the next result
         arrives (a job of minutes), so the waits look as well (CPython 3.11's submit wakes
         the thread before it starts the process)."""
-        if any(p.exitcode not in (None, 0) for p in self._processes()):
+        if _ended(self._processes()):
             raise BrokenProcessPool("a worker process died (found while waiting for a job)")
 
     def _next_item(self, index: int, future, waiting: dict[int, list], held: HeldSignals | None):
@@ -264,17 +264,29 @@ class WorkerPool:
         the pool stopped. The others block SIGTERM (stop_signals_blocked), so the pool's
         own SIGTERM leaves them to finish their jobs, whose results are lost with the pool
         (a chunk at a fine lattice takes minutes), or to wait for ever on a queue lock the
-        dead worker held."""
-        ended = [p for p in self._processes() if p.exitcode is not None and p.exitcode != 0]
+        dead worker held.
+
+        The exit statuses are read only once the pool is stopped: a forkserver worker's
+        status is read off a pipe, once, and the executor's thread reads it as it joins
+        the workers, so a second reader at that moment gets nothing and Python reports
+        exit code 255. The executor can find the loss (the dead worker's end of the result
+        pipe closed) before the forkserver has reaped the worker and written its status,
+        so the first ending is waited for, up to REAP_WAIT_S."""
+        processes = self._processes()
+        if processes:
+            connection.wait([p.sentinel for p in processes], timeout=REAP_WAIT_S)
+        dead = _ended(processes)
         self._kill_local()
-        how = "; ".join(f"process {p.pid} {_ending(p.exitcode)}" for p in ended) or "no exit status"
-        return f"a worker process ended without finishing its job: {how}"
+        how = "; ".join(f"process {p.pid} {_ending(p.exitcode)}" for p in processes if p in dead and p.exitcode)
+        return f"a worker process ended without finishing its job: {how or 'no exit status'}"
 
     def _kill_local(self) -> None:
         """Kill every local worker outright and stop the pool, without waiting for their
         jobs (the workers block SIGTERM, so the pool's own shutdown would)."""
-        for process in self._processes():
-            if process.exitcode is None:
+        processes = self._processes()
+        dead = _ended(processes)
+        for process in processes:
+            if process not in dead:
                 process.kill()
         self._stop_local()
 
@@ -303,6 +315,13 @@ class WorkerPool:
             yield ray.get(ref)
 
 
+def _ended(processes: list) -> list:
+    """Those of `processes` that have ended, found from their sentinels without reading
+    their exit status (see WorkerPool._stop_broken)."""
+    ready = set(connection.wait([p.sentinel for p in processes], timeout=0)) if processes else set()
+    return [p for p in processes if p.sentinel in ready]
+
+
 def _ending(exitcode: int) -> str:
     """How a process with this exit code ended, in words."""
     if exitcode >= 0:
@@ -312,6 +331,9 @@ def _ending(exitcode: int) -> str:
     oom = ", as the kernel's out-of-memory killer does; see dmesg" if number == signal.SIGKILL else ""
     return f"was killed by {name} (signal {number}{oom})"
 
+
+#: How long a lost worker's exit status is waited for, from the forkserver that reaps it (s)
+REAP_WAIT_S = 10.0
 
 #: How long a wait for a worker lasts before the held signals are looked at again (s)
 WAIT_S = 0.2
