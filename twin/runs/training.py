@@ -15,12 +15,15 @@ import dataclasses
 import hashlib
 import json
 import shutil
+import sys
 import warnings
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
 from twin.core.errors import UserError
+from twin.core.locks import held_exclusively
 from twin.core.resources import cache_dir, code_digest, package_version, scenario_path
 from twin.core.scenario import Scenario, load_scenario
 from twin.runs.record import Run, load_run
@@ -99,30 +102,38 @@ def cache_key(taps: Scenario) -> str:
 
 
 def cached_tap_model(scenario: Scenario, progress: bool = True) -> PerceptionModel:
-    """The PCA+GP model trained on the tap set matching `scenario` (cached)."""
+    """The PCA+GP model trained on the tap set matching `scenario` (cached). Processes
+    that miss the same model at once train it once: the others wait, then load it."""
     taps = tap_scenario_like(scenario)
-    key = cache_key(taps)
-    model_path = cache_dir() / "models" / f"taps_{key}.npz"
-    model = None
+    model_path = cache_dir() / "models" / f"taps_{cache_key(taps)}.npz"
+
+    def say_waiting() -> None:
+        if progress:
+            tqdm.write(f"waiting for another twin process that trains this tap model ({model_path})", file=sys.stderr)
+
+    with held_exclusively(model_path.with_suffix(".lock"), on_wait=say_waiting):
+        model = _load_or_train(taps, model_path, progress)
+    model.info["path"] = str(model_path)
+    return model
+
+
+def _load_or_train(taps: Scenario, model_path: Path, progress: bool) -> PerceptionModel:
+    """The model stored at `model_path`, or the one trained on `taps` (recorded into the
+    cache's runs folder, or that folder's completed run) and stored there."""
     if model_path.exists():
         try:
-            model = PerceptionModel.load(model_path)
+            return PerceptionModel.load(model_path)
         except UserError as err:  # a damaged cache entry (cut by a kill, a full disk) is trained again
-            warnings.warn(f"{err}; training it again", stacklevel=2)
-    if model is None:
-        run_dir = cache_dir() / "runs" / f"taps_{key}"
-        if not _completed_run(run_dir):
-            shutil.rmtree(run_dir, ignore_errors=True)
-            record_protocol(taps, run_dir, progress=progress)
-        model = train_from_run(load_run(run_dir))
-        try:
-            model_path.parent.mkdir(parents=True, exist_ok=True)
-            model.save(model_path)
-        except OSError as err:
-            warnings.warn(
-                f"{model_path}: could not store the trained model in the cache ({err.strerror})", stacklevel=2
-            )
-    model.info["path"] = str(model_path)
+            warnings.warn(f"{err}; training it again", stacklevel=3)
+    run_dir = cache_dir() / "runs" / model_path.stem
+    if not _completed_run(run_dir):
+        shutil.rmtree(run_dir, ignore_errors=True)
+        record_protocol(taps, run_dir, progress=progress)
+    model = train_from_run(load_run(run_dir))
+    try:
+        model.save(model_path)
+    except OSError as err:
+        warnings.warn(f"{model_path}: could not store the trained model in the cache ({err.strerror})", stacklevel=3)
     return model
 
 
