@@ -465,10 +465,13 @@ def test_closest_pins_is_the_nearest_pair_against_its_rest_spacing() -> None:
     assert rows[-2.0] == pytest.approx({"min": 0.3, "median": 0.3, "lost": 0.5})
 
 
-def _write(run: Run, out: Path, name: str, x0_mm: float = 0.0, step: int = 1) -> Path:
+def _write(
+    run: Run, out: Path, name: str, x0_mm: float = 0.0, step: int = 1, lost: frozenset[int] = frozenset()
+) -> Path:
     """`run` recorded to `out` by the run recorder, after a no-contact frame (as a sheared-taps
     run has), its targets from x = `x0_mm` on; `step`: only every step-th tap, at the target
-    it has in the whole run (a replay of every step-th tap of a recording)."""
+    it has in the whole run (a replay of every step-th tap of a recording); `lost`: the taps
+    whose first pin was not found (as a real tracker loses one)."""
     from twin.core.environment import Observation
     from twin.core.poses import Pose
     from twin.core.scenario import scenario_from_dict
@@ -483,7 +486,9 @@ def _write(run: Run, out: Path, name: str, x0_mm: float = 0.0, step: int = 1) ->
         recorder.add(Observation(0.0, hover), hover, rest, REST, np.ones(127, bool))
         for k, s in list(enumerate(run.samples))[::step]:
             target = Pose(x0_mm + k, 0, 3)
-            recorder.add(Observation(float(k), target), target, s["labels"], np.array(s["pins_px"]), np.ones(127, bool))
+            found = np.ones(127, bool)
+            found[0] = k not in lost
+            recorder.add(Observation(float(k), target), target, s["labels"], np.array(s["pins_px"]), found)
     return out
 
 
@@ -555,6 +560,31 @@ def test_compare_reads_both_runs_on_the_taps_they_share(run: Run, tmp_path: Path
     for r in differences["rows"]:
         assert r["b"] == pytest.approx(r["a"], rel=1e-6) and r["spread"] == pytest.approx(0.0, abs=1e-6), r
     assert f"B against A on the same {len(run.samples[::4])} taps" in printed and "+0.00 ± 0.00" in printed
+
+
+def test_compare_leaves_out_of_both_runs_the_taps_either_lost_a_pin_in(tmp_path: Path) -> None:
+    """A recording that lost a pin in some taps (the DigiTac set's tracker, in a tenth of its
+    frames, most at the deepest presses onto the object) beside a replay that lost none:
+    the replay's figures come from the taps the recording kept, not from all of its own,
+    so that both read the same taps."""
+    import json
+
+    from twin.tools.cli import main
+
+    recording, replay = sheared_run(600, seed=8, noise_px=0.3), sheared_run(600, seed=8, noise_px=0.3, noise_seed=99)
+    offsets = [s["labels"]["depth_offset_mm"] for s in recording.samples]
+    lost = frozenset(k for k, offset in enumerate(offsets) if offset > 0.3)
+    a = _write(recording, tmp_path / "a", "rig", lost=lost)
+    b = _write(replay, tmp_path / "b", "twin")
+    assert main(["compare", str(a), str(b), "--out", str(tmp_path / "cmp"), "--resamples", "2"]) == 0
+    result = json.loads((tmp_path / "cmp" / "comparison.json").read_text())
+    kept = [s for k, s in enumerate(replay.samples) if k not in lost]
+    assert result["shared_taps"] == 1 + len(kept)  # the no-contact frame and the taps both kept
+    expected = E.signal_profile(Run(replay.path, replay.meta, kept))[3.0]
+    everything = E.signal_profile(replay)[3.0]
+    assert max(abs(expected[l] - everything[l]) for l in expected) > 0.02  # the case is exercised
+    profile = {float(l): v for l, v in result["edge_figures"]["b"]["signal_profile"]["3.0"].items()}
+    assert profile == pytest.approx(expected, abs=1e-6)
 
 
 def test_the_paired_spread_is_the_scatter_of_the_difference_over_new_taps() -> None:

@@ -13,7 +13,7 @@ import numpy as np
 from skimage.metrics import structural_similarity
 
 from twin.analysis.calibration_fit.figures import figure_values, paired_figure_spread
-from twin.analysis.edge_imprint import REACH_AT_MM, edge_figures, is_sheared
+from twin.analysis.edge_imprint import REACH_AT_MM, edge_figures, is_sheared, usable
 from twin.analysis.evaluation import along_edge_drag_px, orientation_signal_px
 from twin.core.errors import UserError
 from twin.runs.pairing import pair_samples, shared_taps
@@ -143,7 +143,9 @@ def compare_runs(
     Where the runs share taps (twin.runs.pairing.shared_taps: a replay of a recording, or
     of some of its taps), the tap figures of both come from those taps alone: a lateral
     bin's signal ratio differs by 0.13–0.33 between quarters of the DigiTac set's taps,
-    so figures from different taps do not compare. Two sheared-tap runs that
+    so figures from different taps do not compare. A tap in which either run lost a pin
+    counts in neither (the DigiTac set's tracker lost one in a tenth of its frames, most at
+    the deepest presses onto the object, where a replay loses none). Two sheared-tap runs that
     share taps also get the difference of each edge figure (B against A) and its standard
     deviation over `resamples` bootstrap resamples of the shared taps, the same draw for
     both (seeded by `seed`): "edge_figure_differences"."""
@@ -180,6 +182,8 @@ def compare_runs(
         result["perception_a"], result["perception_b"] = perception_error(a, model), perception_error(b, model)
     by_target = pair_samples(a, b) if edge_taps else []
     shared = shared_taps(a, b, by_target) if edge_taps and kind == kind_b else []
+    usable_a, usable_b = (usable(a), usable(b)) if shared else (None, None)
+    shared = [(i, j) for i, j in shared if usable_a[i] == usable_b[j]]  # a tap one run lost a pin in counts in neither
     if not any(not a.samples[i]["labels"].get("no_contact") for i, _ in shared):
         shared = []  # a no-contact frame at one pose alone is no shared tap
     result["shared_taps"] = len(shared)
