@@ -84,6 +84,17 @@ def perception_error(run: Run, model) -> dict | None:
 FIGURE_RESAMPLES = 50
 
 
+def taps_both_kept(a: Run, b: Run, pairs: list[tuple[int, int]] | None = None) -> list[tuple[int, int]]:
+    """The taps the runs share (twin.runs.pairing.shared_taps; `pairs`: their
+    `pair_samples`, where the caller has them) but those only one of them can read
+    (`usable`: a tap one run lost a pin in counts in neither)."""
+    shared = shared_taps(a, b, pairs)
+    if not shared:
+        return []
+    kept_a, kept_b = usable(a), usable(b)
+    return [(i, j) for i, j in shared if kept_a[i] == kept_b[j]]
+
+
 def figure_differences(a: Run, b: Run, resamples: int, seed: int) -> dict:
     """B's edge figures against A's on the same taps (`a` and `b` hold them in the same
     order): per figure and lateral bin, both values and the standard deviation of their
@@ -181,9 +192,7 @@ def compare_runs(
         model = PerceptionModel.load(model_path)
         result["perception_a"], result["perception_b"] = perception_error(a, model), perception_error(b, model)
     by_target = pair_samples(a, b) if edge_taps else []
-    shared = shared_taps(a, b, by_target) if edge_taps and kind == kind_b else []
-    usable_a, usable_b = (usable(a), usable(b)) if shared else (None, None)
-    shared = [(i, j) for i, j in shared if usable_a[i] == usable_b[j]]  # a tap one run lost a pin in counts in neither
+    shared = taps_both_kept(a, b, by_target) if edge_taps and kind == kind_b else []
     if not any(not a.samples[i]["labels"].get("no_contact") for i, _ in shared):
         shared = []  # a no-contact frame at one pose alone is no shared tap
     result["shared_taps"] = len(shared)

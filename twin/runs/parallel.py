@@ -277,7 +277,7 @@ class WorkerPool:
             connection.wait([p.sentinel for p in processes], timeout=REAP_WAIT_S)
         dead = _ended(processes)
         self._kill_local()
-        how = "; ".join(f"process {p.pid} {_ending(p.exitcode)}" for p in processes if p in dead and p.exitcode)
+        how = "; ".join(f"process {p.pid} {_ending(p.exitcode)}" for p in dead if p.exitcode)
         return f"a worker process ended without finishing its job: {how or 'no exit status'}"
 
     def _kill_local(self) -> None:

@@ -1,22 +1,19 @@
-"""Orientation signal (RMS over pins of each pin's spread over the edge angles, px) per
-lateral position and press depth, on still tap runs; growth = deepest / shallowest."""
+"""Orientation signal (twin.analysis.evaluation.orientation_signal_px: each pin's spread
+over the edge angles, RMS over pins, px) per lateral position and press depth, on still tap
+runs; growth = deepest / shallowest."""
 
 import sys
 
-import numpy as np
-
+from twin.analysis.edge_imprint import usable
+from twin.analysis.evaluation import orientation_signal_px
 from twin.runs.record import load_run
 
 for path in sys.argv[1:]:
     run = load_run(path)
-    pins = run.pins_px
-    lat, dep = run.label("lateral_mm"), run.label("depth_mm")
+    by_depth = orientation_signal_px(run.subset(usable(run)))
+    depths = sorted(by_depth)
     rows = []
-    for l in sorted(set(np.round(lat, 2)), reverse=True):
-        sig = []
-        for d in sorted(set(np.round(dep, 2))):
-            sel = (np.round(lat, 2) == l) & (np.round(dep, 2) == d)
-            p = pins[sel]
-            sig.append(np.sqrt(np.nanmean(np.nansum(np.nanvar(p, axis=0), axis=-1))))
-        rows.append(f"l {l:+.0f}: " + " ".join(f"{s:.3f}" for s in sig) + f"  growth {sig[-1] / sig[0]:.2f}")
+    for l in sorted(by_depth[depths[0]], reverse=True):
+        signal = [by_depth[d][l] for d in depths]
+        rows.append(f"l {l:+.0f}: " + " ".join(f"{s:.3f}" for s in signal) + f"  growth {signal[-1] / signal[0]:.2f}")
     print(path.split("/")[-1], "|", " | ".join(rows))

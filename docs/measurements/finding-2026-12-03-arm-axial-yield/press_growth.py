@@ -1,31 +1,28 @@
 """Mean pin displacement from the no-contact frame (RMS over pins, px; the median over taps)
 per octile of the taps' depth offset, recording beside replays, on the taps they share
-with every pin found in both (as `twin compare` reads them)."""
+but those only one of them kept every pin in (as `twin compare` reads them)."""
 
 import sys
 
 import numpy as np
 
-from twin.analysis.edge_imprint import usable
-from twin.runs.pairing import shared_taps
+from twin.analysis.comparison import taps_both_kept
 from twin.runs.record import load_run
 
 
 def moves(run):
-    rest = np.asarray(run.meta["rest_pins_px"], float)
-    return np.sqrt(np.nanmean(np.nansum((run.pins_px - rest) ** 2, axis=-1), axis=-1))
+    return np.sqrt(np.nanmean(np.nansum((run.pins_px - run.rest_pins_px) ** 2, axis=-1), axis=-1))
 
 
 real = load_run(sys.argv[1])
 for path in sys.argv[2:]:
     twin = load_run(path)
-    kept_real, kept_twin = usable(real), usable(twin)
-    pairs = [(i, j) for i, j in shared_taps(real, twin) if kept_real[i] and kept_twin[j]]
+    pairs = taps_both_kept(real, twin)
     a, b = real.subset([i for i, _ in pairs]), twin.subset([j for _, j in pairs])
     offset, lateral = a.label("depth_offset_mm"), a.label("lateral_mm")
     edges = np.linspace(-1, 1, 9)
     print(
-        f"== {path.split('/')[-1]}: {len(pairs)} shared taps; octiles of the depth offset, centres {np.round((edges[:-1] + edges[1:]) / 2, 2)}"
+        f"== {path.split('/')[-1]}: {len(pairs)} shared samples (the no-contact frame and the taps); octiles of the depth offset, centres {np.round((edges[:-1] + edges[1:]) / 2, 2)}"
     )
     for name, run in (("recording", a), ("replay", b)):
         m = moves(run)
