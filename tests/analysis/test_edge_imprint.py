@@ -319,6 +319,46 @@ def test_a_fixed_imprint_onto_the_object_offsets_the_mean_frame_from_a_turn(fixe
         assert f["offset_deg"] == pytest.approx(expected, abs=0.5), l
 
 
+def _outer_pattern(phi_rad: float) -> np.ndarray:
+    """S(φ)·r·w(|r|) (127, 2) scaled to `_pattern`'s norm: a rotating pair weighted to the
+    rim (w = |r|² − Σ|r|⁴/Σ|r|²), orthogonal to every `_pattern` (Σ rᵀ S(φ)ᵀ S(φ') r w =
+    cos(φ' − φ) Σ|r|² w = 0)."""
+    r2 = np.sum(CENTRED**2, axis=1)
+    w = r2 - np.sum(r2**2) / np.sum(r2)
+    s = np.array([[np.cos(phi_rad), np.sin(phi_rad)], [np.sin(phi_rad), -np.cos(phi_rad)]])
+    field = (CENTRED * w[:, None]) @ s.T
+    return field * np.linalg.norm(_pattern(0.0)) / np.linalg.norm(field)
+
+
+def test_a_turn_read_in_another_runs_plane_splits_the_plane_from_the_drag() -> None:
+    """A's imprint is a·S(2θ)·r/ρ; B's adds tan α times a rim-weighted pair orthogonal to it
+    (`_outer_pattern`), so B's PC2–PC3 plane lies α from A's and projects onto A's as A's
+    imprint. Both runs' slides along the edge add the same non-rigid field, part in A's
+    pair and part in the rim's: in A's plane B's taps and drag are A's, so B's turn read
+    there is A's own, while in its own plane B turns otherwise."""
+    alpha = np.radians(20.0)
+    phi_a, phi_b = np.radians(60.0), np.radians(-30.0)
+
+    def drag(tap) -> np.ndarray:
+        return tap.slide_along_mm * (0.3 * _pattern(phi_a) + 1.5 * _outer_pattern(phi_b))
+
+    a = _imprint_run(extra=drag)
+    b = _imprint_run(
+        extra=lambda tap: drag(tap) + np.tan(alpha) * ORIENT_PX * _outer_pattern(np.radians(2 * tap.theta_deg))
+    )
+    own_a, own_b = E.along_edge_turn_sheared(a), E.along_edge_turn_sheared(b)
+    read, itself = E.turn_in_reference_plane(a, b), E.turn_in_reference_plane(a, a)
+    assert read["angle_deg"] == pytest.approx(20.0, abs=0.3)
+    assert itself["angle_deg"] == pytest.approx(0.0, abs=1e-3)
+    for l, turn in read["pc23_deg_per_mm"].items():
+        assert own_a[l]["pc23_deg_per_mm"] > 1.0  # the case is exercised: A's drag turns it
+        assert itself["pc23_deg_per_mm"][l] == pytest.approx(own_a[l]["pc23_deg_per_mm"], rel=1e-9)
+        # the grid's turns map it onto itself to within its projection, so A's plane holds a
+        # trace of the rim's pair: 1 % of the turn
+        assert turn == pytest.approx(own_a[l]["pc23_deg_per_mm"], rel=0.02), l
+        assert abs(own_b[l]["pc23_deg_per_mm"] / own_a[l]["pc23_deg_per_mm"] - 1.0) > 0.3, l
+
+
 def test_taps_over_a_full_turn_are_not_turned_and_keep_their_shifts() -> None:
     """Taps whose angles span a full turn: their PCs are those of their frames as recorded."""
     thetas = np.arange(-180.0, 180.0, 20.0)
@@ -560,6 +600,8 @@ def test_compare_reads_both_runs_on_the_taps_they_share(run: Run, tmp_path: Path
     for r in differences["rows"]:
         assert r["b"] == pytest.approx(r["a"], rel=1e-6) and r["spread"] == pytest.approx(0.0, abs=1e-6), r
     assert f"B against A on the same {len(run.samples[::4])} taps" in printed and "+0.00 ± 0.00" in printed
+    assert differences["b_in_a_plane"]["angle_deg"] == pytest.approx(0.0, abs=1e-3)
+    assert "which lies 0.0° from B's" in printed
 
 
 def test_compare_leaves_out_of_both_runs_the_taps_either_lost_a_pin_in(tmp_path: Path) -> None:

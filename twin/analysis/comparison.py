@@ -13,7 +13,7 @@ import numpy as np
 from skimage.metrics import structural_similarity
 
 from twin.analysis.calibration_fit.figures import figure_values, paired_figure_spread
-from twin.analysis.edge_imprint import REACH_AT_MM, edge_figures, is_sheared, usable
+from twin.analysis.edge_imprint import REACH_AT_MM, edge_figures, is_sheared, turn_in_reference_plane, usable
 from twin.analysis.evaluation import along_edge_drag_px, orientation_signal_px
 from twin.core.errors import UserError
 from twin.runs.pairing import pair_samples, shared_taps
@@ -100,7 +100,8 @@ def figure_differences(a: Run, b: Run, resamples: int, seed: int) -> dict:
     order): per figure and lateral bin, both values and the standard deviation of their
     difference over `resamples` paired bootstrap resamples (twin.analysis.calibration_fit.
     figures.paired_figure_spread; in the figure's miss units: the ratio's difference for
-    the signal, the log of B / A for θ_PC23 and drag / signal)."""
+    the signal, the log of B / A for θ_PC23 and drag / signal); and B's θ_PC23 turn read in
+    A's PC2–PC3 plane (twin.analysis.edge_imprint.turn_in_reference_plane): "b_in_a_plane"."""
     values_a, values_b = figure_values(a), figure_values(b)
     spread = paired_figure_spread(a, b, resamples, seed, (values_a, values_b))
     rows = [
@@ -118,6 +119,7 @@ def figure_differences(a: Run, b: Run, resamples: int, seed: int) -> dict:
         "resamples": resamples,
         "seed": seed,
         "rows": rows,
+        "b_in_a_plane": turn_in_reference_plane(a, b),
     }
 
 

@@ -40,7 +40,7 @@ Only samples with every pin found and in contact count.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -451,6 +451,31 @@ def along_edge_turn_sheared(
             "offset_deg": pressed_offset_deg(pcs, f),
         }
     return out
+
+
+def plane_angle_deg(a: TapPCs, b: TapPCs) -> float:
+    """The larger principal angle (deg) between two tap sets' PC2–PC3 planes: 0 where they
+    are one plane. The along-edge drag is some 20 times its part in the plane, so a few
+    degrees between the planes move θ_PC23's turn per mm by as much as the drag itself."""
+    cosines = np.linalg.svd(a.components[list(a.pair)] @ b.components[list(b.pair)].T, compute_uv=False)
+    return float(np.degrees(np.arccos(np.clip(cosines.min(), -1.0, 1.0))))
+
+
+def turn_in_reference_plane(reference: Run, run: Run) -> dict:
+    """How far a 1 mm slide along the edge turns `run`'s taps read in `reference`'s PC2–PC3
+    plane rather than its own: "angle_deg" (`plane_angle_deg`) and "pc23_deg_per_mm" {l:
+    deg/mm} (`along_edge_turn_sheared` of the run's own fits, in the reference's PCs carried
+    onto the run's rest pins, so that its frames project by their displacements). Beside the
+    run's own turn it splits a miss of θ_PC23 into the drag's and the plane's."""
+    fits = sheared_fits(run)
+    ref, own = tap_pcs(reference), tap_pcs(run, fits)
+    moved = pins_to_vectors((run.rest_pins_px - reference.rest_pins_px)[None])[0]
+    carried = replace(ref, mean=ref.mean + moved)
+    turn = along_edge_turn_sheared(run, carried, fits)
+    return {
+        "angle_deg": plane_angle_deg(ref, own),
+        "pc23_deg_per_mm": {l: v["pc23_deg_per_mm"] for l, v in turn.items()},
+    }
 
 
 def pressed_offset_deg(pcs: TapPCs, fit: BinFit) -> float:
