@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 
@@ -23,7 +24,7 @@ from twin.world.silhouette import SilhouetteRenderer
 #: the arm's yield to the contact force: at most this many in-contact moves per commanded
 #: move; how far (mm) the last may be from force × yield (friction's hysteresis leaves the
 #: force a band of microns wide, not a point: any pose in it holds); and the most it may yield (mm)
-YIELD_ITERATIONS = 4
+YIELD_ITERATIONS = 12
 YIELD_TOLERANCE_MM = 0.05
 YIELD_LIMIT_MM = 5.0
 #: the secant's slope of (yield × force − s) against s (–) above which a yield move takes the fixed-point step
@@ -134,9 +135,11 @@ class SimEnvironment(Environment):
         from `target` along the yield's direction where s = |yield| × the contact's normal
         force there, found by the secant method (the fixed-point step s = |yield| × force
         where the secant's slope is not clearly negative) in at most YIELD_ITERATIONS in-contact moves
-        (a skin that sticks shears by what the arm yields); none out of contact. PhysicsError
-        when it does not settle (an arm that yields into the press faster than the contact
-        pushes back)."""
+        (a skin that sticks shears by what the arm yields); none out of contact. The moves
+        keep the root bracketed (force × yield − s falls with s, from above 0 at the target):
+        a step that would leave the bracket bisects it, as a stiff skin's first yield lands
+        far past the root. PhysicsError when it does not settle (an arm that yields into
+        the press faster than the contact pushes back)."""
         per_newton = self.scene.work2world[:3, :3] @ self.spec.arm_yield
         compliance = float(np.linalg.norm(per_newton))  # m/N
         direction = per_newton / compliance
@@ -144,6 +147,7 @@ class SimEnvironment(Environment):
         if miss_last < 1e-7:  # m: out of contact
             return
         s, miss = miss_last, miss_last
+        below, above = 0.0, math.inf  # m: the bracket, miss > 0 at `below` and < 0 at `above`
         moves = 0
         while moves < YIELD_ITERATIONS and abs(miss) >= 1e-7 and abs(s) * 1e3 <= YIELD_LIMIT_MM:
             yielded = target.copy()
@@ -153,12 +157,19 @@ class SimEnvironment(Environment):
             miss = compliance * self._frame.contact_force - s
             if miss == miss_last:
                 break
+            if miss > 0:
+                below = max(below, s)
+            else:
+                above = min(above, s)
             slope = (miss - miss_last) / (s - s_last)
             # a yield that settles has miss falling with s (slope < 0); a slope near 0 or above is
             # the force's path dependence (a sticking skin) at the micron level, and its secant
             # step would leap: take the fixed-point step s = yield × force instead
             step = -miss / slope if slope < -SECANT_SLOPE_FLOOR else miss
-            s, s_last, miss_last = s + step, s, miss
+            following = s + step
+            if not below < following < above:
+                following = (below + above) / 2 if math.isfinite(above) else s + miss
+            s, s_last, miss_last = following, s, miss
         if abs(miss) * 1e3 > YIELD_TOLERANCE_MM:
             beyond = (
                 f", the next {abs(s) * 1e3:.3g} mm past the {YIELD_LIMIT_MM} mm limit"
