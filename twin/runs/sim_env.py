@@ -138,8 +138,10 @@ class SimEnvironment(Environment):
         (a skin that sticks shears by what the arm yields); none out of contact. The moves
         keep the root bracketed (force × yield − s falls with s, from above 0 at the target):
         a step that would leave the bracket bisects it, as a stiff skin's first yield lands
-        far past the root. PhysicsError when it does not settle (an arm that yields into
-        the press faster than the contact pushes back)."""
+        far past the root; where it backs the tip off the object and lands past the
+        YIELD_LIMIT_MM, the moves start at that limit. PhysicsError when it does not settle
+        (an arm that yields into the press faster than the contact pushes back, or one whose
+        yield is past the limit)."""
         per_newton = self.scene.work2world[:3, :3] @ self.spec.arm_yield
         compliance = float(np.linalg.norm(per_newton))  # m/N
         direction = per_newton / compliance
@@ -147,6 +149,10 @@ class SimEnvironment(Environment):
         if miss_last < 1e-7:  # m: out of contact
             return
         s, miss = miss_last, miss_last
+        if direction @ target[:3, 2] < 0 and s * 1e3 > YIELD_LIMIT_MM:
+            # backing off along the tip's axis lowers the force, so the root lies nearer than
+            # the first yield: start at the limit, which then brackets it if it can
+            s = YIELD_LIMIT_MM * 1e-3
         below, above = 0.0, math.inf  # m: the bracket, miss > 0 at `below` and < 0 at `above`
         moves = 0
         while moves < YIELD_ITERATIONS and abs(miss) >= 1e-7 and abs(s) * 1e3 <= YIELD_LIMIT_MM:
