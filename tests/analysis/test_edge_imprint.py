@@ -320,14 +320,13 @@ def test_a_fixed_imprint_onto_the_object_offsets_the_mean_frame_from_a_turn(fixe
 
 
 def _outer_pattern(phi_rad: float) -> np.ndarray:
-    """S(φ)·r·w(|r|) (127, 2) scaled to `_pattern`'s norm: a rotating pair weighted to the
-    rim (w = |r|² − Σ|r|⁴/Σ|r|²), orthogonal to every `_pattern` (Σ rᵀ S(φ)ᵀ S(φ') r w =
-    cos(φ' − φ) Σ|r|² w = 0)."""
+    """`_pattern` with each pin's displacement weighted by w(|r|), scaled back to its norm: a
+    rotating pair weighted to the rim (w = |r|² − Σ|r|⁴/Σ|r|²), orthogonal to every
+    `_pattern` (Σ rᵀ S(φ)ᵀ S(φ') r w = cos(φ' − φ) Σ|r|² w = 0)."""
     r2 = np.sum(CENTRED**2, axis=1)
-    w = r2 - np.sum(r2**2) / np.sum(r2)
-    s = np.array([[np.cos(phi_rad), np.sin(phi_rad)], [np.sin(phi_rad), -np.cos(phi_rad)]])
-    field = (CENTRED * w[:, None]) @ s.T
-    return field * np.linalg.norm(_pattern(0.0)) / np.linalg.norm(field)
+    pattern = _pattern(phi_rad)
+    field = pattern * (r2 - np.sum(r2**2) / np.sum(r2))[:, None]
+    return field * np.linalg.norm(pattern) / np.linalg.norm(field)
 
 
 def test_a_turn_read_in_another_runs_plane_splits_the_plane_from_the_drag() -> None:
