@@ -204,6 +204,24 @@ def test_pretension_stiffens_the_skin_and_needs_the_membrane(cache):
         DomeCompliance(SURFACE, 5.3e4, 0.5, skin_tension=10.0)
 
 
+def test_a_skin_thickening_to_its_base_stiffens_the_rim_more_than_the_apex(cache):
+    """A skin three times as thick at its base as at the apex (`skin_thickness`) resists a
+    press near the cap's rim (55° from the apex) far more than a uniform one, and a press
+    on the apex, where it is as thick as before, less so (the shell's sink: 0.25 and 0.76 of
+    the uniform skin's); a thickening without the membrane is refused."""
+    rim = int(np.argmin(np.abs(SURFACE.polar - np.radians(55.0))))
+
+    def sink(node: int, thickening: float) -> float:
+        dome = DomeCompliance(SURFACE, 1.33e4, 0.5, membrane_young=6e5, skin_bending=True, skin_thickening=thickening)
+        force = -0.5 * SURFACE.normals[node]
+        return -float(dome.surface_displacement(np.array([node]), force[None])[node] @ SURFACE.normals[node])
+
+    apex, edge = sink(0, 3.0) / sink(0, 1.0), sink(rim, 3.0) / sink(rim, 1.0)
+    assert edge < apex < 1.0
+    with pytest.raises(ValueError, match="skin_thickening"):
+        DomeCompliance(SURFACE, 5.3e4, 0.5, skin_thickening=2.0)
+
+
 def test_a_bending_modulus_of_its_own_stiffens_only_the_shell_s_bending(cache):
     """The shell's bending modulus (`bending_young`) defaults to the membrane's: the same
     matrices. A stiffer one resists a press on the apex more, and never more than the

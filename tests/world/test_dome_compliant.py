@@ -169,6 +169,7 @@ def test_a_calibrated_material_maps_only_onto_parameters_the_model_has():
         "membrane_young_mpa": 0.0,
         "skin_held_deg": 90.0,
         "skin_tension_n_m": 0.0,
+        "skin_thickening": 1.0,
         "apex_radius_mm": 20.0,
         "tip_sway_mm_per_n": 0.0,
     }
@@ -177,6 +178,7 @@ def test_a_calibrated_material_maps_only_onto_parameters_the_model_has():
     assert apply_dome_material(compliant, {"skin_held_deg": 70.0}).skin_held_deg == 70.0
     assert apply_dome_material(compliant, {"tip_sway_mm_per_n": 0.3}).tip_sway == pytest.approx(3e-4)
     assert apply_dome_material(compliant, {"skin_tension_n_m": 50.0}).skin_tension == 50.0
+    assert apply_dome_material(compliant, {"skin_thickening": 2.0}).skin_thickening == 2.0
     assert apply_dome_material(compliant, {"apex_radius_mm": 30.0}).apex_radius == pytest.approx(0.03)
     with pytest.raises(UserError, match="apex_radius_mm"):  # the flex grid's skin is its own MuJoCo mesh
         apply_dome_material(FIDELITY_LEVELS["default"], {"apex_radius_mm": 30.0})
@@ -240,9 +242,10 @@ def test_skin_bending_takes_the_membrane_from_the_calibration():
 
 def test_pretension_lever_and_bending_modulus_are_scenario_settings_in_their_units():
     """`physics: {skin_tension_n_m, pin_lever_mm, skin_bending_mpa, pins_in_gel,
-    apex_radius_mm}` set the skin's pretension (N/m), the pins' lever (mm → m), the shell's
-    bending modulus (MPa → Pa), whether the tips move with the gel (default: posts) and the
-    apex profile's radius (mm → m);
+    skin_thickening, apex_radius_mm}` set the skin's pretension (N/m), the pins' lever
+    (mm → m), the shell's bending modulus (MPa → Pa), whether the tips move with the gel
+    (default: posts), how much thicker the skin is at its base (–) and the apex profile's
+    radius (mm → m);
     a pretension without the skin membrane or a bending modulus without the shell is
     refused, naming the field, and a value out of bounds names its field too."""
     from twin.core.errors import UserError
@@ -255,9 +258,13 @@ def test_pretension_lever_and_bending_modulus_are_scenario_settings_in_their_uni
         )
     )
     assert params.skin_tension == 50.0 and params.pin_lever == pytest.approx(4e-3) and not params.pins_in_gel
-    assert params.material[-4:] == (50.0, pytest.approx(4e-3), None, False)
+    assert params.material[-5:] == (50.0, pytest.approx(4e-3), None, False, 1.0)
     in_gel = dome_params(scenario_from_dict({**spec, "physics": {"pin_lever_mm": 3.0, "pins_in_gel": True}}))
-    assert in_gel.pins_in_gel and in_gel.material[-1] is True
+    assert in_gel.pins_in_gel and in_gel.material[-2] is True
+    thick = dome_params(scenario_from_dict({**spec, "physics": {"membrane_young_mpa": 0.6, "skin_thickening": 2.5}}))
+    assert thick.skin_thickening == 2.5 and thick.material[-1] == 2.5
+    with pytest.raises(UserError, match="skin_thickening"):
+        dome_params(scenario_from_dict({**spec, "physics": {"membrane_young_mpa": 0.6, "skin_thickening": 9.0}}))
     with pytest.raises(UserError, match=r"skin_tension_n_m = 50 \(in `physics`.*membrane_young_mpa"):
         dome_params(scenario_from_dict({**spec, "physics": {"skin_tension_n_m": 50.0}}))
     # a calibration's dome material may set the pretension (twin calibrate fits it), and is refused alike

@@ -65,6 +65,13 @@ DOME_MATERIAL: dict[str, tuple[str, float, float, str]] = {
         200.0,
         "compliant dome: the skin's pretension over the sealed gel (needs the skin membrane)",
     ),
+    "skin_thickening": (
+        "–",
+        0.25,
+        8.0,
+        "compliant dome: the skin's thickness where the base holds it over its thickness at the apex "
+        "(1 = uniform; needs the skin membrane)",
+    ),
     "apex_radius_mm": (
         "mm",
         20.0,

@@ -35,6 +35,7 @@ PHYSICS = (
     "material.skin_held_deg",
     "material.skin_bending_mpa",
     "material.skin_tension_n_m",
+    "material.skin_thickening",
     "material.apex_radius_mm",
     "material.tip_sway_mm_per_n",
     "friction",

@@ -18,6 +18,7 @@ _TO_DOME: dict[str, tuple[str, float]] = {
     "skin_held_deg": ("skin_held_deg", 1.0),
     "skin_bending_mpa": ("bending_young", 1e6),
     "skin_tension_n_m": ("skin_tension", 1.0),
+    "skin_thickening": ("skin_thickening", 1.0),
     "apex_radius_mm": ("apex_radius", 1e-3),
     "tip_sway_mm_per_n": ("tip_sway", 1e-3),
 }

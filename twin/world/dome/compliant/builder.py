@@ -69,6 +69,14 @@ class CompliantSettings(PhysicsSettings):
         "tension_stiffness; default 0; needs membrane_young_mpa > 0 here or in the calibration's dome_material)",
         None,
     )
+    skin_thickening: float | None = bounded(
+        *DOME_MATERIAL["skin_thickening"][1:3],
+        "–",
+        DOME_MATERIAL["skin_thickening"][3]
+        + " (twin.world.dome.compliant.compliance.skin_thickness; default 1: uniform; needs membrane_young_mpa > 0 "
+        "here or in the calibration's dome_material)",
+        None,
+    )
     pin_lever_mm: float | None = bounded(
         0,
         8,
@@ -117,6 +125,7 @@ class CompliantSettings(PhysicsSettings):
             "step_length": None if self.increment_mm is None else self.increment_mm * 1e-3,
             "skin_held_deg": self.skin_held_deg,
             "skin_tension": self.skin_tension_n_m,
+            "skin_thickening": self.skin_thickening,
             "bending_young": None if self.skin_bending_mpa is None else self.skin_bending_mpa * 1e6,
             "pin_lever": None if self.pin_lever_mm is None else self.pin_lever_mm * 1e-3,
             "pins_in_gel": self.pins_in_gel,

@@ -57,7 +57,11 @@ t, or a bending modulus of its own: `bending_young`) is added to the membrane's.
 gel before any contact, the gel's pressure 2T/R (Laplace) holding it: a normal
 displacement w then costs ½ T ∫ (|∇w|² − 2w²/R²) dA (`tension_stiffness`; the spherical
 harmonic of degree l costs T (l(l+1) − 2)/R² per unit area, rigid translations nothing,
-tested). The pins are levers on the skin (`post_tips`): the geometry's pin length is the
+tested). With `skin_thickening` k the skin thickens from the geometry's thickness at the apex
+to k times it where the base holds it, linearly in the polar angle (`skin_thickness`): its
+membrane stiffness follows t and its bending t³ node by node (Laplace's law then holds
+with the local t, and the varying stress resultant adds its meridional gradient, tested);
+the pins stay where they are. The pins are levers on the skin (`post_tips`): the geometry's pin length is the
 lever its turn swings the tip by, which `DomeCompliance(pin_lever=…)` replaces; or, with
 `pins_in_gel`, their tips move with the gel that far below the skin (`pin_tips_in_gel`).
 
@@ -487,8 +491,10 @@ def _sphere_frames(polar: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
     return np.stack([normal, np.cross(east, normal), east], axis=1)
 
 
-def membrane_stiffness(sheet: SkinSheet, young: float, poisson: float, thickness: float) -> np.ndarray:
-    """(3K, 3K) N/m: stiffness of the skin as a membrane through the sheet's nodes.
+def membrane_stiffness(sheet: SkinSheet, young: float, poisson: float, thickness: float | np.ndarray) -> np.ndarray:
+    """(3K, 3K) N/m: stiffness of the skin as a membrane through the sheet's nodes, of
+    `thickness` (m): one, or each node's ((K,): `skin_thickness`; a triangle takes its
+    corners' mean).
 
     Constant-strain triangles (plane stress, each in its own plane) on the sheet's
     `triangles`; curvature enters through the facets' orientations, so stretching the
@@ -516,7 +522,9 @@ def membrane_stiffness(sheet: SkinSheet, young: float, poisson: float, thickness
         / (1.0 - poisson**2)
         * np.array([[1.0, poisson, 0.0], [poisson, 1.0, 0.0], [0.0, 0.0, 0.5 * (1.0 - poisson)]])
     )
-    element = thickness * area[:, None, None] * np.einsum("tsi,sr,trj->tij", strain, elastic, strain)
+    thickness = np.broadcast_to(np.asarray(thickness, float), (len(sheet.points),))
+    element = thickness[triangles].mean(axis=1)[:, None, None] * area[:, None, None]
+    element = element * np.einsum("tsi,sr,trj->tij", strain, elastic, strain)
     dofs = _dofs(triangles.ravel()).reshape(len(triangles), 9)
     n = len(sheet.points)
     stiffness = np.zeros((3 * n, 3 * n))
@@ -525,12 +533,13 @@ def membrane_stiffness(sheet: SkinSheet, young: float, poisson: float, thickness
     share = 2.0 * math.pi * sheet.radius * math.sin(sheet.held_at) / len(held)
     to_base = np.maximum(sheet.radius * (sheet.held_at - sheet.polar[held]), 0.25 * sheet.spacing)
     for i, length in zip(held, to_base):
-        stiffness[3 * i : 3 * i + 3, 3 * i : 3 * i + 3] += young * thickness * share / length * np.eye(3)
+        stiffness[3 * i : 3 * i + 3, 3 * i : 3 * i + 3] += young * thickness[i] * share / length * np.eye(3)
     return stiffness
 
 
-def bending_stiffness(sheet: SkinSheet, young: float, poisson: float, thickness: float) -> np.ndarray:
-    """(3K, 3K) N/m: the skin's resistance to bending, for the nodes' normal displacement w.
+def bending_stiffness(sheet: SkinSheet, young: float, poisson: float, thickness: float | np.ndarray) -> np.ndarray:
+    """(3K, 3K) N/m: the skin's resistance to bending, for the nodes' normal displacement w,
+    of `thickness` (m): one, or each node's ((K,): `skin_thickness`).
 
     The shallow-shell energy ½ D ∫ ((Δ + 2/R²) w)² dA on the sphere of radius R, with
     D = E t³ / 12(1 − ν²): Kirchhoff's plate energy without its Gaussian-curvature term
@@ -542,8 +551,18 @@ def bending_stiffness(sheet: SkinSheet, young: float, poisson: float, thickness:
     laplacian, area = _cotangent_laplacian(sheet)
     free = ~sheet.held
     operator = (2.0 / sheet.radius**2 * np.diag(area) - laplacian)[free]  # rows ≈ A_i (Δ + 2/R²) w at node i
-    rigidity = young * thickness**3 / (12.0 * (1.0 - poisson**2))
-    return _on_normals(sheet, rigidity * operator.T @ (operator / area[free, None]))
+    rigidity = (
+        young * np.broadcast_to(np.asarray(thickness, float), area.shape)[free] ** 3 / (12.0 * (1.0 - poisson**2))
+    )
+    return _on_normals(sheet, operator.T @ (rigidity[:, None] * operator / area[free, None]))
+
+
+def skin_thickness(sheet: SkinSheet, apex: float, thickening: float = 1.0) -> np.ndarray:
+    """(K,) m: the skin's thickness at the sheet's nodes, `apex` (m) at the apex and
+    `thickening` times that where the base holds it, linear in the polar angle between
+    (1: uniform). A cast skin that thickens towards its base stiffens its rim, as a
+    membrane by t and as a shell by t³, while the pins keep their places."""
+    return apex * (1.0 + (thickening - 1.0) * np.minimum(sheet.polar / sheet.held_at, 1.0))
 
 
 def tension_stiffness(sheet: SkinSheet, tension: float) -> np.ndarray:
@@ -729,10 +748,12 @@ def skinned(
     refresh: bool = False,
     tension: float = 0.0,
     bending_young: float | None = None,
+    thickening: float = 1.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The dome with its skin as a membrane (Young's modulus `membrane_young`, Pa; with
     `bending`, a thin shell: `bending_stiffness` too, of modulus `bending_young` (Pa; None:
-    `membrane_young`); stretched by `tension`, N/m: `tension_stiffness`) over the gel (shear modulus G, Pa;
+    `membrane_young`); stretched by `tension`, N/m: `tension_stiffness`; `thickening` times
+    as thick where the base holds it as at the apex: `skin_thickness`) over the gel (shear modulus G, Pa;
     sealed where `enclosed`), in `sealed_gel`'s layout ([source, force axis, point,
     displacement axis], m/N): the cap's columns, the nodes' and the pin tips'. The skin
     and the gel under it are modelled down to `held_deg` from the apex, where the base
@@ -752,13 +773,23 @@ def skinned(
         "held_deg": held_deg,
         "tension": tension,
         "bending_young": bending_young,
+        "thickening": thickening,
         "code": _SOURCE_DIGEST,
     }
     arrays = cached_arrays(
         "compliance",
         key,
         lambda: _skinned(
-            surface, poisson, shear_modulus, membrane_young, bending, enclosed, held_deg, tension, bending_young
+            surface,
+            poisson,
+            shear_modulus,
+            membrane_young,
+            bending,
+            enclosed,
+            held_deg,
+            tension,
+            bending_young,
+            thickening,
         ),
         shapes={"nodes": (n, 3, n, 3), "pins": (n, 3, pins, 3)},
         refresh=refresh,
@@ -776,6 +807,7 @@ def _skinned(
     held_deg: float,
     tension: float,
     bending_young: float | None,
+    thickening: float,
 ) -> dict[str, np.ndarray]:
     sheet = surface.skin_to(held_deg)
     count, radius = len(sheet.points), math.sqrt(surface.area / math.pi)
@@ -788,7 +820,7 @@ def _skinned(
         _keep_gel_volume(
             gel.T, pins.T, h, pins_h, volume_compliance + _gel_volume(surface) / (_bulk_ratio(poisson) * shear_modulus)
         )
-    return skin_on_gel(surface, sheet, gel, pins, membrane_young, bending, tension, bending_young)
+    return skin_on_gel(surface, sheet, gel, pins, membrane_young, bending, tension, bending_young, thickening)
 
 
 def skin_on_gel(
@@ -800,17 +832,19 @@ def skin_on_gel(
     bending: bool,
     tension: float = 0.0,
     bending_young: float | None = None,
+    thickening: float = 1.0,
 ) -> dict[str, np.ndarray]:
     """The cap's columns, in `sealed_gel`'s layout, of the skin (a membrane of Young's
     modulus `membrane_young`, Pa; with `bending`, a thin shell, its bending modulus
-    `bending_young` (Pa; None: `membrane_young`); pretensioned by `tension`, N/m) over a gel whose
+    `bending_young` (Pa; None: `membrane_young`); pretensioned by `tension`, N/m; the
+    geometry's thickness at the apex, `thickening` times it at the base: `skin_thickness`) over a gel whose
     compliance on the sheet's nodes is `gel` ((3K, 3K) m/N, tool frame, [node, axis]) and
     whose pin tips move by `pins` ((381, 3K) m/N) (`skinned`; with no skin, the gel's own
     columns). The skin's stiffness K and the gel's compliance C act in series with the
     contact force f: the gel takes g = f − K u and u = C g, so u = (I + C K)⁻¹ C f; the
     pins follow the gel under g."""
     count = len(sheet.points)
-    thickness = surface.geometry.skin_thickness
+    thickness = skin_thickness(sheet, surface.geometry.skin_thickness, thickening)
     skin = membrane_stiffness(sheet, membrane_young, 0.5, thickness)
     if bending:
         skin += bending_stiffness(sheet, membrane_young if bending_young is None else bending_young, 0.5, thickness)
@@ -841,7 +875,8 @@ class DomeCompliance:
     `membrane_young` (Pa, 0 = none), `skin_bending` (its bending modulus `bending_young`,
     Pa; None: `membrane_young`), where the base holds it
     (`skin_held_deg`, deg from the apex) and its pretension `skin_tension` (N/m; needs the
-    membrane); `pin_lever` (m): the lever the skin's turn swings a pin tip by (None: the
+    membrane); `skin_thickening`: the skin is that many times as thick where the base holds
+    it as at the apex (`skin_thickness`; needs the membrane); `pin_lever` (m): the lever the skin's turn swings a pin tip by (None: the
     geometry's pin length); `pins_in_gel`: the tips move with the gel that far below the
     skin (`pin_tips_in_gel`) instead.
     """
@@ -859,6 +894,7 @@ class DomeCompliance:
         pin_lever: float | None = None,
         bending_young: float | None = None,
         pins_in_gel: bool = False,
+        skin_thickening: float = 1.0,
     ) -> None:
         if not (young > 0 and 0.0 <= poisson <= 0.5 and membrane_young >= 0):
             raise ValueError(
@@ -871,6 +907,11 @@ class DomeCompliance:
             raise ValueError(
                 f"dome material: skin_tension needs the skin membrane (membrane_young > 0 Pa) and "
                 f"≥ 0 N/m, got {skin_tension} N/m over {membrane_young} Pa"
+            )
+        if skin_thickening <= 0 or (skin_thickening != 1.0 and not membrane_young):
+            raise ValueError(
+                f"dome material: skin_thickening needs the skin membrane (membrane_young > 0 Pa) and > 0, "
+                f"got {skin_thickening} over {membrane_young} Pa"
             )
         if bending_young is not None and not (skin_bending and bending_young > 0):
             raise ValueError(f"dome material: bending_young needs skin_bending and > 0 Pa, got {bending_young} Pa")
@@ -888,7 +929,7 @@ class DomeCompliance:
         self.pin_tips = surface.geometry.pin_tip_points()
         self.young, self.poisson, self.enclosed, self.membrane_young = young, poisson, enclosed, membrane_young
         self.skin_bending, self.skin_held_deg, self.skin_tension = skin_bending, skin_held_deg, skin_tension
-        self.bending_young = bending_young
+        self.bending_young, self.skin_thickening = bending_young, skin_thickening
         self.shear_modulus = young / (2.0 * (1.0 + poisson))
         n = surface.count
         # stored by source node (column), so an untouched column's pages are never mapped
@@ -928,6 +969,7 @@ class DomeCompliance:
                 refresh=refresh,
                 tension=self.skin_tension,
                 bending_young=self.bending_young,
+                thickening=self.skin_thickening,
             )
         if self.enclosed:
             nodes, pins = sealed_gel(self.surface, self.poisson, self.skin_held_deg, refresh=refresh)

@@ -107,6 +107,10 @@ class CompliantParams:
       2T/R holds it; twin.world.dome.compliant.compliance.tension_stiffness): it resists
       the skin's short wavelengths more than its long ones. 0 (the default) = none; needs
       membrane_young.
+    skin_thickening (–): the skin's thickness where the base holds it over its thickness
+      at the apex (the geometry's), linear in the polar angle between (twin.world.dome.
+      compliant.compliance.skin_thickness): a skin that thickens towards its base stiffens
+      its rim. 1 (the default) = uniform; needs membrane_young.
     pin_lever (m): the lever the skin's turn swings a pin tip by (twin.world.dome.
       compliant.compliance.post_tips); None (the default) = the geometry's pin length,
       2 mm. Longer: the pins amplify the skin's slope more against its displacement.
@@ -152,6 +156,7 @@ class CompliantParams:
     pin_lever: float | None = None
     bending_young: float | None = None
     pins_in_gel: bool = False
+    skin_thickening: float = 1.0
     tip_sway: float = 0.0
     apex_radius: float = 0.020
     edge_within_node: bool = False
@@ -160,10 +165,12 @@ class CompliantParams:
         return replace(self, **changes)
 
     @property
-    def material(self) -> tuple[float, float, bool, float, bool, float, float, float | None, float | None, bool]:
+    def material(
+        self,
+    ) -> tuple[float, float, bool, float, bool, float, float, float | None, float | None, bool, float]:
         """`DomeCompliance`'s arguments after the surface: young, poisson, enclosed,
         membrane_young, skin_bending, skin_held_deg, skin_tension, pin_lever, bending_young,
-        pins_in_gel."""
+        pins_in_gel, skin_thickening."""
         return (
             self.young,
             self.poisson,
@@ -175,6 +182,7 @@ class CompliantParams:
             self.pin_lever,
             self.bending_young,
             self.pins_in_gel,
+            self.skin_thickening,
         )
 
 
@@ -707,6 +715,7 @@ def dome_compliance(
     pin_lever: float | None = None,
     bending_young: float | None = None,
     pins_in_gel: bool = False,
+    skin_thickening: float = 1.0,
 ) -> DomeCompliance:
     """The influence matrices for this surface and material, shared within the process
     (the sealed gel's loaded from the cache, or computed, at the first contact). Eight
@@ -723,4 +732,5 @@ def dome_compliance(
         pin_lever,
         bending_young,
         pins_in_gel,
+        skin_thickening,
     )
