@@ -157,7 +157,8 @@ def test_no_contact_effect_solves_nothing():
 def test_a_calibrated_material_maps_only_onto_parameters_the_model_has():
     """Both models take the modulus in kPa and a skin membrane in MPa; the flex grid locks
     at ν = 0.5, refused by name; the compliant dome takes ν = 0.5 and where its skin is
-    held (deg) and its tip's sway (mm/N), which the flex grid refuses by name."""
+    held (deg), its tip's sway (mm/N) and its pins' lever (mm, 2 until set: the pins'
+    length), which the flex grid refuses by name."""
     from twin.core.errors import UserError
     from twin.world.dome.flex import FIDELITY_LEVELS
     from twin.world.dome.material import apply_dome_material, dome_material_of
@@ -170,6 +171,7 @@ def test_a_calibrated_material_maps_only_onto_parameters_the_model_has():
         "skin_held_deg": 90.0,
         "skin_tension_n_m": 0.0,
         "skin_thickening": 1.0,
+        "pin_lever_mm": 2.0,
         "apex_radius_mm": 20.0,
         "tip_sway_mm_per_n": 0.0,
     }
@@ -179,6 +181,7 @@ def test_a_calibrated_material_maps_only_onto_parameters_the_model_has():
     assert apply_dome_material(compliant, {"tip_sway_mm_per_n": 0.3}).tip_sway == pytest.approx(3e-4)
     assert apply_dome_material(compliant, {"skin_tension_n_m": 50.0}).skin_tension == 50.0
     assert apply_dome_material(compliant, {"skin_thickening": 2.0}).skin_thickening == 2.0
+    assert apply_dome_material(compliant, {"pin_lever_mm": 3.0}).pin_lever == pytest.approx(3e-3)
     assert apply_dome_material(compliant, {"apex_radius_mm": 30.0}).apex_radius == pytest.approx(0.03)
     with pytest.raises(UserError, match="apex_radius_mm"):  # the flex grid's skin is its own MuJoCo mesh
         apply_dome_material(FIDELITY_LEVELS["default"], {"apex_radius_mm": 30.0})
@@ -188,6 +191,8 @@ def test_a_calibrated_material_maps_only_onto_parameters_the_model_has():
         apply_dome_material(compliant, {"unknown_kpa": 0.3})
     with pytest.raises(UserError, match="skin_held_deg"):  # the flex grid has no skin that a base holds
         apply_dome_material(FIDELITY_LEVELS["default"], {"skin_held_deg": 70.0})
+    with pytest.raises(UserError, match="pin_lever_mm"):  # the flex grid's pins follow its own skin mesh
+        apply_dome_material(FIDELITY_LEVELS["default"], {"pin_lever_mm": 3.0})
     with pytest.raises(UserError, match="poisson"):
         apply_dome_material(FIDELITY_LEVELS["default"], {"poisson": 0.5})
 

@@ -72,6 +72,12 @@ DOME_MATERIAL: dict[str, tuple[str, float, float, str]] = {
         "compliant dome: the skin's thickness where the base holds it over its thickness at the apex "
         "(1 = uniform; needs the skin membrane)",
     ),
+    "pin_lever_mm": (
+        "mm",
+        0.0,
+        8.0,
+        "compliant dome: the lever the skin's turn swings a pin tip by (2 = the pins' length)",
+    ),
     "apex_radius_mm": (
         "mm",
         20.0,

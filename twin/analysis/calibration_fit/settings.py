@@ -36,6 +36,7 @@ PHYSICS = (
     "material.skin_bending_mpa",
     "material.skin_tension_n_m",
     "material.skin_thickening",
+    "material.pin_lever_mm",
     "material.apex_radius_mm",
     "material.tip_sway_mm_per_n",
     "friction",

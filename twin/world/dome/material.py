@@ -8,6 +8,7 @@ from dataclasses import fields
 
 from twin.core.calibration import DOME_MATERIAL
 from twin.core.errors import UserError
+from twin.core.sensor import TacTipGeometry
 from twin.world.dome.base import DomeParameters
 
 #: material name -> (model parameter field, factor from the name's unit to SI)
@@ -19,11 +20,14 @@ _TO_DOME: dict[str, tuple[str, float]] = {
     "skin_bending_mpa": ("bending_young", 1e6),
     "skin_tension_n_m": ("skin_tension", 1.0),
     "skin_thickening": ("skin_thickening", 1.0),
+    "pin_lever_mm": ("pin_lever", 1e-3),
     "apex_radius_mm": ("apex_radius", 1e-3),
     "tip_sway_mm_per_n": ("tip_sway", 1e-3),
 }
 #: model fields unset (None) until given, and the field whose value they take meanwhile
 _FALLBACK = {"bending_young": "membrane_young"}
+#: model fields unset (None) until given, and the value (SI) they stand for meanwhile
+_UNSET = {"pin_lever": TacTipGeometry().pin_length}
 #: material names that mean something only when the model has an effect switched on
 _NEEDS = {"skin_bending_mpa": "skin_bending"}
 assert set(_TO_DOME) == set(DOME_MATERIAL)
@@ -43,7 +47,9 @@ def material_names(params: Params) -> list[str]:
 
 def _value(params: Params, field: str) -> float:
     value = getattr(params, field)
-    return getattr(params, _FALLBACK[field]) if value is None else value
+    if value is not None:
+        return value
+    return _UNSET[field] if field in _UNSET else getattr(params, _FALLBACK[field])
 
 
 def apply_dome_material(params: Params, material: Mapping[str, float]) -> Params:

@@ -78,8 +78,7 @@ class CompliantSettings(PhysicsSettings):
         None,
     )
     pin_lever_mm: float | None = bounded(
-        0,
-        8,
+        *DOME_MATERIAL["pin_lever_mm"][1:3],
         "mm",
         "the lever the skin's turn swings a pin tip by (twin.world.dome.compliant.compliance.post_tips; "
         "default the pins' 2 mm length); with pins_in_gel, how far below the skin the tips move with the gel",
