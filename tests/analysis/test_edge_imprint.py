@@ -706,6 +706,22 @@ def test_sheared_runs_at_other_nominal_depths_print_side_by_side(run: Run) -> No
     assert "l = 0, 3 mm deep:" in text and "l = 0, 4 mm deep:" in text
 
 
+def test_an_orientation_pair_that_outweighs_the_press_is_named(run: Run) -> None:
+    """The edge's orientation is a rotating pair of PCs of equal variance: PC2–PC3 where
+    the press outweighs it. Where it outweighs the press (a 4 mm pin lever on a stiff skin
+    gave 28/28/26 %), it is PC1–PC2 and θ_PC23 reads half of it and the press: the report
+    says so for that run alone."""
+    from twin.tools.edge_figures_report import format_edge_figures
+
+    assert E.rotating_pair(np.array([0.38, 0.20, 0.20])) == (1, 2)
+    assert E.rotating_pair(np.array([0.28, 0.28, 0.26])) == (0, 1)
+    figures = E.edge_figures(run)
+    a, b = {**figures, "pcs_explained": [0.38, 0.2, 0.199]}, {**figures, "pcs_explained": [0.28, 0.279, 0.26]}
+    text = format_edge_figures([a, b], ["rig", "twin"])
+    assert "twin: the edge's orientation pair is PC1–PC2 (28/28 %), not PC2–PC3" in text
+    assert "rig: the edge's orientation pair" not in text
+
+
 def test_a_bin_whose_signal_is_within_its_noise_has_no_drag_over_signal() -> None:
     """Pins that carry the slides and the depth but not the edge's angle: the angle term's
     spread, its noise taken out, is 0 px in some bins; their ratio is NaN (no signal to

@@ -420,6 +420,14 @@ def tap_pcs(run: Run, fits: list[BinFit] | None = None) -> TapPCs:
     return TapPCs(mean, comps, explained, turned)
 
 
+def rotating_pair(explained: np.ndarray) -> tuple[int, int]:
+    """The two of a tap set's first three PCs (0-based) whose explained variances lie
+    closest: the edge's orientation, a rotating pair of equal variance. PC2–PC3, (1, 2),
+    where the press outweighs it, as in the paper's taps and the DigiTac set's; where the
+    pair outweighs the press it is PC1–PC2, and θ_PC23 reads one half of it and the press."""
+    return min(((1, 2), (0, 1), (0, 2)), key=lambda p: abs(explained[p[0]] - explained[p[1]]))
+
+
 def _wrap(angle_deg: np.ndarray) -> np.ndarray:
     return (np.asarray(angle_deg) + 180.0) % 360.0 - 180.0
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import math
 
+from twin.analysis.edge_imprint import rotating_pair
+
 WIDTH = 22
 
 
@@ -114,6 +116,14 @@ def format_edge_figures(figures: list[dict], labels: list[str] | None = None) ->
             for f in figures
         )
     )
+    for label, f in zip(labels, figures):
+        pair = rotating_pair(f["pcs_explained"]) if f["pcs_explained"] else (1, 2)
+        if pair != (1, 2):
+            shares = "/".join(f"{100 * f['pcs_explained'][i]:.0f}" for i in pair)
+            lines.append(
+                f"  {label}: the edge's orientation pair is PC{pair[0] + 1}–PC{pair[1] + 1} ({shares} %), not "
+                "PC2–PC3: its θ_PC23 reads one half of the pair and the press"
+            )
     return "\n".join(lines)
 
 

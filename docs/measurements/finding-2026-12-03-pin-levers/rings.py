@@ -16,7 +16,14 @@ from dataclasses import replace
 import numpy as np
 
 from twin.analysis.comparison import taps_both_kept
-from twin.analysis.edge_imprint import TapPCs, along_edge_turn_sheared, pin_rings, plane_angle_deg, tap_pcs
+from twin.analysis.edge_imprint import (
+    TapPCs,
+    along_edge_turn_sheared,
+    pin_rings,
+    plane_angle_deg,
+    rotating_pair,
+    tap_pcs,
+)
 from twin.runs.record import load_run
 
 
@@ -34,20 +41,13 @@ def by_ring(pcs: TapPCs, rest_px: np.ndarray, rings: np.ndarray) -> tuple[np.nda
     return energy, share
 
 
-def rotating_pair(pcs: TapPCs) -> TapPCs:
-    """`pcs` with its pair the two of its three PCs whose explained variances lie closest."""
-    e = pcs.explained
-    pair = min(((0, 1), (1, 2), (0, 2)), key=lambda p: abs(e[p[0]] - e[p[1]]))
-    return replace(pcs, pair=pair)
-
-
 recording = load_run(sys.argv[1])
 rings = pin_rings(recording.rest_pins_px)
 for path in sys.argv[2:]:
     replay = load_run(path)
     shared = taps_both_kept(recording, replay)
     real, twin = recording.subset([i for i, _ in shared]), replay.subset([j for _, j in shared])
-    real_pcs, twin_pcs = rotating_pair(tap_pcs(real)), rotating_pair(tap_pcs(twin))
+    real_pcs, twin_pcs = (replace(p, pair=rotating_pair(p.explained)) for p in (tap_pcs(real), tap_pcs(twin)))
     pairs = f"the pairs: PC{real_pcs.pair[0] + 1}–PC{real_pcs.pair[1] + 1} and PC{twin_pcs.pair[0] + 1}–PC{twin_pcs.pair[1] + 1}"
     print(
         f"{path.rstrip('/').split('/')[-1]}: {len(shared) - 1} taps both kept; the planes lie "
