@@ -57,13 +57,14 @@ t, or a bending modulus of its own: `bending_young`) is added to the membrane's.
 gel before any contact, the gel's pressure 2T/R (Laplace) holding it: a normal
 displacement w then costs ½ T ∫ (|∇w|² − 2w²/R²) dA (`tension_stiffness`; the spherical
 harmonic of degree l costs T (l(l+1) − 2)/R² per unit area, rigid translations nothing,
-tested). With `skin_thickening` k the skin thickens from the geometry's thickness at the apex
-to k times it where the base holds it, linearly in the polar angle (`skin_thickness`): its
-membrane stiffness follows t and its bending t³ node by node (Laplace's law then holds
+tested). With `skin_thickening` k the skin thickens from the geometry's thickness at the
+apex to k times it where the base holds it, linearly in the polar angle (`skin_thickness`):
+its membrane stiffness follows t and its bending t³ node by node (Laplace's law then holds
 with the local t, and the varying stress resultant adds its meridional gradient, tested);
-the pins stay where they are. The pins are levers on the skin (`post_tips`): the geometry's pin length is the
-lever its turn swings the tip by, which `DomeCompliance(pin_lever=…)` replaces; or, with
-`pins_in_gel`, their tips move with the gel that far below the skin (`pin_tips_in_gel`).
+the pins stay where they are. The pins are levers on the skin (`post_tips`): the
+geometry's pin length is the lever its turn swings the tip by, which
+`DomeCompliance(pin_lever=…)` replaces; or, with `pins_in_gel`, their tips move with the
+gel that far below the skin (`pin_tips_in_gel`).
 
 The tip's sway (`tip_sway`, m/N, off by default): the half-space and the skin held at
 its base move the cap and the pins most near the forces and less with distance, while a
@@ -876,9 +877,9 @@ class DomeCompliance:
     Pa; None: `membrane_young`), where the base holds it
     (`skin_held_deg`, deg from the apex) and its pretension `skin_tension` (N/m; needs the
     membrane); `skin_thickening`: the skin is that many times as thick where the base holds
-    it as at the apex (`skin_thickness`; needs the membrane); `pin_lever` (m): the lever the skin's turn swings a pin tip by (None: the
-    geometry's pin length); `pins_in_gel`: the tips move with the gel that far below the
-    skin (`pin_tips_in_gel`) instead.
+    it as at the apex (`skin_thickness`; needs the membrane); `pin_lever` (m): the lever
+    the skin's turn swings a pin tip by (None: the geometry's pin length); `pins_in_gel`:
+    the tips move with the gel that far below the skin (`pin_tips_in_gel`) instead.
     """
 
     def __init__(
