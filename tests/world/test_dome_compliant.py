@@ -270,6 +270,8 @@ def test_pretension_lever_and_bending_modulus_are_scenario_settings_in_their_uni
     assert thick.skin_thickening == 2.5 and thick.material[-1] == 2.5
     with pytest.raises(UserError, match="skin_thickening"):
         dome_params(scenario_from_dict({**spec, "physics": {"membrane_young_mpa": 0.6, "skin_thickening": 9.0}}))
+    with pytest.raises(UserError, match=r"skin_thickening = 2 \(in `physics`.*membrane_young_mpa"):
+        dome_params(scenario_from_dict({**spec, "physics": {"skin_thickening": 2.0}}))
     with pytest.raises(UserError, match=r"skin_tension_n_m = 50 \(in `physics`.*membrane_young_mpa"):
         dome_params(scenario_from_dict({**spec, "physics": {"skin_tension_n_m": 50.0}}))
     # a calibration's dome material may set the pretension (twin calibrate fits it), and is refused alike

@@ -171,6 +171,12 @@ class CompliantBuilder:
                 "dome_material) needs the skin membrane, "
                 f"membrane_young_mpa > 0 in `physics` or in the calibration's dome_material (neither sets it)"
             )
+        if params.skin_thickening != 1.0 and not params.membrane_young:
+            raise UserError(
+                f"{source}: skin_thickening = {params.skin_thickening:g} (in `physics` or the calibration's "
+                "dome_material) needs the skin membrane, "
+                f"membrane_young_mpa > 0 in `physics` or in the calibration's dome_material (neither sets it)"
+            )
         return params
 
     def add_to_scene(self, spec: mujoco.MjSpec, params: CompliantParams, friction: bool) -> None:
