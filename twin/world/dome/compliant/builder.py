@@ -165,18 +165,17 @@ class CompliantBuilder:
             )
         if params.bending_young is not None and not params.skin_bending:
             raise UserError(f"{source}: physics.skin_bending_mpa needs physics.skin_bending: true")
-        if params.skin_tension and not params.membrane_young:
-            raise UserError(
-                f"{source}: skin_tension_n_m = {params.skin_tension:g} (in `physics` or the calibration's "
-                "dome_material) needs the skin membrane, "
-                f"membrane_young_mpa > 0 in `physics` or in the calibration's dome_material (neither sets it)"
-            )
-        if params.skin_thickening != 1.0 and not params.membrane_young:
-            raise UserError(
-                f"{source}: skin_thickening = {params.skin_thickening:g} (in `physics` or the calibration's "
-                "dome_material) needs the skin membrane, "
-                f"membrane_young_mpa > 0 in `physics` or in the calibration's dome_material (neither sets it)"
-            )
+        on_the_membrane = {
+            "skin_tension_n_m": (params.skin_tension, 0.0),
+            "skin_thickening": (params.skin_thickening, 1.0),
+        }
+        for name, (value, without) in on_the_membrane.items():
+            if value != without and not params.membrane_young:
+                raise UserError(
+                    f"{source}: {name} = {value:g} (in `physics` or the calibration's dome_material) needs the "
+                    "skin membrane, membrane_young_mpa > 0 in `physics` or in the calibration's dome_material "
+                    "(neither sets it)"
+                )
         return params
 
     def add_to_scene(self, spec: mujoco.MjSpec, params: CompliantParams, friction: bool) -> None:

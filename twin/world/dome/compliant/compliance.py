@@ -523,9 +523,10 @@ def membrane_stiffness(sheet: SkinSheet, young: float, poisson: float, thickness
         / (1.0 - poisson**2)
         * np.array([[1.0, poisson, 0.0], [poisson, 1.0, 0.0], [0.0, 0.0, 0.5 * (1.0 - poisson)]])
     )
-    thickness = np.broadcast_to(np.asarray(thickness, float), (len(sheet.points),))
-    element = thickness[triangles].mean(axis=1)[:, None, None] * area[:, None, None]
-    element = element * np.einsum("tsi,sr,trj->tij", strain, elastic, strain)
+    thickness = _per_node(sheet, thickness)
+    element = (thickness[triangles].mean(axis=1) * area)[:, None, None] * np.einsum(
+        "tsi,sr,trj->tij", strain, elastic, strain
+    )
     dofs = _dofs(triangles.ravel()).reshape(len(triangles), 9)
     n = len(sheet.points)
     stiffness = np.zeros((3 * n, 3 * n))
@@ -552,10 +553,13 @@ def bending_stiffness(sheet: SkinSheet, young: float, poisson: float, thickness:
     laplacian, area = _cotangent_laplacian(sheet)
     free = ~sheet.held
     operator = (2.0 / sheet.radius**2 * np.diag(area) - laplacian)[free]  # rows ≈ A_i (Δ + 2/R²) w at node i
-    rigidity = (
-        young * np.broadcast_to(np.asarray(thickness, float), area.shape)[free] ** 3 / (12.0 * (1.0 - poisson**2))
-    )
+    rigidity = young * _per_node(sheet, thickness)[free] ** 3 / (12.0 * (1.0 - poisson**2))
     return _on_normals(sheet, operator.T @ (rigidity[:, None] * operator / area[free, None]))
+
+
+def _per_node(sheet: SkinSheet, thickness: float | np.ndarray) -> np.ndarray:
+    """(K,) m: a thickness given once or node by node, node by node."""
+    return np.broadcast_to(np.asarray(thickness, float), (len(sheet.points),))
 
 
 def skin_thickness(sheet: SkinSheet, apex: float, thickening: float = 1.0) -> np.ndarray:
