@@ -720,6 +720,8 @@ def test_an_orientation_pair_that_outweighs_the_press_is_named(run: Run) -> None
     text = format_edge_figures([a, b], ["rig", "twin"])
     assert "twin: the edge's orientation pair is PC1–PC2 (28/28 %), not PC2–PC3" in text
     assert "rig: the edge's orientation pair" not in text
+    energy = " ".join(f"{v:.2f}" for v in figures["pair_rings"]["energy"])
+    assert f"    twin: {energy}; radial — " in text.split("orientation pair by ring of pins")[1]
 
 
 def test_a_bin_whose_signal_is_within_its_noise_has_no_drag_over_signal() -> None:
@@ -759,6 +761,34 @@ def test_pin_rings_are_the_hexagonal_rings_about_the_centre() -> None:
     order = np.random.default_rng(0).permutation(len(image))
     assert np.array_equal(E.pin_rings(image[order]), hex_distance[order])
     assert np.array_equal(E.pin_rings(REST), TEMPLATE_RINGS)
+
+
+def test_pair_rings_split_the_pair_by_ring_and_into_radial_and_round() -> None:
+    """A pair whose first component moves ring 5 radially by 3 and round by 4 (a radial
+    share of 9/25) and whose second turns ring 2 (share 0), each a unit field: ring 5 and
+    ring 2 carry half the pair's energy each; PC1 (the press, in ring 1 alone) counts in
+    neither; the centre pin and the rings the pair leaves still have no radial share. A
+    pair that outweighs the press (PC1–PC2) is read as that pair."""
+    outward = REST - REST[0]
+    outward /= np.maximum(np.linalg.norm(outward, axis=1, keepdims=True), 1e-12)
+    round_ = outward @ np.array([[0.0, 1.0], [-1.0, 0.0]])
+
+    def unit(field: np.ndarray) -> np.ndarray:
+        return field.ravel() / np.linalg.norm(field)
+
+    in_ring = lambda k: (TEMPLATE_RINGS == k)[:, None]  # noqa: E731
+    press, mixed, turn = (
+        unit(in_ring(1) * outward),
+        unit(in_ring(5) * (3 * outward + 4 * round_)),
+        unit(in_ring(2) * round_),
+    )
+    pcs = E.TapPCs(np.zeros(254), np.stack([press, mixed, turn]), np.array([0.5, 0.2, 0.2]), True)
+    rings = E.pair_rings(pcs, REST)
+    np.testing.assert_allclose(rings["energy"], [0, 0, 0.5, 0, 0, 0.5, 0], atol=1e-12)
+    assert rings["radial"][0] is None and [rings["radial"][k] is None for k in (1, 3, 4, 6)] == [True] * 4
+    assert rings["radial"][5] == pytest.approx(9 / 25) and rings["radial"][2] == pytest.approx(0.0, abs=1e-12)
+    swapped = E.TapPCs(np.zeros(254), np.stack([mixed, turn, press]), np.array([0.3, 0.3, 0.2]), True)
+    np.testing.assert_allclose(E.pair_rings(swapped, REST)["energy"], rings["energy"], atol=1e-12)
 
 
 def test_signal_rings_place_the_signal_where_the_pins_carry_it() -> None:

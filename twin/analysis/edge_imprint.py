@@ -16,6 +16,9 @@ Unit-free figures, so they compare across cameras:
   direction a 1 mm slide along the edge moves the pins, in degrees of the edge angle
   (raw pins), and how far it turns θ_PC23, the angle in the taps' PC2–PC3 plane that the
   paper reads the orientation from; and the share of that drag's energy in the plane;
+* the orientation pair by ring: where in the array the taps' rotating pair of PCs (PC2–PC3
+  in the paper's taps) moves the pins, ring by ring, and how much of it moves them
+  radially (towards or away from the centre) rather than round it;
 * closest pins: how near the pins come to each other (each pin's nearest-neighbour
   distance over its distance at rest, the smallest in a frame): where it nears 0 two
   pins' images merge and a tracker loses them.
@@ -428,6 +431,26 @@ def rotating_pair(explained: np.ndarray) -> tuple[int, int]:
     return min(((1, 2), (0, 1), (0, 2)), key=lambda p: abs(explained[p[0]] - explained[p[1]]))
 
 
+def pair_rings(pcs: TapPCs, rest_px: np.ndarray) -> dict[str, list[float | None]]:
+    """Where in the pin array the edge's orientation pair (`rotating_pair`) moves the pins,
+    and how: "energy", each ring's share of the pair's energy (`pin_rings`, centre → rim;
+    they sum to 1), and "radial", the share of a ring's part that moves its pins along
+    their direction from the centre pin in the image rather than round it (None for the
+    centre pin, which has no such direction, and for a ring the pair leaves still)."""
+    rings = pin_rings(rest_px)
+    pair = pcs.components[list(rotating_pair(pcs.explained))].reshape(2, -1, 2)
+    outward = rest_px - rest_px[rings == 0][0]
+    outward = outward / np.maximum(np.linalg.norm(outward, axis=1, keepdims=True), 1e-12)
+    radial = np.sum(np.einsum("kpi,pi->kp", pair, outward) ** 2, axis=0)
+    total = np.sum(pair**2, axis=(0, 2))
+    energy, share = [], []
+    for k in range(rings.max() + 1):
+        ring_energy = float(total[rings == k].sum())
+        energy.append(ring_energy / float(total.sum()))
+        share.append(float(radial[rings == k].sum()) / ring_energy if k and ring_energy > 1e-12 else None)
+    return {"energy": energy, "radial": share}
+
+
 def _wrap(angle_deg: np.ndarray) -> np.ndarray:
     return (np.asarray(angle_deg) + 180.0) % 360.0 - 180.0
 
@@ -655,10 +678,10 @@ def edge_figures(taps: Run, slides: Run | None = None, reach_at: tuple[float, ..
     """Every figure of this module for one sensor: a tap run (plain or sheared) and, for
     plain taps, a slides run for the along-edge drag (its slides at their first lateral
     position). `reach_at`: the l (mm) of the reach profiles; those with no tap within 0.5 mm
-    are left out. Keys: signal_profile, signal_by_depth, signal_shift_share, reach (l → ten bins),
-    signal_rings (at the reach's l and l = 0), closest_pins, pcs_explained,
-    pcs_turned, drag_over_signal and along_edge (l → figures; sheared taps, or plain taps
-    with slides)."""
+    are left out. Keys: signal_profile, signal_by_depth, signal_shift_share, reach (l → ten
+    bins), signal_rings (at the reach's l and l = 0), closest_pins, pcs_explained,
+    pcs_turned, pair_rings, drag_over_signal and along_edge (l → figures; sheared taps, or
+    plain taps with slides)."""
     fits = sheared_fits(taps) if is_sheared(taps) else None
     pcs = tap_pcs(taps, fits)
     lateral = taps.label("lateral_mm")[usable(taps)]
@@ -673,6 +696,7 @@ def edge_figures(taps: Run, slides: Run | None = None, reach_at: tuple[float, ..
         "closest_pins": closest_pins(taps),
         "pcs_explained": pcs.explained.tolist(),
         "pcs_turned": pcs.turned,
+        "pair_rings": pair_rings(pcs, taps.rest_pins_px),
         "drag_over_signal": {},
         "along_edge": {},
     }

@@ -71,6 +71,13 @@ def format_edge_figures(figures: list[dict], labels: list[str] | None = None) ->
                 rings = rows.get(l)
                 values = "—" if rings is None else " ".join(f"{v:.2f}" for v in rings)
                 lines.append(f"    l {l:+g} mm, {label}: {values}")
+    lines.append(
+        "  the edge's orientation pair by ring of pins (centre → rim): its energy, share of the pair's;"
+        " the share of that moving the pins radially:"
+    )
+    for label, f in zip(labels, figures):
+        radial = " ".join("—" if v is None else f"{v:.2f}" for v in f["pair_rings"]["radial"])
+        lines.append(f"    {label}: " + " ".join(f"{v:.2f}" for v in f["pair_rings"]["energy"]) + f"; radial {radial}")
     for depth, closest in _depth_groups(figures, "closest_pins"):
         lines.append(
             f"  closest pins, {depth} (nearest neighbour / at rest, the frame's smallest: "
