@@ -78,6 +78,13 @@ def test_an_unknown_material_names_the_file_and_the_field(tmp_path: Path) -> Non
         load_scenario_stimulus(load_scenario(path))
 
 
+def test_an_edge_radius_the_object_cannot_take_names_the_file_and_the_field(tmp_path: Path) -> None:
+    path = tmp_path / "round.yaml"
+    path.write_text("name: round\nobject: {name: spiral, edge_radius_mm: 1}\nprotocol: {kind: taps}\n")
+    with pytest.raises(UserError, match=rf"^{path}: field 'object.edge_radius_mm': object spiral: edge radius 1 mm"):
+        load_scenario_stimulus(load_scenario(path))
+
+
 def test_an_outline_of_too_many_vertices_is_refused_while_it_is_read(tmp_path: Path) -> None:
     # 200,000 vertices used to run minutes of convex decomposition before a compile error
     t = np.linspace(0.0, 2 * np.pi, 200_000, endpoint=False)

@@ -261,3 +261,45 @@ def test_bad_specs_raise_user_errors(tmp_path):
         load_stimulus(ok)
     with pytest.raises(UserError, match="unknown material 'steel'"):
         load_stimulus(ok, thickness_mm=5, material="steel")
+
+
+def _top_height_mm(mesh: trimesh.Trimesh, x_mm: float, y_mm: float) -> float:
+    """The top surface's height (mm) of a convex mesh (m) above (x, y): the lowest of its
+    upward facets' planes there."""
+    n = mesh.face_normals
+    d = np.einsum("ij,ij->i", n, mesh.triangles[:, 0])
+    up = n[:, 2] > 1e-9
+    return float(np.min((d[up] - n[up, 0] * x_mm * MM - n[up, 1] * y_mm * MM) / n[up, 2])) / MM
+
+
+@pytest.mark.parametrize(("name", "radius_mm"), [("rectangle", 1.0), ("rectangle", 2.5), ("large_circle", 1.5)])
+def test_a_rounded_top_edge_is_a_quarter_circle_across_the_side(stims, name, radius_mm):
+    """Across the side at the outline's +x extreme, the top falls as the quarter circle
+    z = −r + √(r² − u²), u the distance past the flat's end (within 5 µm: its 32 facets),
+    the flat stays at z = 0, and the solid is one closed convex piece of the same outline
+    and thickness."""
+    from twin.world.stimuli.objects import with_edge_radius
+
+    sharp = stims[name]
+    rounded = with_edge_radius(sharp, radius_mm)
+    mesh = rounded.mesh
+    assert rounded.collision == "convex" and mesh.is_watertight and mesh.is_convex
+    np.testing.assert_allclose(mesh.bounds, sharp.mesh.bounds, atol=1e-9)
+    edge = sharp.outline.bounds[2]
+    for x in np.linspace(edge - 2 * radius_mm, edge - 1e-6, 25):
+        u = max(0.0, x - (edge - radius_mm))
+        assert _top_height_mm(mesh, x, 0.0) == pytest.approx(-radius_mm + np.sqrt(radius_mm**2 - u**2), abs=5e-3)
+    assert with_edge_radius(sharp, 0.0) is sharp
+
+
+def test_an_edge_radius_is_refused_where_it_cannot_round_the_object(stims, tmp_path):
+    from twin.world.stimuli.objects import with_edge_radius
+
+    with pytest.raises(UserError, match="object flower: edge radius 1 mm: only a convex outline can be rounded"):
+        with_edge_radius(stims["flower"], 1.0)
+    with pytest.raises(UserError, match="beyond the object's thickness"):
+        with_edge_radius(stims["rectangle"], 10.5)
+    path = tmp_path / "block.stl"
+    trimesh.creation.box(extents=(40.0, 30.0, 8.0)).export(path)
+    with pytest.raises(UserError, match="an STL object brings its own edges"):
+        with_edge_radius(load_stimulus(path), 1.0)

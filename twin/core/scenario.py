@@ -50,6 +50,7 @@ class ObjectSpec(StrictModel):
     thickness_mm: float | None = bounded(0, 200, "mm", "outline extrusion height", None, open_lo=True)
     material: str | None = None
     friction: float | None = bounded(0, 3, "dimensionless", "sliding friction coefficient", None)
+    edge_radius_mm: float = bounded(0, 10, "mm", "radius of the top edge all round (0: sharp)", 0.0)
 
     @model_validator(mode="after")
     def _one_source(self) -> ObjectSpec:

@@ -27,7 +27,7 @@ from twin.world.dome.base import DomeBuilder, DomeParameters, PhysicsSettings
 from twin.world.dome.registry import DOME_MODELS
 from twin.world.scene import SceneSpec, object_and_work_frames
 from twin.world.stimuli import Stimulus, load_stimulus
-from twin.world.stimuli.objects import MATERIALS
+from twin.world.stimuli.objects import MATERIALS, with_edge_radius
 
 
 @dataclass(frozen=True)
@@ -115,9 +115,15 @@ def _stimulus(o: ObjectSpec, path: Path | None, calibration: Calibration | None,
         kwargs["friction"] = o.friction
     if calibration is not None and calibration.friction is not None:
         kwargs["friction"] = calibration.friction  # the sensor's fitted skin–stimulus friction
-    if o.name is not None:
-        return load_stimulus(o.name, **kwargs)
-    return load_stimulus(path, thickness_mm=o.thickness_mm, **kwargs)
+    stimulus = (
+        load_stimulus(o.name, **kwargs)
+        if o.name is not None
+        else load_stimulus(path, thickness_mm=o.thickness_mm, **kwargs)
+    )
+    try:
+        return with_edge_radius(stimulus, o.edge_radius_mm)
+    except UserError as exc:
+        raise UserError(f"{source}: field 'object.edge_radius_mm': {exc}") from None
 
 
 def _object_file(scenario: Scenario) -> Path | None:

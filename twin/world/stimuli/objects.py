@@ -25,7 +25,7 @@ import math
 import os
 import re
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 
@@ -50,6 +50,7 @@ from twin.world.stimuli.outlines import (
     flower_outline,
     open_edge_count,
     rectangle_outline,
+    rounded_top_mesh,
     spiral_outline,
     spiral_start_end,
     tape_measure_outline,
@@ -557,6 +558,25 @@ def load_stimulus(
     if not (0.0 < float(thickness_mm) <= MAX_SIZE_MM):
         raise UserError(f"outline {path}: thickness_mm {thickness_mm} must be in (0, {MAX_SIZE_MM}]")
     return _load_outline(path, float(thickness_mm), material, mu, recentre)
+
+
+def with_edge_radius(stim: Stimulus, radius_mm: float) -> Stimulus:
+    """The object with its top edge rounded all round with `radius_mm` (0: as it is): real
+    printed and cut edges are not sharp. Outline objects only (built-in or CSV), and only
+    convex ones, whose solid stays one convex piece; UserError otherwise, or for a radius
+    beyond the thickness or half the outline's narrowest width."""
+    if radius_mm == 0.0:
+        return stim
+    what = f"object {stim.name}: edge radius {radius_mm:g} mm"
+    if stim.source.lower().endswith(".stl"):
+        raise UserError(f"{what}: an STL object brings its own edges; round them in the mesh")
+    hull = stim.outline.convex_hull
+    if hull.area - stim.outline.area > 1e-6 * hull.area:
+        raise UserError(f"{what}: only a convex outline can be rounded (this one is not)")
+    if radius_mm > stim.thickness_mm or stim.outline.buffer(-radius_mm).is_empty:
+        raise UserError(f"{what}: beyond the object's thickness ({stim.thickness_mm:g} mm) or half its width")
+    mesh = rounded_top_mesh(stim.outline, stim.thickness_mm, radius_mm)
+    return replace(stim, mesh=mesh, collision="convex")
 
 
 def _check_size(path: Path, extent_mm: np.ndarray, what: str) -> None:

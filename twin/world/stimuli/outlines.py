@@ -309,6 +309,27 @@ def extrude_mesh(poly: Polygon, thickness_mm: float) -> trimesh.Trimesh:
     return trimesh.Trimesh(np.vstack([top, bottom]) * MM, np.vstack(faces), process=False)
 
 
+#: facets of a rounded top edge, over its quarter turn: neighbours turn by under 3°, so a
+#: dome's contact reads them as one curved surface
+ROUNDED_EDGE_FACETS = 32
+
+
+def rounded_top_mesh(poly: Polygon, thickness_mm: float, radius_mm: float) -> trimesh.Trimesh:
+    """Convex prism of a convex `poly` over z ∈ [−thickness, 0], in metres, its top edge
+    rounded all round with `radius_mm` (a quarter circle in every section across the
+    outline's sides; its corners seen from above stay as the outline has them). Built as
+    the hull of the outline inset by r(1 − sin φ) at z = −r(1 − cos φ), φ over a quarter
+    turn in `ROUNDED_EDGE_FACETS` steps, and of the outline at the bottom."""
+    layers = [
+        np.column_stack([np.asarray(poly.exterior.coords)[:-1], np.full(len(poly.exterior.coords) - 1, -thickness_mm)])
+    ]
+    for phi in np.linspace(0.0, 0.5 * np.pi, ROUNDED_EDGE_FACETS + 1):
+        inset = poly.buffer(-radius_mm * (1.0 - np.sin(phi)), join_style="mitre")
+        ring = np.asarray(inset.exterior.coords)[:-1]
+        layers.append(np.column_stack([ring, np.full(len(ring), -radius_mm * (1.0 - np.cos(phi)))]))
+    return trimesh.convex.convex_hull(np.vstack(layers) * MM)
+
+
 def open_edge_count(mesh: trimesh.Trimesh) -> int:
     """Edges used by exactly one face (0 for a closed surface)."""
     edges = np.sort(mesh.edges, axis=1)
