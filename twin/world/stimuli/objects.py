@@ -570,8 +570,7 @@ def with_edge_radius(stim: Stimulus, radius_mm: float) -> Stimulus:
     what = f"object {stim.name}: edge radius {radius_mm:g} mm"
     if stim.source.lower().endswith(".stl"):
         raise UserError(f"{what}: an STL object brings its own edges; round them in the mesh")
-    hull = stim.outline.convex_hull
-    if hull.area - stim.outline.area > 1e-6 * hull.area:
+    if len(stim.convex_outlines) > 1:
         raise UserError(f"{what}: only a convex outline can be rounded (this one is not)")
     if radius_mm > stim.thickness_mm or stim.outline.buffer(-radius_mm).is_empty:
         raise UserError(f"{what}: beyond the object's thickness ({stim.thickness_mm:g} mm) or half its width")

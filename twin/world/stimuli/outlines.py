@@ -320,14 +320,14 @@ def rounded_top_mesh(poly: Polygon, thickness_mm: float, radius_mm: float) -> tr
     outline's sides; its corners seen from above stay as the outline has them). Built as
     the hull of the outline inset by r(1 − sin φ) at z = −r(1 − cos φ), φ over a quarter
     turn in `ROUNDED_EDGE_FACETS` steps, and of the outline at the bottom."""
-    layers = [
-        np.column_stack([np.asarray(poly.exterior.coords)[:-1], np.full(len(poly.exterior.coords) - 1, -thickness_mm)])
-    ]
-    for phi in np.linspace(0.0, 0.5 * np.pi, ROUNDED_EDGE_FACETS + 1):
-        inset = poly.buffer(-radius_mm * (1.0 - np.sin(phi)), join_style="mitre")
-        ring = np.asarray(inset.exterior.coords)[:-1]
-        layers.append(np.column_stack([ring, np.full(len(ring), -radius_mm * (1.0 - np.cos(phi)))]))
-    return trimesh.convex.convex_hull(np.vstack(layers) * MM)
+
+    def layer(inset_mm: float, z_mm: float) -> np.ndarray:
+        ring = np.asarray(poly.buffer(-inset_mm, join_style="mitre").exterior.coords)[:-1]
+        return np.column_stack([ring, np.full(len(ring), z_mm)])
+
+    phis = np.linspace(0.0, 0.5 * np.pi, ROUNDED_EDGE_FACETS + 1)
+    layers = [layer(radius_mm * (1.0 - np.sin(p)), -radius_mm * (1.0 - np.cos(p))) for p in phis]
+    return trimesh.convex.convex_hull(np.vstack([*layers, layer(0.0, -thickness_mm)]) * MM)
 
 
 def open_edge_count(mesh: trimesh.Trimesh) -> int:
