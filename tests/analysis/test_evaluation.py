@@ -138,6 +138,25 @@ def test_compliant_dome_reads_taps_between_its_training_depths(tmp_path) -> None
         assert row["lateral_rms_mm"] <= 1.0, (lateral, row)
 
 
+def test_the_offset_in_pc2_pc3_follows_the_sense_the_taps_turn_in() -> None:
+    """A PC's sign is a convention, so a tap set's θ_PC23 may turn against θ. Frames at
+    θ_PC23 = 30° − θ (radius 2 px) read with the sense −1: offset 30°, no spread; read as
+    if they turned with θ, θ_PC23 − θ = 30° − 2θ spreads over the whole circle."""
+    from twin.analysis.evaluation import _offset_deg, pc23_handedness
+
+    theta = np.arange(-160.0, 181.0, 20.0)
+    angle = np.radians(30.0 - theta)
+    plane = 2.0 * np.column_stack([np.cos(angle), np.sin(angle)])
+    assert pc23_handedness(plane, theta) == -1
+    against = _offset_deg(plane, theta, -1)
+    assert against["offset_deg"] == pytest.approx(30.0)
+    assert against["spread_deg"] == pytest.approx(0.0, abs=1e-9)
+    assert against["radius_px"] == pytest.approx(2.0)
+    assert _offset_deg(plane, theta, 1)["spread_deg"] > 90.0
+    assert pc23_handedness(plane[:, ::-1], theta) == 1  # a mirror: θ_PC23 = 60° + θ
+    assert _offset_deg(plane[:, ::-1], theta, 1)["offset_deg"] == pytest.approx(60.0)
+
+
 def test_the_along_edge_cells_weigh_the_drag_against_the_taps_orientation_signal(tmp_path, capsys) -> None:
     """What Table I's along-edge cells weigh against each other, as `twin evaluate` reports
     it (twin.analysis.evaluation.orientation_signal_px, along_edge_drag_px), recorded on the
@@ -203,6 +222,8 @@ def test_the_along_edge_cells_weigh_the_drag_against_the_taps_orientation_signal
         assert sliding["radius_px"] == pytest.approx(pressed["radius_px"], rel=0.01), still
         assert abs(wrap_deg(sliding["offset_deg"] - pressed["offset_deg"])) < 1.0, still
     dragged = result["along_edge_reading"]
+    assert dragged["handedness"] in (1, -1)
+    assert ("θ_PC23 − θ" in printed) == (dragged["handedness"] == 1)
     assert dragged["lateral_mm"] == -6.0 and set(dragged["taps"]) == {"2.0", "4.0"}
     for d in ("90", "270"):
         assert dragged[d]["sliding"]["radius_px"] > 5.0 * dragged[d]["pressed"]["radius_px"], dragged

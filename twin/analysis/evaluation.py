@@ -134,10 +134,19 @@ def along_edge_drag_px(slides: Run) -> dict[int, float | None]:
     return drag
 
 
-def _offset_deg(plane_px: np.ndarray, theta_deg: np.ndarray) -> dict[str, float]:
+def pc23_handedness(plane_px: np.ndarray, theta_deg: np.ndarray) -> int:
+    """+1 where θ_PC23 turns with θ over these frames (M, 2) px, −1 where against it. Each
+    PC's sign is a convention (twin.sensing.perception: its largest loading positive), so a
+    tap set's pair can read the edge either way round; the GPs take cos and sin of θ_PC23
+    and do not care, but an offset θ_PC23 − θ means something only with the turn's sense."""
+    spreads = {s: _offset_deg(plane_px, theta_deg, s)["spread_deg"] for s in (1, -1)}
+    return min(spreads, key=spreads.get)
+
+
+def _offset_deg(plane_px: np.ndarray, theta_deg: np.ndarray, handedness: int = 1) -> dict[str, float]:
     """Frames in the PC2–PC3 plane (M, 2) px against their true θ: "radius_px" (RMS),
-    "offset_deg" (the circular mean of θ_PC23 − θ) and "spread_deg" (RMS about it)."""
-    diff = np.radians(np.degrees(np.arctan2(plane_px[:, 1], plane_px[:, 0])) - theta_deg)
+    "offset_deg" (the circular mean of θ_PC23 − handedness·θ) and "spread_deg" (RMS about it)."""
+    diff = np.radians(np.degrees(np.arctan2(plane_px[:, 1], plane_px[:, 0])) - handedness * theta_deg)
     offset = float(np.degrees(np.angle(np.mean(np.exp(1j * diff)))))
     return {
         "radius_px": float(np.sqrt(np.mean(np.sum(plane_px**2, axis=1)))),
@@ -175,30 +184,33 @@ def along_edge_reading(model: PerceptionModel, taps: Run, slides: Run) -> dict |
     """Where the along-edge slides (90°, 270°) sit in the taps' PC2–PC3 plane, the plane the
     PCA + GP reads θ from: for the taps at the slides' lateral position, per depth, and for
     each direction's unslid first samples ("pressed") and sliding ones ("sliding"), the
-    frames' RMS radius (px, about the model's origin) and θ_PC23 − θ (deg, circular mean,
-    with the RMS about it). Frames read as the taps do where their offset is the taps'; a
-    drag that outweighs the taps' radius there turns it to the slide's own direction, the
-    two directions' 180° apart. Each direction's "drag_in_plane" (`_drag_in_plane_px`)
-    says which part of the drag lands there. {"lateral_mm", "taps": {depth: figures},
+    frames' RMS radius (px, about the model's origin) and θ_PC23 ∓ θ (deg, circular mean,
+    with the RMS about it; the sign by the sense all the taps turn in, `pc23_handedness`).
+    Frames read as the taps do where their offset is the taps'; a drag that outweighs the
+    taps' radius there turns it to the slide's own direction, the two directions' 180°
+    apart. Each direction's "drag_in_plane" (`_drag_in_plane_px`) says which part of the
+    drag lands there. {"lateral_mm", "handedness", "taps": {depth: figures},
     90: {"pressed", "sliding", "drag_in_plane"}, 270: ...}; None without along-edge slides."""
     direction, sample = slides.label("direction_deg"), slides.label("sample_in_slide")
     along = np.isin(direction, (90, 270))
     if not along.any():
         return None
     lateral = float(slides.label("lateral_mm")[along & (sample == 0)][0])
-    reading: dict = {"lateral_mm": lateral, "taps": {}}
-    at = np.isclose(taps.label("lateral_mm"), lateral)
     t_depth, t_theta = taps.label("depth_mm"), taps.label("theta_deg")
+    t_plane = model.pc23_px(taps.pins_px, taps.resolution)
+    sense = pc23_handedness(t_plane, t_theta)
+    reading: dict = {"lateral_mm": lateral, "handedness": sense, "taps": {}}
+    at = np.isclose(taps.label("lateral_mm"), lateral)
     for depth in sorted(set(t_depth[at].tolist())):
         m = at & (t_depth == depth)
-        reading["taps"][float(depth)] = _offset_deg(model.pc23_px(taps.pins_px[m], taps.resolution), t_theta[m])
+        reading["taps"][float(depth)] = _offset_deg(t_plane[m], t_theta[m], sense)
     theta, pins = slides.label("theta_deg"), slides.pins_px
     plane = np.full((len(pins), 2), np.nan)
     plane[along] = model.pc23_px(pins[along], slides.resolution)
     for d in (90, 270):
         phases = {"pressed": (direction == d) & (sample == 0), "sliding": (direction == d) & (sample > 0)}
         if all(m.any() for m in phases.values()):
-            reading[d] = {name: _offset_deg(plane[m], theta[m]) for name, m in phases.items()}
+            reading[d] = {name: _offset_deg(plane[m], theta[m], sense) for name, m in phases.items()}
             reading[d]["drag_in_plane"] = _drag_in_plane_px(
                 model, slides, pins, plane, np.flatnonzero(phases["sliding"])
             )

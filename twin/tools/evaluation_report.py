@@ -74,10 +74,16 @@ def format_along_edge_reading(reading: dict | None) -> str:
     if reading is None:
         return "no along-edge slides: no reading of them in the taps' PC2–PC3 plane"
 
-    def figures(f: dict) -> str:
-        return f"θ_PC23 − θ {f['offset_deg']:+.1f}° ± {f['spread_deg']:.1f}, radius {f['radius_px']:.2f} px"
+    sign = "−" if reading["handedness"] > 0 else "+"
 
-    lines = [f"the along-edge slides in the taps' PC2–PC3 plane (l {reading['lateral_mm']:+g} mm; θ is read from it):"]
+    def figures(f: dict) -> str:
+        return f"θ_PC23 {sign} θ {f['offset_deg']:+.1f}° ± {f['spread_deg']:.1f}, radius {f['radius_px']:.2f} px"
+
+    turns = "with θ" if reading["handedness"] > 0 else "against θ (the pair's sign is a convention)"
+    lines = [
+        f"the along-edge slides in the taps' PC2–PC3 plane (l {reading['lateral_mm']:+g} mm; θ is read from it;"
+        f" over all the taps θ_PC23 turns {turns}):"
+    ]
     for depth, f in reading["taps"].items():
         lines.append(f"  taps {float(depth):g} mm deep: {figures(f)}")
     for d in (90, 270):
