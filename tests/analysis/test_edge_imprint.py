@@ -200,6 +200,8 @@ def test_plane_and_shift_shares() -> None:
     assert pcs.plane_share(field) == pytest.approx(0.5)
     assert E.translation_share(np.tile([0.3, -0.2], 127)) == pytest.approx(1.0)
     assert E.translation_share(np.ravel(REST - REST.mean(axis=0))) == pytest.approx(0.0, abs=1e-12)
+    # a field that moves nothing (a frictionless slide's) has no shares, rather than 0 / 0
+    assert pcs.plane_share(np.zeros(254)) is None and E.translation_share(np.zeros(254)) is None
 
 
 def test_a_sixth_of_a_turn_maps_the_grid_onto_itself() -> None:

@@ -169,6 +169,7 @@ def test_the_along_edge_cells_weigh_the_drag_against_the_taps_orientation_signal
     at l = −6 (2 / 4 mm deep), a drag of 14.4 px, and 0.0 px without friction."""
     import json
 
+    from twin.analysis.edge_imprint import along_edge_turn_slides
     from twin.analysis.evaluation import along_edge_drag_px, along_edge_reading, orientation_signal_px
     from twin.core.poses import wrap_deg
     from twin.core.resources import scenario_path
@@ -217,6 +218,9 @@ def test_the_along_edge_cells_weigh_the_drag_against_the_taps_orientation_signal
     assert "the along-edge slides in the taps' PC2–PC3 plane" in printed
     model = train_from_run(load_run(taps), "pca", 0)
     still = along_edge_reading(model, load_run(taps), load_run(frictionless))
+    unslid = along_edge_turn_slides(load_run(taps), load_run(frictionless))
+    assert unslid["pc23_deg_per_mm"] == pytest.approx(0.0, abs=1e-6), unslid
+    assert unslid["plane_share"] is None and unslid["translation_share"] is None, unslid
     for d in (90, 270):
         pressed, sliding = still[d]["pressed"], still[d]["sliding"]
         assert sliding["radius_px"] == pytest.approx(pressed["radius_px"], rel=0.01), still

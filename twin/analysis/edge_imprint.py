@@ -400,10 +400,12 @@ class TapPCs:
         a field moves a frame by this much there)."""
         return self.components[list(self.pair)] @ field
 
-    def plane_share(self, field: np.ndarray) -> float:
+    def plane_share(self, field: np.ndarray) -> float | None:
         """The share of a displacement field's energy (254,) in the PC2–PC3 plane (of its
-        whole energy, any rigid shift in it included)."""
-        return float(np.sum(self.field_in_plane(field) ** 2) / np.sum(field**2))
+        whole energy, any rigid shift in it included); None for a field that moves nothing
+        (a frictionless slide's)."""
+        energy = float(field @ field)
+        return float(np.sum(self.field_in_plane(field) ** 2)) / energy if energy > 0.0 else None
 
 
 def tap_pcs(run: Run, fits: list[BinFit] | None = None) -> TapPCs:
@@ -555,9 +557,9 @@ def along_edge_turn_slides(
             )
             g_a = (z[j] - z[i]) / length
             turns.append(abs(_wrap(pcs.theta_pc23_deg(z[j]) - pcs.theta_pc23_deg(z[i]))[0]) / length)
-            energy_in += pcs.plane_share(g_a) * float(g_a @ g_a)
+            energy_in += float(np.sum(pcs.field_in_plane(g_a) ** 2))
             energy += float(g_a @ g_a)
-            shift += translation_share(g_a) * float(g_a @ g_a)
+            shift += N_PINS * float(np.sum(_uniform_shift(g_a[None]) ** 2))
             radius.append(float(np.linalg.norm(pcs.in_plane(z[i])[0])))
             if step is not None:
                 at = np.isclose(t_lat, l0)
@@ -571,15 +573,17 @@ def along_edge_turn_slides(
     return {
         "raw_deg_per_mm": float(np.mean(raw)) if raw else None,
         "pc23_deg_per_mm": float(np.mean(turns)),
-        "plane_share": energy_in / energy,
+        "plane_share": energy_in / energy if energy > 0.0 else None,
         "radius_px": float(np.sqrt(np.mean(np.square(radius)))),
-        "translation_share": shift / energy,
+        "translation_share": shift / energy if energy > 0.0 else None,
     }
 
 
-def translation_share(field: np.ndarray) -> float:
-    """The share of a displacement field's energy (254,) in a rigid shift of all the pins."""
-    return N_PINS * float(np.sum(_uniform_shift(field[None]) ** 2)) / float(field @ field)
+def translation_share(field: np.ndarray) -> float | None:
+    """The share of a displacement field's energy (254,) in a rigid shift of all the pins;
+    None for a field that moves nothing."""
+    energy = float(field @ field)
+    return N_PINS * float(np.sum(_uniform_shift(field[None]) ** 2)) / energy if energy > 0.0 else None
 
 
 # ------------------------------------------------------------------ closest pins
