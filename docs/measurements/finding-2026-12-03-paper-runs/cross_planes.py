@@ -1,0 +1,49 @@
+"""The along-edge slides' drag in the taps' PC2–PC3 plane across frictions: each friction's
+slides (rows) in each friction's taps' plane (columns), RMS px; then the angle between the
+taps' planes (deg, the larger principal angle). Run beside run.sh's runs/.
+
+    python cross_planes.py
+"""
+
+from pathlib import Path
+
+import numpy as np
+
+from twin.runs.record import load_run
+from twin.sensing.perception import pca_fit, pins_to_vectors
+
+
+def plane_of(taps):
+    mean, comps, _ = pca_fit(pins_to_vectors(taps.pins_px), 3)
+    return comps[1:3]
+
+
+def drag_in(comps, slides):
+    d, k, th = slides.label("direction_deg"), slides.label("sample_in_slide"), slides.label("theta_deg")
+    z = pins_to_vectors(slides.pins_px)
+    parts = []
+    for dd in (90, 270):
+        for t in np.unique(th):
+            a = np.flatnonzero((d == dd) & (th == t) & (k == 0))
+            for b in np.flatnonzero((d == dd) & (th == t) & (k > 0)):
+                parts.append(comps @ (z[b] - z[a[0]]))
+    return float(np.sqrt(np.mean(np.sum(np.array(parts) ** 2, axis=1))))
+
+
+tags = ["fit", "f05", "f03", "f01"]  # friction 0.95, 0.5, 0.3, 0.1
+planes = {t: plane_of(load_run(Path(f"runs/taps_rectangle_{t}"))) for t in tags}
+for s in tags:
+    sl = load_run(Path(f"runs/slides_rectangle_{s}"))
+    print(
+        f"slides {s}: in-plane drag px in the taps' plane of "
+        + "  ".join(f"{p}: {drag_in(planes[p], sl):6.2f}" for p in tags)
+    )
+print("angle between the taps' planes, deg:")
+for p in tags:
+    print(
+        p,
+        " ".join(
+            f"{np.degrees(np.arccos(np.clip(np.linalg.svd(planes[p] @ planes[q].T, compute_uv=False).min(), -1, 1))):5.1f}"
+            for q in tags
+        ),
+    )
