@@ -29,3 +29,4 @@ done
   runs/taps_rectangle_f05 runs/slides_rectangle_f05 runs/taps_rectangle_f03 runs/slides_rectangle_f03 \
   runs/taps_rectangle_f01 runs/slides_rectangle_f01 runs/taps_rectangle_f00 runs/slides_rectangle_f00 > slide-figures.txt
 "$py" cross_planes.py > cross-planes.txt
+"$py" drag_by_pc.py runs/taps_rectangle_fit runs/slides_rectangle_fit > drag-by-pc.txt
