@@ -114,7 +114,7 @@ class _TermNoise:
         self.pin_variance_px2 = np.sum(unexplained.reshape(len(unexplained), -1, 2) ** 2, axis=(0, 2)) / dof
         self.variance_px2 = float(np.sum(self.pin_variance_px2))  # Σ_j s_j²
         # the same for the rigid shift's two coordinates, × N_PINS: its share of that noise
-        self.shift_variance_px2 = N_PINS * float(np.sum(_uniform_shift(unexplained) ** 2)) / dof
+        self.shift_variance_px2 = _shift_energy(unexplained) / dof
         self.inverse = np.linalg.pinv(design.T @ design)
 
     def spread_px(self, x: np.ndarray, coef: np.ndarray, terms: list[int]) -> float:
@@ -139,7 +139,7 @@ class _TermNoise:
         (DᵀD)⁻¹ on the diagonal; a rigid jitter of the frames lands in the shift). Not
         floored, so that it is unbiased: below 0 it is 0 within its noise."""
         c = float(self.inverse[1 + term, 1 + term])
-        shift = N_PINS * float(np.sum(_uniform_shift(gradient[None]) ** 2)) - c * self.shift_variance_px2
+        shift = _shift_energy(gradient) - c * self.shift_variance_px2
         energy = float(gradient @ gradient) - c * self.variance_px2
         return shift / energy if energy > 0 else float("nan")
 
@@ -147,6 +147,12 @@ class _TermNoise:
 def _uniform_shift(vectors: np.ndarray) -> np.ndarray:
     """(n, 2) px: the mean pin displacement (x, y) of each of the (n, 254) vectors."""
     return vectors.reshape(len(vectors), -1, 2).mean(axis=1)
+
+
+def _shift_energy(vectors: np.ndarray) -> float:
+    """px²: the energy of the uniform shifts in the (n, 254) or (254,) vectors, summed: each
+    vector's shift moves all N_PINS pins."""
+    return N_PINS * float(np.sum(_uniform_shift(np.atleast_2d(vectors)) ** 2))
 
 
 def sheared_fits(run: Run, width_mm: float = 1.0, min_samples: int = 20) -> list[BinFit]:
@@ -310,7 +316,7 @@ def signal_shift_share(run: Run, fits: list[BinFit] | None = None) -> dict[float
             group = pins_to_vectors(pins[(depth == d) & (lateral == l)])
             if len(group) > 1:
                 deviation = group - group.mean(axis=0)
-                shift = N_PINS * float(np.sum(_uniform_shift(deviation) ** 2))
+                shift = _shift_energy(deviation)
                 table.setdefault(float(d), {})[float(l)] = shift / float(np.sum(deviation**2))
     return table
 
@@ -400,12 +406,16 @@ class TapPCs:
         a field moves a frame by this much there)."""
         return self.components[list(self.pair)] @ field
 
+    def plane_energy(self, field: np.ndarray) -> float:
+        """px²: a displacement field's (254,) energy in the PC2–PC3 plane."""
+        return float(np.sum(self.field_in_plane(field) ** 2))
+
     def plane_share(self, field: np.ndarray) -> float | None:
         """The share of a displacement field's energy (254,) in the PC2–PC3 plane (of its
         whole energy, any rigid shift in it included); None for a field that moves nothing
         (a frictionless slide's)."""
         energy = float(field @ field)
-        return float(np.sum(self.field_in_plane(field) ** 2)) / energy if energy > 0.0 else None
+        return self.plane_energy(field) / energy if energy > 0.0 else None
 
 
 def tap_pcs(run: Run, fits: list[BinFit] | None = None) -> TapPCs:
@@ -557,9 +567,9 @@ def along_edge_turn_slides(
             )
             g_a = (z[j] - z[i]) / length
             turns.append(abs(_wrap(pcs.theta_pc23_deg(z[j]) - pcs.theta_pc23_deg(z[i]))[0]) / length)
-            energy_in += float(np.sum(pcs.field_in_plane(g_a) ** 2))
+            energy_in += pcs.plane_energy(g_a)
             energy += float(g_a @ g_a)
-            shift += N_PINS * float(np.sum(_uniform_shift(g_a[None]) ** 2))
+            shift += _shift_energy(g_a)
             radius.append(float(np.linalg.norm(pcs.in_plane(z[i])[0])))
             if step is not None:
                 at = np.isclose(t_lat, l0)
@@ -583,7 +593,7 @@ def translation_share(field: np.ndarray) -> float | None:
     """The share of a displacement field's energy (254,) in a rigid shift of all the pins;
     None for a field that moves nothing."""
     energy = float(field @ field)
-    return N_PINS * float(np.sum(_uniform_shift(field[None]) ** 2)) / energy if energy > 0.0 else None
+    return _shift_energy(field) / energy if energy > 0.0 else None
 
 
 # ------------------------------------------------------------------ closest pins
