@@ -8,6 +8,7 @@ taps' planes (deg, the larger principal angle). Run beside run.sh's runs/.
 from pathlib import Path
 
 import numpy as np
+from slide_figures import drags
 
 from twin.runs.record import load_run
 from twin.sensing.perception import pca_fit, pins_to_vectors
@@ -19,15 +20,8 @@ def plane_of(taps):
 
 
 def drag_in(comps, slides):
-    d, k, th = slides.label("direction_deg"), slides.label("sample_in_slide"), slides.label("theta_deg")
-    z = pins_to_vectors(slides.pins_px)
-    parts = []
-    for dd in (90, 270):
-        for t in np.unique(th):
-            a = np.flatnonzero((d == dd) & (th == t) & (k == 0))
-            for b in np.flatnonzero((d == dd) & (th == t) & (k > 0)):
-                parts.append(comps @ (z[b] - z[a[0]]))
-    return float(np.sqrt(np.mean(np.sum(np.array(parts) ** 2, axis=1))))
+    parts = drags(slides, (90, 270)) @ comps.T
+    return float(np.sqrt(np.mean(np.sum(parts**2, axis=1))))
 
 
 tags = ["fit", "f05", "f03", "f01"]  # friction 0.95, 0.5, 0.3, 0.1

@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from slide_figures import drags
 
 from twin.runs.record import load_run
 from twin.sensing.perception import pca_fit, pins_to_vectors
@@ -20,16 +21,8 @@ print(f"{sys.argv[1]} / {sys.argv[2]}")
 print("  explained, %:        " + " ".join(f"{100 * v:6.2f}" for v in explained))
 shift = comps.reshape(8, 127, 2).mean(axis=1)
 print("  in a rigid shift, %: " + " ".join(f"{100 * 127 * v:6.2f}" for v in np.sum(shift**2, axis=1)))
-d, k, th = slides.label("direction_deg"), slides.label("sample_in_slide"), slides.label("theta_deg")
-z = pins_to_vectors(slides.pins_px)
 for direction in (0, 90, 180, 270):
-    drags = []
-    for t in np.unique(th):
-        a = np.flatnonzero((d == direction) & (th == t) & (k == 0))
-        b = np.flatnonzero((d == direction) & (th == t) & (k == 3))
-        if len(a) == 1 and len(b) == 1:
-            drags.append(z[b[0]] - z[a[0]])
-    drag = np.array(drags)
+    drag = drags(slides, (direction,), [3])
     energy = np.mean(np.sum(drag**2, axis=1))
     share = np.mean((drag @ comps.T) ** 2, axis=0) / energy
     print(

@@ -23,24 +23,31 @@ from twin.runs.record import load_run
 from twin.sensing.perception import pca_fit, pins_to_vectors
 
 
-def drag_by_sample(slides) -> list[float]:
-    d, k, th, pins = (
-        slides.label("direction_deg"),
-        slides.label("sample_in_slide"),
-        slides.label("theta_deg"),
-        slides.pins_px,
-    )
+def drags(slides, directions, samples=None) -> np.ndarray:
+    """(n, 254) px: each slide's sliding frames at `samples` (sample_in_slide; None: all of
+    them) less its pressed (first) frame, over the slides in `directions` (deg), every
+    orientation."""
+    d, k, th = slides.label("direction_deg"), slides.label("sample_in_slide"), slides.label("theta_deg")
+    z = pins_to_vectors(slides.pins_px)
+    sliding = k > 0 if samples is None else np.isin(k, samples)
     out = []
-    for i in range(1, int(k.max()) + 1):
-        shifts = []
-        for direction in (90, 270):
-            for t in np.unique(th):
-                a = np.flatnonzero((d == direction) & (th == t) & (k == 0))
-                b = np.flatnonzero((d == direction) & (th == t) & (k == i))
-                if len(a) == 1 and len(b) == 1:
-                    shifts.append(np.sqrt(np.mean(np.sum((pins[b[0]] - pins[a[0]]) ** 2, axis=-1))))
-        out.append(float(np.mean(shifts)))
-    return out
+    for direction in directions:
+        for t in np.unique(th):
+            pressed = np.flatnonzero((d == direction) & (th == t) & (k == 0))
+            if len(pressed) == 1:
+                out += [z[b] - z[pressed[0]] for b in np.flatnonzero((d == direction) & (th == t) & sliding)]
+    return np.array(out)
+
+
+def drag_by_sample(slides) -> list[float]:
+    """The along-edge drag (RMS over the pins, mean over the slides, px) at each sliding sample."""
+    last = int(slides.label("sample_in_slide").max())
+    return [
+        float(
+            np.mean(np.sqrt(np.mean(np.sum(drags(slides, (90, 270), [i]).reshape(-1, 127, 2) ** 2, axis=-1), axis=1)))
+        )
+        for i in range(1, last + 1)
+    ]
 
 
 def readings(taps, slides, prep) -> dict[str, dict]:
@@ -58,26 +65,31 @@ def readings(taps, slides, prep) -> dict[str, dict]:
     return out
 
 
-args = sys.argv[1:]
-for taps_dir, slides_dir in zip(args[::2], args[1::2]):
-    taps, slides = load_run(Path(taps_dir)), load_run(Path(slides_dir))
-    print(f"{taps_dir} / {slides_dir}")
-    print("  drag by sample, px: " + " ".join(f"{v:.1f}" for v in drag_by_sample(slides)))
-    f = along_edge_turn_slides(taps, slides)
+if __name__ == "__main__":
+    args = sys.argv[1:]
+    for taps_dir, slides_dir in zip(args[::2], args[1::2]):
+        taps, slides = load_run(Path(taps_dir)), load_run(Path(slides_dir))
+        print(f"{taps_dir} / {slides_dir}")
+        print("  drag by sample, px: " + " ".join(f"{v:.1f}" for v in drag_by_sample(slides)))
+        f = along_edge_turn_slides(taps, slides)
 
-    def share(v):  # None where the slides move no pin
-        return "—" if v is None else f"{100 * v:.2f} %"
+        def share(v):  # None where the slides move no pin
+            return "—" if v is None else f"{100 * v:.2f} %"
 
-    print(
-        f"  first step: raw {f['raw_deg_per_mm']:.1f} °/mm, θ_PC23 {f['pc23_deg_per_mm']:.1f} °/mm,"
-        f" in PC2–PC3 {share(f['plane_share'])} of its energy, in a rigid shift {share(f['translation_share'])},"
-        f" pressed radius {f['radius_px']:.2f} px"
-    )
-    for label, prep in (("uniform shift kept", lambda p, rest: p), ("uniform shift taken out", without_uniform_shift)):
-        r = readings(taps, slides, prep)
         print(
-            f"  {label}: "
-            + ";  ".join(
-                f"{n} {v['offset_deg']:+.1f}° ± {v['spread_deg']:.1f}, r {v['radius_px']:.2f} px" for n, v in r.items()
-            )
+            f"  first step: raw {f['raw_deg_per_mm']:.1f} °/mm, θ_PC23 {f['pc23_deg_per_mm']:.1f} °/mm,"
+            f" in PC2–PC3 {share(f['plane_share'])} of its energy, in a rigid shift {share(f['translation_share'])},"
+            f" pressed radius {f['radius_px']:.2f} px"
         )
+        for label, prep in (
+            ("uniform shift kept", lambda p, rest: p),
+            ("uniform shift taken out", without_uniform_shift),
+        ):
+            r = readings(taps, slides, prep)
+            print(
+                f"  {label}: "
+                + ";  ".join(
+                    f"{n} {v['offset_deg']:+.1f}° ± {v['spread_deg']:.1f}, r {v['radius_px']:.2f} px"
+                    for n, v in r.items()
+                )
+            )
