@@ -183,6 +183,37 @@ def test_import_round_trips_the_twins_own_taps(twin_sheared_run: Path, tmp_path:
         assert main(["compare", str(out), str(out), "--out", str(tmp_path / "cmp")]) == 0
 
 
+def test_an_imported_edge_radius_is_the_one_a_fit_must_model(twin_sheared_run: Path, tmp_path: Path) -> None:
+    """`--edge-radius-mm` records the lab object's rounded edge in the run's scenario:
+    `twin calibrate` reads the run with a twin whose rectangle is rounded alike and refuses
+    a sharp one, naming the field; a negative radius is refused at the command line."""
+    from twin.analysis.calibration_fit.data import load_data
+    from twin.analysis.calibration_fit.settings import load_settings
+    from twin.core.scenario import scenario_from_dict
+
+    targets = _write_lab_set(twin_sheared_run, tmp_path / "lab")
+    argv = ["import-lab", str(tmp_path / "lab"), "--targets", str(targets), "--depth-mm", "2.5", "--quiet"]
+    assert main([*argv, "--edge-radius-mm", "1.5", "--out", str(tmp_path / "imp")]) == 0
+    imported = load_run(tmp_path / "imp")
+    assert imported.meta["scenario"]["object"]["edge_radius_mm"] == 1.5
+    assert imported.meta["import"]["edge_radius_mm"] == 1.5
+    twin = {
+        "name": "fit",
+        "object": {"name": "rectangle", "edge_radius_mm": 1.5},
+        "sensor": {"camera": {"width": 640, "height": 480}},
+        "protocol": {"kind": "sheared_taps", "depth_mm": 2.5},
+    }
+    weights = load_settings(None).weights
+    data = load_data([tmp_path / "imp"], scenario_from_dict(twin, "fit.yaml"), weights)
+    np.testing.assert_allclose(data.pins, imported.pins_px)
+    with pytest.raises(UserError, match="scenario field 'object'"):
+        load_data(
+            [tmp_path / "imp"], scenario_from_dict({**twin, "object": {"name": "rectangle"}}, "sharp.yaml"), weights
+        )
+    assert main([*argv, "--edge-radius-mm", "-1", "--out", str(tmp_path / "bad")]) == 2
+    assert not (tmp_path / "bad").exists()
+
+
 def test_replay_takes_an_imported_runs_taps_in_order(twin_sheared_run: Path, tmp_path: Path, capsys) -> None:
     """`twin run --taps-from` replays an imported recording's taps: the same targets, in
     order (all, the first N, or every K-th); a scenario without a fitted camera is told that

@@ -126,17 +126,24 @@ def lab_pose_to_twin(lab_pose: np.ndarray, protocol: ShearedTapProtocol, object_
 
 
 def lab_scenario(
-    targets: LabTargets, frame_shape: tuple[int, int], depth_mm: float, object_side: int, name: str, source: str
+    targets: LabTargets,
+    frame_shape: tuple[int, int],
+    depth_mm: float,
+    object_side: int,
+    name: str,
+    source: str,
+    edge_radius_mm: float = 0.0,
 ) -> Scenario:
     """The scenario an imported recording is a run of: its taps given in order on the
-    rectangle's edge (the twin's stand-in for the lab's straight edge), its camera's size."""
+    rectangle's edge (the twin's stand-in for the lab's straight edge, rounded by
+    `edge_radius_mm`, mm, where the lab's object is), its camera's size."""
     given = [lab_to_twin_tap(p, m, object_side) for p, m in zip(targets.poses, targets.moves)]
     return scenario_from_dict(
         {
             "name": name,
             "description": f"imported from the lab recording {source}",
             "backend": "hardware",
-            "object": {"name": "rectangle"},
+            "object": {"name": "rectangle", "edge_radius_mm": edge_radius_mm},
             "sensor": {"camera": {"width": frame_shape[1], "height": frame_shape[0]}},
             "protocol": {"kind": "sheared_taps", "depth_mm": depth_mm, "taps": max(len(given), 1), "given": given},
         },
@@ -164,6 +171,7 @@ def import_lab_recording(
     init: Path | None = None,
     depth_mm: float = 3.0,
     object_side: int = 1,
+    edge_radius_mm: float = 0.0,
     limit: int | None = None,
     progress: bool = True,
 ) -> dict:
@@ -180,7 +188,9 @@ def import_lab_recording(
         raise UserError(f"{init_path}: not a readable image")
     tracker = PinTracker(reference)
     name = Path(targets_csv).resolve().parent.name  # the set's folder (frames may sit in a subfolder)
-    scenario = lab_scenario(targets, reference.shape, depth_mm, object_side, name, str(Path(targets_csv)))
+    scenario = lab_scenario(
+        targets, reference.shape, depth_mm, object_side, name, str(Path(targets_csv)), edge_radius_mm
+    )
     frames = [m for m in sheared_tap_moves(scenario.protocol) if m.record]  # the no-contact frame, then the taps
     files = [init_path, *(folder / name for name in targets.image_names)]
     camera = camera_for_frame(reference.shape[1], reference.shape[0])
@@ -190,6 +200,7 @@ def import_lab_recording(
         "init": str(init_path),
         "depth_mm": depth_mm,
         "object_side": object_side,
+        "edge_radius_mm": edge_radius_mm,
         "frames": len(frames),
     }
     incomplete, unreadable = [], []

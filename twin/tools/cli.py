@@ -161,6 +161,7 @@ def _cmd_import_lab(args: argparse.Namespace) -> int:
         init=Path(args.init) if args.init else None,
         depth_mm=args.depth_mm,
         object_side=1 if args.object_side == "+y" else -1,
+        edge_radius_mm=args.edge_radius_mm,
         limit=args.limit,
         progress=not args.quiet,
     )
@@ -488,6 +489,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--object-side",
         default="+y",
         help="the lab's y side the object lies on: +y (default, the DigiTac edge set) or -y",
+    )
+    p.add_argument(
+        "--edge-radius-mm",
+        type=bounded_float(0, 10, "mm"),
+        default=0.0,
+        help="the tapped edge's radius, which the lab does not record: the twin's rectangle is "
+        "rounded by it for the runs fitted or compared with this one (mm; default 0, sharp)",
     )
     p.add_argument("--limit", type=COUNT, default=None, metavar="N", help="only the first N targets")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
