@@ -494,8 +494,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--edge-radius-mm",
         type=bounded_float(0, 10, "mm"),
         default=0.0,
-        help="the tapped edge's radius, which the lab does not record: the twin's rectangle is "
-        "rounded by it for the runs fitted or compared with this one (mm; default 0, sharp)",
+        help="the tapped edge's radius, which the lab does not record: the run's rectangle is "
+        "rounded by it, as a twin calibrated on the run must be (mm; default 0, sharp)",
     )
     p.add_argument("--limit", type=COUNT, default=None, metavar="N", help="only the first N targets")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
