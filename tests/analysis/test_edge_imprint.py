@@ -10,6 +10,7 @@ import pytest
 
 from twin.analysis import edge_imprint as E
 from twin.analysis.calibration_fit.figures import figure_values
+from twin.core.poses import wrap_deg
 from twin.core.scenario import ShearedTapProtocol
 from twin.runs.protocols import drawn_sheared_taps
 from twin.runs.record import Run
@@ -283,7 +284,7 @@ def test_turned_taps_read_the_orientation_without_the_rigid_shifts() -> None:
     theta = run.label("theta_deg")
     read = pcs.theta_pc23_deg(pins_to_vectors(run.pins_px))
     spread = min(
-        np.std(E._wrap(read - sign * 2 * theta - np.mean(E._wrap(read - sign * 2 * theta)))) for sign in (1, -1)
+        np.std(wrap_deg(read - sign * 2 * theta - np.mean(wrap_deg(read - sign * 2 * theta)))) for sign in (1, -1)
     )
     assert spread < 0.5
     for figures in E.along_edge_turn_sheared(run, pcs).values():

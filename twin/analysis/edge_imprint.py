@@ -50,6 +50,7 @@ from scipy.spatial import cKDTree
 
 from twin.analysis.evaluation import orientation_signal_by_pin_px, orientation_signal_px
 from twin.core.errors import UserError
+from twin.core.poses import wrap_deg
 from twin.core.scenario import SHEARED_TAP_MOTION
 from twin.core.sensor import N_PINS
 from twin.runs.record import Run
@@ -463,10 +464,6 @@ def pair_rings(pcs: TapPCs, rest_px: np.ndarray) -> dict[str, list[float | None]
     return {"energy": energy, "radial": share}
 
 
-def _wrap(angle_deg: np.ndarray) -> np.ndarray:
-    return (np.asarray(angle_deg) + 180.0) % 360.0 - 180.0
-
-
 def along_edge_turn_sheared(
     run: Run, pcs: TapPCs | None = None, fits: list[BinFit] | None = None
 ) -> dict[float, dict[str, float]]:
@@ -483,7 +480,7 @@ def along_edge_turn_sheared(
     out = {}
     for f in fits:
         g_a, g_t = f.gradients["slide_along_mm"], f.gradients["theta_deg"]
-        turn = _wrap(pcs.theta_pc23_deg(f.mean_z + g_a) - pcs.theta_pc23_deg(f.mean_z))[0]
+        turn = wrap_deg(pcs.theta_pc23_deg(f.mean_z + g_a) - pcs.theta_pc23_deg(f.mean_z))[0]
         p = pcs.in_plane(f.tap_z)
         out[f.lateral_mm] = {
             "raw_deg_per_mm": abs(float(g_a @ g_t / (g_t @ g_t))),
@@ -566,15 +563,15 @@ def along_edge_turn_slides(
                 np.linalg.norm(np.subtract(slides.samples[j]["target"][:2], slides.samples[i]["target"][:2]))
             )
             g_a = (z[j] - z[i]) / length
-            turns.append(abs(_wrap(pcs.theta_pc23_deg(z[j]) - pcs.theta_pc23_deg(z[i]))[0]) / length)
+            turns.append(abs(wrap_deg(pcs.theta_pc23_deg(z[j]) - pcs.theta_pc23_deg(z[i]))[0]) / length)
             energy_in += pcs.plane_energy(g_a)
             energy += float(g_a @ g_a)
             shift += _shift_energy(g_a)
             radius.append(float(np.linalg.norm(pcs.in_plane(z[i])[0])))
             if step is not None:
                 at = np.isclose(t_lat, l0)
-                plus = at & np.isclose(_wrap(t_theta - t - step), 0.0)
-                minus = at & np.isclose(_wrap(t_theta - t + step), 0.0)
+                plus = at & np.isclose(wrap_deg(t_theta - t - step), 0.0)
+                minus = at & np.isclose(wrap_deg(t_theta - t + step), 0.0)
                 if plus.any() and minus.any():
                     g_t = (z_taps[plus].mean(axis=0) - z_taps[minus].mean(axis=0)) / (2 * step)
                     raw.append(abs(float(g_a @ g_t / (g_t @ g_t))))

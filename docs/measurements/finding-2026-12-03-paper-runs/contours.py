@@ -11,6 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
+from twin.core.poses import wrap_deg
+
 print(
     f"{'run':32s} {'closed':>7s} {'steps':>5s} {'θ RMS °':>8s} {'θ mean °':>9s} {'θ sd °':>7s}"
     f" {'path mean mm':>12s} {'l mean mm':>9s} {'l̂ mean mm':>10s}"
@@ -20,7 +22,7 @@ for run in sys.argv[1:]:
     metrics = json.loads((Path(run) / "metrics.json").read_text())
     rows = [json.loads(line)["labels"] for line in (Path(run) / "samples.jsonl").read_text().splitlines()]
     rows = [r for r in rows if r.get("ok")]
-    err = np.array([(r["perceived_normal_deg"] - r["true_normal_deg"] + 180) % 360 - 180 for r in rows])
+    err = wrap_deg([r["perceived_normal_deg"] - r["true_normal_deg"] for r in rows])
     rms.append(metrics["orientation_rms_deg"])
     print(
         f"{Path(run).name:32s} {str(metrics['completed']):>7s} {metrics['steps']:5d} {metrics['orientation_rms_deg']:8.2f}"

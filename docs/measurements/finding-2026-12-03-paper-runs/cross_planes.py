@@ -10,22 +10,17 @@ from pathlib import Path
 import numpy as np
 from slide_figures import drags
 
+from twin.analysis.edge_imprint import TapPCs, plane_angle_deg, tap_pcs
 from twin.runs.record import load_run
-from twin.sensing.perception import pca_fit, pins_to_vectors
 
 
-def plane_of(taps):
-    mean, comps, _ = pca_fit(pins_to_vectors(taps.pins_px), 3)
-    return comps[1:3]
-
-
-def drag_in(comps, slides):
-    parts = drags(slides, (90, 270)) @ comps.T
-    return float(np.sqrt(np.mean(np.sum(parts**2, axis=1))))
+def drag_in(pcs: TapPCs, slides) -> float:
+    parts = pcs.field_in_plane(drags(slides, (90, 270)).T)
+    return float(np.sqrt(np.mean(np.sum(parts**2, axis=0))))
 
 
 tags = ["fit", "f05", "f03", "f01"]  # friction 0.95, 0.5, 0.3, 0.1
-planes = {t: plane_of(load_run(Path(f"runs/taps_rectangle_{t}"))) for t in tags}
+planes = {t: tap_pcs(load_run(Path(f"runs/taps_rectangle_{t}"))) for t in tags}
 for s in tags:
     sl = load_run(Path(f"runs/slides_rectangle_{s}"))
     print(
@@ -34,10 +29,4 @@ for s in tags:
     )
 print("angle between the taps' planes, deg:")
 for p in tags:
-    print(
-        p,
-        " ".join(
-            f"{np.degrees(np.arccos(np.clip(np.linalg.svd(planes[p] @ planes[q].T, compute_uv=False).min(), -1, 1))):5.1f}"
-            for q in tags
-        ),
-    )
+    print(p, " ".join(f"{plane_angle_deg(planes[p], planes[q]):5.1f}" for q in tags))

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 from slide_figures import drags
 
+from twin.analysis.edge_imprint import translation_share
 from twin.runs.record import load_run
 from twin.sensing.perception import pca_fit, pins_to_vectors
 
@@ -19,8 +20,7 @@ taps, slides = load_run(Path(sys.argv[1])), load_run(Path(sys.argv[2]))
 mean, comps, explained = pca_fit(pins_to_vectors(taps.pins_px), 8)
 print(f"{sys.argv[1]} / {sys.argv[2]}")
 print("  explained, %:        " + " ".join(f"{100 * v:6.2f}" for v in explained))
-shift = comps.reshape(8, 127, 2).mean(axis=1)
-print("  in a rigid shift, %: " + " ".join(f"{100 * 127 * v:6.2f}" for v in np.sum(shift**2, axis=1)))
+print("  in a rigid shift, %: " + " ".join(f"{100 * translation_share(c):6.2f}" for c in comps))
 for direction in (0, 90, 180, 270):
     drag = drags(slides, (direction,), [3])
     energy = np.mean(np.sum(drag**2, axis=1))
