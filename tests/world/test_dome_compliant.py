@@ -18,6 +18,7 @@ from twin.core.poses import Pose
 from twin.core.scenario import scenario_from_dict
 from twin.runs.sim_env import SimEnvironment
 from twin.world.dome.compliant import COMPLIANT_LEVELS, SKIN_PHYSICS, CompliantPhysics
+from twin.world.dome.compliant import physics as compliant_physics
 
 LEVELS = list(COMPLIANT_LEVELS)
 #: the default level with the optional skin membrane (the contact solver's hardest coupling)
@@ -315,7 +316,8 @@ def test_the_clearance_bound_is_never_longer_than_a_ray(obj):
         pose = physics._commanded.copy()
         pose[:3, 3] += rng.uniform(-0.03, 0.03, 3) * [1.0, 1.0, 0.2]
         pose[:3, :3] = pose[:3, :3] @ Rotation.from_rotvec(rng.normal(0.0, 0.3, 3)).as_matrix()
-        physics._contact_geometry(physics._object_pose(pose))
+        gaps, frames = physics._contact_geometry(physics._object_pose(pose))
+        physics._cast_rays(np.arange(physics.surface.count), gaps, frames)  # every ray, the far ones too
         hit = (physics._ray_dist >= 0.0) & physics._collidable[physics._ray_geom]
         if hit.any():
             hits += 1
@@ -351,6 +353,79 @@ def test_increments_out_of_reach_cast_no_rays_and_change_nothing():
     solved, reference = taps(False)
     assert physics.steps == reference.steps and reference.skipped == 0 and physics.skipped > 0.2 * physics.steps
     assert np.array_equal(skipped, solved)
+
+
+def _pressed_across_a_rounded_edge(physics: dict) -> tuple[np.ndarray, CompliantPhysics]:
+    """Frames (pins and force, tool frame) of presses and slides onto, along and off the
+    rectangle's edge rounded 1 mm (a mesh of 268 faces), with scenario `physics`."""
+    spec = {
+        "name": "rays_case",
+        "object": {"name": "rectangle", "edge_radius_mm": 1.0},
+        "dome": "compliant",
+        "effects": ["contact", "friction"],
+        "physics": physics,
+    }
+    env = SimEnvironment(scenario_from_dict(spec), start_pose=Pose(60, 0, -2, 0, 0, 0))
+    env.reset()
+    frames = []
+    for theta, lateral in ((0, 4), (60, -3)):
+        env.move_to(Pose(60 + lateral, 0, -1, 0, 0, theta), 50.0)
+        for pose in (
+            Pose(60 + lateral, 0, 4, 0, 0, theta),
+            Pose(60 + lateral, 5, 4, 0, 0, theta),
+            Pose(60 + lateral - 3, 5, 3, 0, 0, theta),
+            Pose(60 + lateral - 3, 5, -1, 0, 0, theta),
+        ):
+            env.move_to(pose, 20.0)
+            frame = env.observe_frame()
+            frames.append(np.concatenate([frame.pins_tool.ravel(), frame.contact_force_tool]))
+            if len(frames) == 1:
+                env.physics.pressed = env.physics._commanded.copy()
+    return np.array(frames), env.physics
+
+
+@pytest.mark.parametrize("physics", [{}, {"apex_radius_mm": 30, "edge_within_node": True, "pin_lever_mm": 1.55}])
+def test_the_rays_left_out_change_nothing(monkeypatch, physics):
+    """The dome casts only the rays that can meet the object's bounding box near enough to
+    matter: presses and slides across a rounded edge give every frame's pins and forces bit
+    for bit as casting every ray does (a slack of 1 m), the flatter apex and edges placed
+    within nodes too, while leaving out over a quarter of the rays that face the object's box at a
+    pressed frame (the ones the 1 m slack casts)."""
+    culled, physics_culled = _pressed_across_a_rounded_edge(physics)
+    monkeypatch.setattr(compliant_physics, "CAST_SLACK", 1.0)
+    every, physics_every = _pressed_across_a_rounded_edge(physics)
+    assert physics_every.steps == physics_culled.steps
+    assert np.array_equal(culled, every)
+    cast = []
+    for physics in (physics_culled, physics_every):  # at the first press (4 mm, 4 mm off the edge)
+        physics._contact_geometry(physics._object_pose(physics.pressed))
+        cast.append(physics._cast.sum())
+    assert 0 < cast[0] < 0.75 * cast[1]
+
+
+def test_a_node_the_solve_moves_past_its_ray_length_is_cast():
+    """Where the solve moves a node whose ray was left out farther than that ray's length
+    could rule out, its ray is cast, and its gap and contact frame are those of casting
+    every ray: the check against penetration sees it as any other node."""
+    env = _env("default", obj={"name": "rectangle", "edge_radius_mm": 1.0})
+    env.move_to(Pose(62, 0, 3, 0, 0, 0), 20.0)
+    physics: CompliantPhysics = env.physics
+    gaps, frames = physics._contact_geometry(physics._object_pose(physics._commanded))
+    every_gap, every_frame = gaps.copy(), frames.copy()
+    physics._cast_rays(np.arange(physics.surface.count), every_gap, every_frame)
+    physics._contact_geometry(physics._object_pose(physics._commanded))  # as it was: the far rays left out
+    left_out = np.flatnonzero(~physics._cast)
+    seen = left_out[np.isfinite(every_gap[left_out])]
+    near, other = seen[np.argmin(every_gap[seen])], seen[np.argmax(every_gap[seen])]
+    beyond = physics._cast_length[near] - physics.geometry.dome_outer_radius
+    assert every_gap[near] > beyond  # left out rightly: its gap is beyond its ray's length
+    displacement = np.zeros((physics.surface.count, 3))
+    displacement[other] = [0.0, 0.0, 0.5 * beyond]  # not far enough: stays out
+    displacement[near] = [0.0, 0.0, 1.01 * beyond]
+    physics._uncast_reached(displacement, gaps, frames)
+    assert physics._cast[near] and not physics._cast[other] and np.isinf(gaps[other])
+    assert gaps[near] == every_gap[near]
+    assert np.array_equal(frames[near], every_frame[near])
 
 
 def test_the_lattice_interpolates_linearly_within_its_triangles():

@@ -5,9 +5,11 @@ converged_pins) and replaces MuJoCo's flex dome by an elastic solid solved exact
 every increment of the path:
 
 * the object is a MuJoCo scene (the stimulus carrier and its collision pieces, no dome):
-  each increment puts the carrier at the object's pose in the tool frame and casts one
-  ray per surface node from the dome's sphere centre along the node's normal
-  (mj_multiRay), which gives every node's rigid gap to the object along its normal;
+  each increment puts the carrier at the object's pose in the tool frame and casts a
+  ray from the dome's sphere centre along each surface node's normal (mj_multiRay), which
+  gives the node's rigid gap to the object along its normal; only the rays that can meet
+  a piece's bounding box near enough to matter are cast (twin.world.dome.rays), which on the
+  paper's taps over the rounded edge casts about a tenth of them;
 * the dome is the influence model of twin.world.dome.compliant.compliance (Boussinesq–Cerruti, a
   node every `spacing` on the cap, and the sealed gel's pressure keeping its volume);
 * each increment is one frictional contact problem (twin.world.dome.compliant.contact): Signorini
@@ -61,6 +63,12 @@ from twin.world.dome.compliant.cut_nodes import (
     partial_disc_compliance,
     sample_directions,
 )
+from twin.world.dome.rays import rays_into_boxes
+
+#: how much farther than a gap can matter each node's ray is cast (m): a node whose ray
+#: meets no piece's bounding box within it is left out, unless the solve then moves it that
+#: far (`CompliantPhysics._uncast_reached`), so the margin only sets how often that happens
+CAST_SLACK = 0.001
 
 
 @dataclass(frozen=True)
@@ -254,7 +262,6 @@ class CompliantPhysics:
         self._qadr = int(model.jnt_qposadr[model.body_jntadr[body]])
         n = self.surface.count
         self._centre = np.array([0.0, 0.0, self.geometry.sphere_centre_z])
-        self._ray_dirs = np.ascontiguousarray(self.surface.normals.ravel())
         self._ray_dist = np.zeros(n)
         self._ray_geom = np.zeros(n, np.int32)
         self._ray_normal = np.zeros(3 * n)
@@ -262,6 +269,16 @@ class CompliantPhysics:
         self._lift = apex_lift(self.surface.points, self.geometry.dome_outer_radius, params.apex_radius)
         #: how far the profile stands out of the sphere at most (m): the sphere's clearance overstates the profile's by it
         self._lift_max = 0.0 if self._lift is None else float(self._lift.max())
+        #: how far along its ray (m, from the sphere centre) each node's ray is cast: as far as a
+        #: gap can be near (candidate_margin and the node's lift) or a face within a disc's reach
+        #: (a spacing more), and CAST_SLACK beyond
+        self._cast_length = np.full(
+            n, self.geometry.dome_outer_radius + params.candidate_margin + params.spacing + CAST_SLACK
+        )
+        if self._lift is not None:
+            self._cast_length += self._lift
+        #: the nodes whose ray the last `_contact_geometry` cast
+        self._cast = np.zeros(n, bool)
         #: each node's disc's share on a face that ends within it, where `edge_within_node` (1: whole)
         self._covered = np.ones(n)
         self._cut: CutNodes | None = None
@@ -361,48 +378,73 @@ class CompliantPhysics:
 
     def _contact_geometry(self, object2tool: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Each node's rigid gap to the object (N,) m, measured along the object's surface
-        normal where the node's normal ray hits it (inf: no hit), and its contact frame
-        (N, 3, 3): rows (c, t1, t2), c the object's inward normal (from the dome into the
-        object), t1, t2 the object's tangent plane. The object's normal, not the dome's,
-        is the direction of non-penetration: a slide along a flat then changes no gap.
-        Nodes farther than candidate_margin along their ray keep the ray distance."""
+        normal where the node's normal ray hits it (inf: no hit, or no ray cast), and its
+        contact frame (N, 3, 3): rows (c, t1, t2), c the object's inward normal (from the
+        dome into the object), t1, t2 the object's tangent plane. The object's normal, not
+        the dome's, is the direction of non-penetration: a slide along a flat then changes
+        no gap. Nodes farther than candidate_margin along their ray keep the ray distance.
+        Only the rays that can meet a piece's bounding box within `_cast_length` are cast,
+        and those of loaded nodes: a node beyond that cannot enter the contact problem or
+        be reached by its place among the edges (`_uncast_reached` covers what the solve
+        moves towards the object)."""
+        gaps, frames = np.full(self.surface.count, np.inf), self.surface.frames.copy()
+        self._ray_dist[:] = -1.0
+        self._ray_geom[:] = -1
         if not self._collidable.any():  # no `contact` effect: the object has no collision pieces
-            return np.full(self.surface.count, np.inf), self.surface.frames
+            self._cast[:] = True
+            return gaps, frames
         d = self.data
         d.qpos[self._qadr : self._qadr + 3] = object2tool[:3, 3]
         # MuJoCo's own conversion into its qpos (w first): scipy's, through matrix_to_quat_wxyz,
         # cost 0.15 ms of each increment's ~2
         mujoco.mju_mat2Quat(d.qpos[self._qadr + 3 : self._qadr + 7], object2tool[:3, :3].ravel())
         mujoco.mj_kinematics(self.model, d)
+        nodes = rays_into_boxes(self.model, d, self._centre, self.surface.normals, self._cast_length, -1)
+        nodes = np.union1d(nodes, np.flatnonzero(np.any(self.forces != 0.0, axis=1)))
+        self._cast[:] = False
+        self._cast[nodes] = True
+        self._cast_rays(nodes, gaps, frames)
+        if self.params.edge_within_node:
+            self._place_edges(gaps, frames)
+        return gaps, frames
+
+    def _cast_rays(self, nodes: np.ndarray, gaps: np.ndarray, frames: np.ndarray) -> None:
+        """Cast the normal rays of `nodes` (k,) at the object where `_contact_geometry` posed
+        it: their hits in `_ray_dist`, `_ray_geom`, `_ray_normal`, their gaps and contact
+        frames in `gaps` (N,) and `frames` (N, 3, 3), in place."""
+        if not len(nodes):
+            return
         r = self.geometry.dome_outer_radius
+        dist, geom, normal = np.empty(len(nodes)), np.empty(len(nodes), np.int32), np.empty(3 * len(nodes))
         mujoco.mj_multiRay(
             self.model,
-            d,
+            self.data,
             self._centre,
-            self._ray_dirs,
+            np.ascontiguousarray(self.surface.normals[nodes].ravel()),
             None,
             1,
             -1,
-            self._ray_geom,
-            self._ray_dist,
-            self._ray_normal,
-            len(self._ray_dist),
+            geom,
+            dist,
+            normal,
+            len(nodes),
             3.0 * r,
         )
-        hit = (self._ray_dist >= 0.0) & self._collidable[self._ray_geom]
-        normals = self.surface.normals
-        frames = self.surface.frames.copy()
-        c = -self._ray_normal.reshape(-1, 3)[hit]
-        c *= np.sign(np.einsum("ij,ij->i", c, normals[hit]))[:, None]  # into the object, whichever way the face was hit
+        self._ray_dist[nodes], self._ray_geom[nodes] = dist, geom
+        self._ray_normal.reshape(-1, 3)[nodes] = normal.reshape(-1, 3)
+        seen = (dist >= 0.0) & self._collidable[geom]
+        hit = nodes[seen]
+        normals = self.surface.normals[hit]
+        c = -normal.reshape(-1, 3)[seen]
+        c *= np.sign(np.einsum("ij,ij->i", c, normals))[:, None]  # into the object, whichever way the face was hit
         t1 = frames[hit, 1] - np.einsum("ij,ij->i", frames[hit, 1], c)[:, None] * c
         t1 /= np.linalg.norm(t1, axis=1)[:, None]
         frames[hit] = np.stack([c, t1, np.cross(c, t1)], axis=1)
-        gaps = np.full(len(hit), np.inf)
-        along_ray = self._ray_dist[hit] - r
+        along_ray = dist[seen] - r
         # The distance to the face's plane is the gap only near the hit point: a ray that
         # grazes a face far away (an edge's side wall seen past the edge) is not a contact.
         margin = self.params.candidate_margin
-        normal_gap = along_ray * np.einsum("ij,ij->i", c, normals[hit])
+        normal_gap = along_ray * np.einsum("ij,ij->i", c, normals)
         if self._lift is None:
             near = along_ray < margin
         else:
@@ -411,18 +453,24 @@ class CompliantPhysics:
             normal_gap -= lift * c[:, 2]
             near = (along_ray < margin + lift) & (normal_gap < margin)
         gaps[hit] = np.where(near, normal_gap, along_ray)
-        if self.params.edge_within_node:
-            self._place_edges(gaps, frames, hit, along_ray, c)
-        return gaps, frames
 
-    def _place_edges(
-        self, gaps: np.ndarray, frames: np.ndarray, hit: np.ndarray, along_ray: np.ndarray, inward: np.ndarray
-    ) -> None:
+    def _uncast_reached(self, displacement: np.ndarray, gaps: np.ndarray, frames: np.ndarray) -> None:
+        """Cast the rays `_contact_geometry` left out where the solve's `displacement` (N, 3)
+        m moves a node farther than their length could rule out: its gap, for the check
+        against penetration, is then measured as any other (`gaps`, `frames` in place)."""
+        reached = ~self._cast & (
+            np.linalg.norm(displacement, axis=1) >= self._cast_length - self.geometry.dome_outer_radius
+        )
+        if reached.any():
+            nodes = np.flatnonzero(reached)
+            self._cast[nodes] = True
+            self._cast_rays(nodes, gaps, frames)
+
+    def _place_edges(self, gaps: np.ndarray, frames: np.ndarray) -> None:
         """Where a face's boundary crosses a node's disc, give the node the part on the face
         (twin.world.dome.compliant.cut_nodes): its gap and contact frame (in `gaps` and
         `frames`, in place), its covered share (`_covered`) and the centroid the pins take its
-        force at (`_cut`). `hit`, `along_ray` and `inward`: the centre rays' (the hit ones'),
-        as `_contact_geometry` found them."""
+        force at (`_cut`), from the centre rays `_contact_geometry` cast."""
         self._covered[:] = 1.0
         self._cut = None
         p = self.params
@@ -431,6 +479,9 @@ class CompliantPhysics:
             return
         reach = p.candidate_margin + p.spacing
         # the centre rays that see a face within reach, facing it, and that face's normal
+        hit = (self._ray_dist >= 0.0) & self._collidable[self._ray_geom]
+        along_ray = self._ray_dist[hit] - self.geometry.dome_outer_radius
+        inward = frames[hit, 0]
         normals = np.zeros((len(gaps), 3))
         normals[hit] = inward
         on_face = np.zeros(len(gaps), bool)
@@ -569,6 +620,7 @@ class CompliantPhysics:
             forces = np.einsum("ni,nij->nj", solution.forces, f)  # tool frame
             displacement = self.compliance.surface_displacement(candidates, forces, p.tip_sway)
             self._add_partial_displacement(displacement, candidates, f, solution.forces)
+            self._uncast_reached(displacement, gaps, frames)
             after = gaps - np.einsum("nj,nj->n", frames[:, 0], displacement)
             penetrating = after < -p.max_penetration
             penetrating[candidates] = False
