@@ -65,9 +65,10 @@ from twin.world.dome.compliant.cut_nodes import (
 )
 from twin.world.dome.rays import rays_into_boxes
 
-#: how much farther than a gap can matter each node's ray is cast (m): a node whose ray
-#: meets no piece's bounding box within it is left out, unless the solve then moves it that
-#: far (`CompliantPhysics._uncast_reached`), so the margin only sets how often that happens
+#: how much farther than a gap can matter each ray is cast (m), a node's or a disc sample's:
+#: a ray that meets no piece's bounding box within it is left out; a node the solve then
+#: moves that far gets its ray (`CompliantPhysics._uncast_reached`), so the margin only sets
+#: how often that happens
 CAST_SLACK = 0.001
 
 
@@ -495,24 +496,35 @@ class CompliantPhysics:
             return
         directions = rays[nodes]
         count = directions.shape[0] * directions.shape[1]
-        geom, dist, normal = np.zeros(count, np.int32), np.zeros(count), np.zeros(3 * count)
-        mujoco.mj_multiRay(
-            self.model,
-            self.data,
-            self._centre,
-            np.ascontiguousarray(directions.reshape(-1)),
-            None,
-            1,
-            -1,
-            geom,
-            dist,
-            normal,
-            count,
-            3.0 * self.geometry.dome_outer_radius,
-        )
+        geom, dist, normal = np.full(count, -1, np.int32), np.full(count, -1.0), np.zeros((count, 3))
+        # a sample counts only where its ray meets a face within reach (cut_nodes): cast no other
+        radius = self.geometry.dome_outer_radius
+        flat = directions.reshape(-1, 3)
+        cast = rays_into_boxes(self.model, self.data, self._centre, flat, radius + reach + CAST_SLACK, -1)
+        if len(cast):
+            cast_geom, cast_dist, cast_normal = (
+                np.empty(len(cast), np.int32),
+                np.empty(len(cast)),
+                np.empty(3 * len(cast)),
+            )
+            mujoco.mj_multiRay(
+                self.model,
+                self.data,
+                self._centre,
+                np.ascontiguousarray(flat[cast].ravel()),
+                None,
+                1,
+                -1,
+                cast_geom,
+                cast_dist,
+                cast_normal,
+                len(cast),
+                3.0 * radius,
+            )
+            geom[cast], dist[cast], normal[cast] = cast_geom, cast_dist, cast_normal.reshape(-1, 3)
         shape = directions.shape[:2]
         sample_hit = ((dist >= 0.0) & self._collidable[geom]).reshape(shape)
-        along = (dist - self.geometry.dome_outer_radius).reshape(shape)
+        along = (dist - radius).reshape(shape)
         lift = None if self._lift is None else self._lift[nodes]
         cut = cut_nodes(
             nodes, directions, sample_hit, along, normal.reshape(*shape, 3), geom.reshape(shape), lift, reach
