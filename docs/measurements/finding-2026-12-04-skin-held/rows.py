@@ -1,0 +1,34 @@
+"""The table rows of docs/real-sensor.md, "Where the base holds the skin", from `twin compare`'s
+output: pin RMS, the reach at l = +4.5 mm, and at l = +5 / +4 drag / signal (B / A), the
+drag's rigid share and its share in the taps' PC2–PC3 (the twin's; the recording's first).
+usage: python rows.py cmp-*-real45.txt"""
+
+import re
+import sys
+
+
+def after(lines: list[str], heading: str, count: int) -> list[str]:
+    """The `count` lines after the first line containing `heading`."""
+    at = next(k for k, line in enumerate(lines) if heading in line)
+    return lines[at + 1 : at + 1 + count]
+
+
+def last_numbers(rows: list[str], column: int = -1) -> str:
+    return " / ".join(row.split()[column] for row in rows)
+
+
+for path in sys.argv[1:]:
+    lines = open(path).read().splitlines()
+    name = re.match(r"cmp-(.*)-real45\.txt", path.split("/")[-1]).group(1)
+    pins = lines[1].split()[3]
+    reach = after(lines, "reach at l +4.5", 2)
+    if path == sys.argv[1]:
+        print("the recording | — | " + reach[0].split(":")[-1].strip())
+    by_tap = after(lines, "B against A", 3)[1:]
+    in_plane = after(lines, "energy in the taps' PC2", 2)
+    print(
+        f"{name} | {pins} | {reach[1].split(':')[-1].strip()} | {last_numbers(by_tap, -4)} | "
+        f"{last_numbers(after(lines, 'in a rigid shift, %', 2))} "
+        f"(rec. {last_numbers(after(lines, 'in a rigid shift, %', 2), -2)}) | "
+        f"{last_numbers(in_plane)} (rec. {last_numbers(in_plane, -2)})"
+    )
