@@ -14,6 +14,7 @@ def after(lines: list[str], heading: str, count: int) -> list[str]:
 
 
 def last_numbers(rows: list[str], column: int = -1) -> str:
+    """Each row's number in `column` (the twin's last, the recording's before it), " / "-joined."""
     return " / ".join(row.split()[column] for row in rows)
 
 
@@ -25,10 +26,10 @@ for path in sys.argv[1:]:
     if path == sys.argv[1]:
         print("the recording | — | " + reach[0].split(":")[-1].strip())
     by_tap = after(lines, "B against A", 3)[1:]
+    rigid = after(lines, "in a rigid shift, %", 2)
     in_plane = after(lines, "energy in the taps' PC2", 2)
     print(
         f"{name} | {pins} | {reach[1].split(':')[-1].strip()} | {last_numbers(by_tap, -4)} | "
-        f"{last_numbers(after(lines, 'in a rigid shift, %', 2))} "
-        f"(rec. {last_numbers(after(lines, 'in a rigid shift, %', 2), -2)}) | "
+        f"{last_numbers(rigid)} (rec. {last_numbers(rigid, -2)}) | "
         f"{last_numbers(in_plane)} (rec. {last_numbers(in_plane, -2)})"
     )
