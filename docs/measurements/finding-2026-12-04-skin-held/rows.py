@@ -1,7 +1,8 @@
 """The table rows of docs/real-sensor.md, "Where the base holds the skin", from `twin compare`'s
-output: pin RMS, the reach at l = +4.5 mm, and at l = +5 / +4 drag / signal (B / A), the
-drag's rigid share and its share in the taps' PC2–PC3 (the twin's; the recording's first).
-usage: python rows.py cmp-*-real45.txt"""
+output: pin RMS, the reach at l = +4.5 mm (or `--reach-at L`), and at the two lateral
+positions the taps hold drag / signal (B / A), the drag's rigid share and its share in the
+taps' PC2–PC3 (the twin's; the recording's first).
+usage: python rows.py [--reach-at L] cmp-NAME-TAPS.txt..."""
 
 import re
 import sys
@@ -18,12 +19,16 @@ def last_numbers(rows: list[str], column: int = -1) -> str:
     return " / ".join(row.split()[column] for row in rows)
 
 
-for path in sys.argv[1:]:
+paths = sys.argv[1:]
+reach_at = "+4.5"
+if paths[0] == "--reach-at":
+    reach_at, paths = paths[1], paths[2:]
+for path in paths:
     lines = open(path).read().splitlines()
-    name = re.match(r"cmp-(.*)-real45\.txt", path.split("/")[-1]).group(1)
+    name = re.match(r"cmp-(.*)-[^-]+\.txt", path.split("/")[-1]).group(1)
     pins = lines[1].split()[3]
-    reach = after(lines, "reach at l +4.5", 2)
-    if path == sys.argv[1]:
+    reach = after(lines, f"reach at l {reach_at}", 2)
+    if path == paths[0]:
         print("the recording | — | " + reach[0].split(":")[-1].strip())
     by_tap = after(lines, "B against A", 3)[1:]
     rigid = after(lines, "in a rigid shift, %", 2)
