@@ -24,5 +24,7 @@ v f13 calibration.friction=1.3
 held() { echo material.skin_held_deg=75 physics.skin_held_deg=75; }
 v held75 $(held)
 for m in 0.5 1.0; do v held75_m$m $(held) material.membrane_young_mpa=$m physics.membrane_young_mpa=$m; done
-v held75_m0.5_s015 $(held) material.membrane_young_mpa=0.5 physics.membrane_young_mpa=0.5 \
-  material.tip_sway_mm_per_n=0.15 physics.tip_sway_mm_per_n=0.15
+for s in 0.15 0.30; do
+  v held75_m0.5_s${s/./} $(held) material.membrane_young_mpa=0.5 physics.membrane_young_mpa=0.5 \
+    material.tip_sway_mm_per_n=$s physics.tip_sway_mm_per_n=$s
+done
