@@ -28,3 +28,5 @@ for s in 0.15 0.30; do
   v held75_m0.5_s${s/./} $(held) material.membrane_young_mpa=0.5 physics.membrane_young_mpa=0.5 \
     material.tip_sway_mm_per_n=$s physics.tip_sway_mm_per_n=$s
 done
+v held80_m0.5_s015 material.skin_held_deg=80 physics.skin_held_deg=80 material.membrane_young_mpa=0.5 \
+  physics.membrane_young_mpa=0.5 material.tip_sway_mm_per_n=0.15 physics.tip_sway_mm_per_n=0.15
