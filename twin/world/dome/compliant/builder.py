@@ -97,6 +97,14 @@ class CompliantSettings(PhysicsSettings):
         DOME_MATERIAL["tip_sway_mm_per_n"][3] + " (twin.world.dome.compliant.compliance.sway_block; default 0)",
         None,
     )
+    adhesion_kpa: float | None = bounded(
+        0,
+        100,
+        "kPa",
+        "the skin's adhesive shear strength on the object: with friction a node slips at μ·pressure + this "
+        "(twin.world.dome.compliant.contact.friction_bound; default 0: Coulomb's law alone)",
+        None,
+    )
 
     apex_radius_mm: float | None = bounded(
         *DOME_MATERIAL["apex_radius_mm"][1:3],
@@ -129,6 +137,7 @@ class CompliantSettings(PhysicsSettings):
             "pin_lever": None if self.pin_lever_mm is None else self.pin_lever_mm * 1e-3,
             "pins_in_gel": self.pins_in_gel,
             "tip_sway": None if self.tip_sway_mm_per_n is None else self.tip_sway_mm_per_n * 1e-3,
+            "adhesion": None if self.adhesion_kpa is None else self.adhesion_kpa * 1e3,
             "apex_radius": None if self.apex_radius_mm is None else self.apex_radius_mm * 1e-3,
             "edge_within_node": self.edge_within_node,
         }

@@ -174,6 +174,19 @@ def solve_normal(
     return projected_gradient(matrix, linear, start, lambda x: np.maximum(x, 0.0), tolerance, max_iterations)
 
 
+def friction_bound(pressure: np.ndarray, friction: float, adhesion: np.ndarray | None) -> np.ndarray:
+    """(m,) N: the most tangential force each node takes before it slips, at its normal
+    force `pressure` (m,) N: μ p, plus with `adhesion` (m, 2) N an adhesive part s (1 −
+    e^(−p/c)) that grows from nothing to the node's strength s (its shear strength times
+    its area) as p passes the ramp c (the same pressure's worth of force), so that a
+    node in contact slips at shear stress μ·pressure + τ once pressed past the ramp."""
+    bound = friction * np.maximum(pressure, 0.0)
+    if adhesion is not None:
+        ramp = np.where(adhesion[:, 1] > 0.0, adhesion[:, 1], 1.0)  # a node with no area has no strength either
+        bound = bound + adhesion[:, 0] * -np.expm1(-np.maximum(pressure, 0.0) / ramp)
+    return bound
+
+
 def project_discs(q: np.ndarray, radius: np.ndarray) -> np.ndarray:
     """Project stacked 2-vectors (flattened, (2m,)) onto discs |q_i| ≤ radius_i."""
     pairs = q.reshape(-1, 2)
@@ -193,6 +206,7 @@ def _alart_curnier(
     matrix: np.ndarray,
     offset: np.ndarray,
     friction: float,
+    adhesion: np.ndarray,
     f: np.ndarray,
     r_n: np.ndarray,
     r_t: np.ndarray,
@@ -202,10 +216,13 @@ def _alart_curnier(
     z: np.ndarray,
     size: np.ndarray,
     radius: np.ndarray,
+    slope: np.ndarray,
 ) -> None:
     """Alart & Curnier's functions at f, in place: phi (3m,) = Φ/r (m) per node (n, t1,
     t2); contact (m,): p − r h > 0; slip (m,): the tangential predictor z (m, 2) = q − r v
-    lies outside the friction disc, whose radius (m,) is μ·max(0, p − r h); size (m,) |z|."""
+    lies outside the friction disc, whose radius (m,) is `friction_bound` of max(0, p − r h)
+    (adhesion (m, 2): each node's adhesive strength and ramp, N), and slope (m,) its
+    derivative there; size (m,) |z|."""
     w = matrix @ f + offset
     for i in range(len(r_n)):
         a = 3 * i
@@ -217,6 +234,11 @@ def _alart_curnier(
         z[i, 0], z[i, 1] = z0, z1
         size[i] = math.sqrt(z0 * z0 + z1 * z1)
         radius[i] = friction * augmented
+        slope[i] = friction
+        if adhesion[i, 0] > 0.0 and contact[i]:
+            ramp = -augmented / adhesion[i, 1]
+            radius[i] -= adhesion[i, 0] * math.expm1(ramp)
+            slope[i] += adhesion[i, 0] / adhesion[i, 1] * math.exp(ramp)
         slip[i] = size[i] > radius[i]
         scale = radius[i] / max(size[i], 1e-300) if slip[i] else 1.0
         phi[a] = (f[a] - augmented) / r_n[i]
@@ -226,7 +248,13 @@ def _alart_curnier(
 
 @compiled
 def _alart_curnier_residual(
-    matrix: np.ndarray, offset: np.ndarray, friction: float, f: np.ndarray, r_n: np.ndarray, r_t: np.ndarray
+    matrix: np.ndarray,
+    offset: np.ndarray,
+    friction: float,
+    adhesion: np.ndarray,
+    f: np.ndarray,
+    r_n: np.ndarray,
+    r_t: np.ndarray,
 ) -> np.ndarray:
     """(3m,) m: Φ/r at f (`_alart_curnier`)."""
     m = len(r_n)
@@ -235,6 +263,7 @@ def _alart_curnier_residual(
         matrix,
         offset,
         friction,
+        adhesion,
         f,
         r_n,
         r_t,
@@ -244,6 +273,7 @@ def _alart_curnier_residual(
         np.empty((m, 2)),
         np.empty(m),
         np.empty(m),
+        np.empty(m),
     )
     return phi
 
@@ -251,7 +281,7 @@ def _alart_curnier_residual(
 @compiled
 def _newton_step(
     matrix: np.ndarray,
-    friction: float,
+    slope: np.ndarray,
     f: np.ndarray,
     phi: np.ndarray,
     contact: np.ndarray,
@@ -269,7 +299,8 @@ def _newton_step(
     tangential rows slipping with no friction bound (Φt/r = q/r) are explicit: their step
     is −f. A node sliding in contact is turned into its slip direction ẑ and the direction
     ẑ⊥ across it, where its rows separate: along ẑ, Φt = q − ρ ẑ with its own normal row
-    (h, where pressed) gives dq∥ = μ dp + μ Φn − Φt∥, so dq∥ is eliminated; across it,
+    (h, where pressed) gives dq∥ = μ' dp + μ' Φn − Φt∥ (μ' the friction bound's slope,
+    `_alart_curnier`'s; μ under Coulomb's law alone), so dq∥ is eliminated; across it,
     (1 − ρ/|z|) dq⊥ + (ρ/|z|) r_t (M df)⊥ = −Φt⊥. What is factorised is the normal step of
     each node in contact, both tangential steps of each stuck node and the ⊥ step of each
     sliding one: 159 unknowns on average on the sweep probe's slides, against 225 for the
@@ -306,10 +337,10 @@ def _newton_step(
             along0, along1 = z[i, 0] / size[i], z[i, 1] / size[i]
             across0, across1 = -along1, along0
             ratio = radius[i] / size[i]
-            parallel = friction * r_n[i] * phi[a] - r_t[i] * (along0 * phi[a + 1] + along1 * phi[a + 2])
+            parallel = slope[i] * r_n[i] * phi[a] - r_t[i] * (along0 * phi[a + 1] + along1 * phi[a + 2])
             step[a + 1], step[a + 2] = along0 * parallel, along1 * parallel
-            col_pos[pressure_unknown, 1], col_coef[pressure_unknown, 1] = a + 1, friction * along0
-            col_pos[pressure_unknown, 2], col_coef[pressure_unknown, 2] = a + 2, friction * along1
+            col_pos[pressure_unknown, 1], col_coef[pressure_unknown, 1] = a + 1, slope[i] * along0
+            col_pos[pressure_unknown, 2], col_coef[pressure_unknown, 2] = a + 2, slope[i] * along1
             col_len[pressure_unknown] = 3
             col_pos[k, 0], col_coef[k, 0], col_pos[k, 1], col_coef[k, 1], col_len[k] = a + 1, across0, a + 2, across1, 2
             row_pos[k, 0], row_coef[k, 0] = a + 1, ratio * r_t[i] * across0
@@ -347,6 +378,7 @@ def _newton(
     matrix: np.ndarray,
     offset: np.ndarray,
     friction: float,
+    adhesion: np.ndarray,
     start: np.ndarray,
     r_n: np.ndarray,
     r_t: np.ndarray,
@@ -362,10 +394,10 @@ def _newton(
     m = n // 3
     f = start.copy()
     phi, contact, slip = np.empty(n), np.zeros(m, np.bool_), np.zeros(m, np.bool_)
-    z, size, radius = np.empty((m, 2)), np.empty(m), np.empty(m)
+    z, size, radius, slope = np.empty((m, 2)), np.empty(m), np.empty(m), np.empty(m)
     phi_trial, contact_trial, slip_trial = np.empty(n), np.zeros(m, np.bool_), np.zeros(m, np.bool_)
-    z_trial, size_trial, radius_trial = np.empty((m, 2)), np.empty(m), np.empty(m)
-    _alart_curnier(matrix, offset, friction, f, r_n, r_t, phi, contact, slip, z, size, radius)
+    z_trial, size_trial, radius_trial, slope_trial = np.empty((m, 2)), np.empty(m), np.empty(m), np.empty(m)
+    _alart_curnier(matrix, offset, friction, adhesion, f, r_n, r_t, phi, contact, slip, z, size, radius, slope)
     best_residual, best_f, best_contact = np.inf, f.copy(), contact.copy()
     forced = full_steps
     step = np.empty(n)
@@ -379,7 +411,7 @@ def _newton(
             best_contact[:] = contact
         if residual < tolerance or iteration == budget:
             break
-        if not _newton_step(matrix, friction, f, phi, contact, slip, z, size, radius, r_n, r_t, step):
+        if not _newton_step(matrix, slope, f, phi, contact, slip, z, size, radius, r_n, r_t, step):
             break
         merit = phi @ phi
         length, descent = 1.0, False
@@ -389,6 +421,7 @@ def _newton(
                 matrix,
                 offset,
                 friction,
+                adhesion,
                 trial,
                 r_n,
                 r_t,
@@ -398,6 +431,7 @@ def _newton(
                 z_trial,
                 size_trial,
                 radius_trial,
+                slope_trial,
             )
             descent = phi_trial @ phi_trial <= (1.0 - 1e-4 * length) * merit
             if not descent:
@@ -413,6 +447,7 @@ def _newton(
                 matrix,
                 offset,
                 friction,
+                adhesion,
                 trial,
                 r_n,
                 r_t,
@@ -422,6 +457,7 @@ def _newton(
                 z_trial,
                 size_trial,
                 radius_trial,
+                slope_trial,
             )
         f = trial
         phi, phi_trial = phi_trial, phi
@@ -430,6 +466,7 @@ def _newton(
         z, z_trial = z_trial, z
         size, size_trial = size_trial, size
         radius, radius_trial = radius_trial, radius
+        slope, slope_trial = slope_trial, slope
     return best_f, iteration, best_residual, best_contact
 
 
@@ -456,6 +493,7 @@ def solve_increment(
     traction0: np.ndarray,
     tolerance: float,
     max_iterations: int,
+    adhesion: np.ndarray | None = None,
 ) -> ContactIncrement:
     """Solve one increment for m candidate nodes, everything in the nodes' local frames
     (normal, t1, t2).
@@ -464,12 +502,14 @@ def solve_increment(
     as long as the candidates and their frames stay the same); gap (m,) rigid gap along n
     (m); previous_tangential (m, 2) m, the nodes' tangential displacement after the
     previous increment; object_shift (m, 2) m, the object's tangential displacement at
-    each node since then; friction μ (0 = frictionless: only the normal problem is
-    solved); pressure0 (m,), traction0 (m, 2): warm start. tolerance: residual in m.
+    each node since then; friction μ and adhesion (m, 2) N, each node's adhesive strength
+    and ramp (`friction_bound`; None = none; with μ = 0 and none, frictionless: only the
+    normal problem is solved); pressure0 (m,), traction0 (m, 2): warm start. tolerance:
+    residual in m.
     """
     m = len(gap)
     n_idx = np.arange(m) * 3
-    if friction == 0:
+    if friction == 0 and adhesion is None:
         p, solves, residual = solve_normal(
             matrix[np.ix_(n_idx, n_idx)],
             np.asarray(gap, float),
@@ -481,7 +521,7 @@ def solve_increment(
     offset = np.column_stack([gap, -(np.asarray(previous_tangential, float) + np.asarray(object_shift, float))])
     start = np.column_stack([np.maximum(np.asarray(pressure0, float), 0.0), np.asarray(traction0, float)])
     forces, iterations, residual = solve_coulomb(
-        matrix, offset.ravel(), friction, start.ravel(), tolerance, max_iterations
+        matrix, offset.ravel(), friction, start.ravel(), tolerance, max_iterations, adhesion
     )
     f = forces.reshape(m, 3)
     return ContactIncrement(f[:, 0], f[:, 1:], np.column_stack([-f[:, 0], f[:, 1:]]), iterations, residual)
@@ -495,11 +535,12 @@ def alternation_pass(
     tolerance: float,
     max_iterations: int,
     lipschitz: float | None = None,
+    adhesion: np.ndarray | None = None,
 ) -> np.ndarray:
     """One pass of Panagiotopoulos' alternation on `solve_coulomb`'s problem: the normal
     forces for the current tangential ones (exact, `solve_normal`), then the tangential
-    forces within μ·p for those (`projected_gradient`; `lipschitz`: the tangential block's
-    largest eigenvalue, if known). Returns the new f (3m,) N."""
+    forces within `friction_bound` of those (`projected_gradient`; `lipschitz`: the
+    tangential block's largest eigenvalue, if known). Returns the new f (3m,) N."""
     m = len(offset) // 3
     n_idx = np.arange(m) * 3
     t_idx = np.column_stack([n_idx + 1, n_idx + 2]).ravel()
@@ -515,7 +556,7 @@ def alternation_pass(
         d_tt,
         offset[t_idx] + matrix[np.ix_(t_idx, n_idx)] @ p,
         f[t_idx],
-        lambda x: project_discs(x, friction * p),
+        lambda x: project_discs(x, friction_bound(p, friction, adhesion)),
         tolerance,
         max_iterations,
         lipschitz,
@@ -534,15 +575,22 @@ def own_stiffness(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def solve_coulomb(
-    matrix: np.ndarray, offset: np.ndarray, friction: float, start: np.ndarray, tolerance: float, max_iterations: int
+    matrix: np.ndarray,
+    offset: np.ndarray,
+    friction: float,
+    start: np.ndarray,
+    tolerance: float,
+    max_iterations: int,
+    adhesion: np.ndarray | None = None,
 ) -> tuple[np.ndarray, int, float]:
     """Signorini contact with Coulomb friction, normal and tangential solved together.
 
     matrix (3m, 3m) m/N, offset (3m,) m: per node (n, t1, t2), the gap after deformation
     h = (M f + offset)_n and the slip v = (M f + offset)_t for unknowns f = (p, q) (N).
-    Solves p ≥ 0, h ≥ 0, p·h = 0; |q| ≤ μ p with v = 0 where |q| < μ p and v opposing
-    q where |q| = μ p, as the roots of Alart & Curnier's functions (1991)
-    Φn = p − max(0, p − r h), Φt = q − proj(q − r v, disc of radius μ·max(0, p − r h))
+    Solves p ≥ 0, h ≥ 0, p·h = 0; |q| ≤ g(p) with v = 0 where |q| < g(p) and v opposing
+    q where |q| = g(p), g = `friction_bound` (μ p, with `adhesion` (m, 2) N its adhesive
+    part), as the roots of Alart & Curnier's functions (1991)
+    Φn = p − max(0, p − r h), Φt = q − proj(q − r v, disc of radius g(max(0, p − r h)))
     (r = a node's own stiffness), by semismooth Newton with a backtracking line search on
     |Φ|² (where it finds no descent, the full step, up to FULL_STEPS times); where that
     stalls, by Newton again from `start` with r scaled down (AUGMENTATION_SCALES); where
@@ -555,12 +603,22 @@ def solve_coulomb(
     matrix = np.ascontiguousarray(matrix, dtype=float)
     offset = np.ascontiguousarray(offset, dtype=float)
     friction = float(friction)
+    strengths = np.zeros((len(offset) // 3, 2)) if adhesion is None else np.ascontiguousarray(adhesion, dtype=float)
 
     def newton(f: np.ndarray, r_n: np.ndarray, r_t: np.ndarray, budget: int) -> tuple[np.ndarray, int, float]:
         """`_newton` from f; returns (f, iterations, residual) at convergence, else the best
         iterate where it stalls or runs out of iterations."""
         f, iterations, residual, contact = _newton(
-            matrix, offset, friction, np.ascontiguousarray(f, dtype=float), r_n, r_t, budget, tolerance, FULL_STEPS
+            matrix,
+            offset,
+            friction,
+            strengths,
+            np.ascontiguousarray(f, dtype=float),
+            r_n,
+            r_t,
+            budget,
+            tolerance,
+            FULL_STEPS,
         )
         if residual < tolerance:
             f.reshape(-1, 3)[~contact] = 0.0  # free nodes carry nothing (not round-off)
@@ -589,7 +647,7 @@ def solve_coulomb(
     lipschitz = largest_eigenvalue(matrix[np.ix_(tangential, tangential)])  # the same for every pass
     retry_budget = min(budget, NEWTON_RETRY_ITERATIONS)
     for passes in range(1, ALTERNATION_PASSES + 1):
-        moved = alternation_pass(matrix, offset, friction, f, 0.1 * tolerance, max_iterations, lipschitz)
+        moved = alternation_pass(matrix, offset, friction, f, 0.1 * tolerance, max_iterations, lipschitz, adhesion)
         change = float(np.max(np.abs(matrix @ (moved - f)), initial=0.0))
         f = moved
         if change < tolerance or passes % NEWTON_RETRY_PASSES == 0:
@@ -599,7 +657,10 @@ def solve_coulomb(
             if attempt_residual < tolerance:
                 return attempt, done + passes, attempt_residual
     residual = float(
-        np.max(np.abs(_alart_curnier_residual(matrix, offset, friction, f, stiffness_n, stiffness_t)), initial=0.0)
+        np.max(
+            np.abs(_alart_curnier_residual(matrix, offset, friction, strengths, f, stiffness_n, stiffness_t)),
+            initial=0.0,
+        )
     )
     raise ContactNotConverged(
         f"semismooth Newton stalled after {done} iterations and the normal/tangential "
