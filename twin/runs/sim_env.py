@@ -74,6 +74,8 @@ class SimEnvironment(Environment):
         self.arm = ArmDynamics(kinematics(), TOOL2FLANGE, self._q) if self.spec.has("arm_dynamics") else None
         self.physics = sensor_physics(self.scene, start @ self.tcp2apex)
         self._frame = None
+        #: m: how far the arm has yielded along its yield's direction (`_yield_to_contact`)
+        self._yield_m = 0.0
 
     @property
     def rest_pins_px(self) -> np.ndarray:
@@ -110,9 +112,10 @@ class SimEnvironment(Environment):
         self._q = kinematics().inverse(target, TOOL2FLANGE, q_seed=self._q)  # raises UnreachablePoseError
         speed = speed_mm_s or DEFAULT_SPEED_MM_S
         t0 = time.perf_counter()
-        self._drive(target, speed)
         if self.spec.arm_yield.any():
             self._yield_to_contact(target, pose, speed)
+        else:
+            self._drive(target, speed)
         self.timings["physics"] += time.perf_counter() - t0
 
     def _drive(self, target: np.ndarray, speed: float) -> None:
@@ -133,34 +136,53 @@ class SimEnvironment(Environment):
     def _yield_to_contact(self, target: np.ndarray, pose: Pose, speed: float) -> None:
         """The arm's yield (calibration `arm_yield_mm_per_n`): the TCP settles a distance s
         from `target` along the yield's direction where s = |yield| × the contact's normal
-        force there, found by the secant method (the fixed-point step s = |yield| × force
-        where the secant's slope is not clearly negative) in at most YIELD_ITERATIONS in-contact moves
-        (a skin that sticks shears by what the arm yields); none out of contact. The moves
-        keep the root bracketed (force × yield − s falls with s, from above 0 at the target):
-        a step that would leave the bracket bisects it, as a stiff skin's first yield lands
-        far past the root; where it backs the tip off the object and lands past the
-        YIELD_LIMIT_MM, the moves start at that limit. PhysicsError when it does not settle
-        (an arm that yields into the press faster than the contact pushes back, or one whose
-        yield is past the limit)."""
+        force there. The arm is a spring in series with the contact, so a move starts from
+        the yield the last one settled at (0 out of contact) and carries it along: a slide
+        at a steady force slides at that yield throughout, as the real arm does, and is
+        only corrected at its end (driving to the unyielded target first and backing off
+        from there would press the slide three times as hard and then unload it, which
+        rewrites its friction). The correction is found by the secant method (the
+        fixed-point step s = |yield| × force where the secant's slope is not clearly
+        negative) in at most YIELD_ITERATIONS in-contact moves (a skin that sticks shears by
+        what the arm yields). The moves keep the root bracketed (force × yield − s falls
+        with s and is ≥ 0 at the target, s = 0): a step that would leave the bracket
+        bisects it, as a stiff skin's first yield from the target lands far past the root;
+        where it backs the tip off the object and lands past the YIELD_LIMIT_MM, the moves
+        start at that limit. PhysicsError when it does not settle (an arm that yields into
+        the press faster than the contact pushes back, or one whose yield is past the limit)."""
         per_newton = self.scene.work2world[:3, :3] @ self.spec.arm_yield
         compliance = float(np.linalg.norm(per_newton))  # m/N
         direction = per_newton / compliance
-        s_last, miss_last = 0.0, compliance * self._frame.contact_force  # at the target
-        if miss_last < 1e-7:  # m: out of contact
+
+        def drive(s: float) -> float:
+            """Drive to the target yielded by s (m); the miss there, force × yield − s (m)."""
+            yielded = target.copy()
+            yielded[:3, 3] += s * direction
+            self._drive(yielded, speed)
+            self._yield_m = s
+            return compliance * self._frame.contact_force - s
+
+        s_last = self._yield_m
+        miss_last = drive(s_last)
+        if abs(miss_last) < 1e-7:  # m: settled where the last move left it, or out of contact at the target
             return
-        s, miss = miss_last, miss_last
+        below, above = 0.0, math.inf  # m: the bracket, miss ≥ 0 at `below` (the target) and < 0 at `above`
+        if miss_last > 0:
+            below = s_last
+        else:
+            above = s_last
+        s = s_last + miss_last
         if direction @ target[:3, 2] < 0 and s * 1e3 > YIELD_LIMIT_MM:
             # backing off along the tip's axis lowers the force, so the root lies nearer than
             # the first yield: start at the limit, which then brackets it if it can
             s = YIELD_LIMIT_MM * 1e-3
-        below, above = 0.0, math.inf  # m: the bracket, miss > 0 at `below` and < 0 at `above`
+        if not below <= s < above:
+            s = (below + above) / 2
+        miss = miss_last
         moves = 0
         while moves < YIELD_ITERATIONS and abs(miss) >= 1e-7 and abs(s) * 1e3 <= YIELD_LIMIT_MM:
-            yielded = target.copy()
-            yielded[:3, 3] += s * direction
-            self._drive(yielded, speed)
+            miss = drive(s)
             moves += 1
-            miss = compliance * self._frame.contact_force - s
             if miss == miss_last:
                 break
             if miss > 0:
@@ -173,7 +195,7 @@ class SimEnvironment(Environment):
             # step would leap: take the fixed-point step s = yield × force instead
             step = -miss / slope if slope < -SECANT_SLOPE_FLOOR else miss
             following = s + step
-            if not below < following < above:
+            if not below <= following < above:
                 following = (below + above) / 2 if math.isfinite(above) else s + miss
             s, s_last, miss_last = following, s, miss
         if abs(miss) * 1e3 > YIELD_TOLERANCE_MM:
