@@ -11,3 +11,5 @@ held75_stiff_sway="material.skin_held_deg=75 physics.skin_held_deg=75 material.m
   physics.membrane_young_mpa=0.5 material.tip_sway_mm_per_n=0.15 physics.tip_sway_mm_per_n=0.15"
 v held75_m0.5_s015 $held75_stiff_sway
 v held75_m0.5_s015_a10 $held75_stiff_sway physics.adhesion_kpa=10
+v held75_m0.5_s015_f07 $held75_stiff_sway calibration.friction=0.7
+v held75_m0.5_s015_f06_a10 $held75_stiff_sway calibration.friction=0.6 physics.adhesion_kpa=10
