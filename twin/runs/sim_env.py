@@ -140,8 +140,8 @@ class SimEnvironment(Environment):
         the yield the last one settled at (0 out of contact) and carries it along: a slide
         at a steady force slides at that yield throughout, as the real arm does, and is
         only corrected at its end (driving to the unyielded target first and backing off
-        from there would press the slide three times as hard and then unload it, which
-        rewrites its friction). The correction is found by the secant method (the
+        from there pressed the DigiTac replay's slides 2.5 times as hard and then unloaded
+        them, which rewrote their friction). The correction is found by the secant method (the
         fixed-point step s = |yield| × force where the secant's slope is not clearly
         negative) in at most YIELD_ITERATIONS in-contact moves (a skin that sticks shears by
         what the arm yields). The moves keep the root bracketed (force × yield − s falls
