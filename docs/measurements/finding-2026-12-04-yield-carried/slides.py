@@ -2,8 +2,8 @@
 from the centre onto the object and off it, slid 3 mm along the edge (±) or across it
 (+: towards off the object, −: onto it): the contact's normal and tangential force (N)
 and the pins' mean shift from the unslid tap (px).
-usage: python slides.py SCENARIO.yaml [dotted.key=value ...]   (keys as in the YAML, e.g.
-sensor.calibration.friction=0.4 physics.adhesion_kpa=10)"""
+usage: python slides.py SCENARIO.yaml   (a variant: variants.sh, by
+../finding-2026-11-29-pin-posts/variant.py)"""
 
 import sys
 
@@ -17,13 +17,6 @@ from twin.runs.sim_env import SimEnvironment
 MOVES = {"none": (0, 0), "along+": (3, 0), "along−": (-3, 0), "lateral+": (0, 3), "lateral−": (0, -3)}
 
 doc = yaml.safe_load(open(sys.argv[1]))
-for change in sys.argv[2:]:
-    key, value = change.split("=", 1)
-    *parents, leaf = key.split(".")
-    node = doc
-    for k in parents:
-        node = node[k]
-    node[leaf] = yaml.safe_load(value)
 taps = [
     {"lateral_mm": lateral, "theta_deg": 0.0, "slide_along_mm": a, "slide_lateral_mm": b}
     for lateral in (-4.5, 4.5)
@@ -39,7 +32,7 @@ for move in protocol_moves(scenario.protocol):
     if move.record:
         force = env.physics.contact_force_tool()
         rows.append((env.observe().truth["pins_px"], float(np.linalg.norm(force[:2])), float(-force[2])))
-print(" ".join(sys.argv[2:]) or "as the scenario")
+print(doc["name"])
 for side, lateral in enumerate((-4.5, 4.5)):
     block = rows[side * len(MOVES) : (side + 1) * len(MOVES)]
     unslid = np.asarray(block[0][0])

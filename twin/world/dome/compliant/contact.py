@@ -174,17 +174,42 @@ def solve_normal(
     return projected_gradient(matrix, linear, start, lambda x: np.maximum(x, 0.0), tolerance, max_iterations)
 
 
-def friction_bound(pressure: np.ndarray, friction: float, adhesion: np.ndarray | None) -> np.ndarray:
+def friction_bound(pressure: np.ndarray, friction: float, adhesion: np.ndarray | None = None) -> np.ndarray:
     """(m,) N: the most tangential force each node takes before it slips, at its normal
     force `pressure` (m,) N: μ p, plus with `adhesion` (m, 2) N an adhesive part s (1 −
     e^(−p/c)) that grows from nothing to the node's strength s (its shear strength times
     its area) as p passes the ramp c (the same pressure's worth of force), so that a
-    node in contact slips at shear stress μ·pressure + τ once pressed past the ramp."""
-    bound = friction * np.maximum(pressure, 0.0)
-    if adhesion is not None:
-        ramp = np.where(adhesion[:, 1] > 0.0, adhesion[:, 1], 1.0)  # a node with no area has no strength either
-        bound = bound + adhesion[:, 0] * -np.expm1(-np.maximum(pressure, 0.0) / ramp)
-    return bound
+    node in contact slips at shear stress μ·pressure + τ once pressed past the ramp
+    (`_bound_at`, the one statement of the law)."""
+    return _bounds(
+        np.maximum(np.asarray(pressure, dtype=float), 0.0), float(friction), _strengths(adhesion, len(pressure))
+    )
+
+
+def _strengths(adhesion: np.ndarray | None, m: int) -> np.ndarray:
+    """(m, 2) N, contiguous: `adhesion`, or none (zeros) for Coulomb's law alone."""
+    return np.zeros((m, 2)) if adhesion is None else np.ascontiguousarray(adhesion, dtype=float)
+
+
+@compiled
+def _bound_at(pressed: float, friction: float, strength: float, ramp: float) -> tuple[float, float]:
+    """The friction bound (N) of a node pressed by `pressed` ≥ 0 N and its slope d/dp:
+    μ p, plus s (1 − e^(−p/c)) for a node of strength s > 0 (N) and ramp c (N) in contact."""
+    radius, slope = friction * pressed, friction
+    if strength > 0.0 and pressed > 0.0:
+        exponent = -pressed / ramp
+        radius -= strength * math.expm1(exponent)
+        slope += strength / ramp * math.exp(exponent)
+    return radius, slope
+
+
+@compiled
+def _bounds(pressure: np.ndarray, friction: float, strengths: np.ndarray) -> np.ndarray:
+    """(m,) N: `_bound_at` of each node's pressure ≥ 0 (m,) N and strengths (m, 2) N."""
+    radius = np.empty(len(pressure))
+    for i in range(len(pressure)):
+        radius[i] = _bound_at(pressure[i], friction, strengths[i, 0], strengths[i, 1])[0]
+    return radius
 
 
 def project_discs(q: np.ndarray, radius: np.ndarray) -> np.ndarray:
@@ -233,12 +258,7 @@ def _alart_curnier(
         z1 = f[a + 2] - r_t[i] * w[a + 2]
         z[i, 0], z[i, 1] = z0, z1
         size[i] = math.sqrt(z0 * z0 + z1 * z1)
-        radius[i] = friction * augmented
-        slope[i] = friction
-        if adhesion[i, 0] > 0.0 and contact[i]:
-            ramp = -augmented / adhesion[i, 1]
-            radius[i] -= adhesion[i, 0] * math.expm1(ramp)
-            slope[i] += adhesion[i, 0] / adhesion[i, 1] * math.exp(ramp)
+        radius[i], slope[i] = _bound_at(augmented, friction, adhesion[i, 0], adhesion[i, 1])
         slip[i] = size[i] > radius[i]
         scale = radius[i] / max(size[i], 1e-300) if slip[i] else 1.0
         phi[a] = (f[a] - augmented) / r_n[i]
@@ -552,11 +572,12 @@ def alternation_pass(
         max_iterations,
     )
     d_tt = matrix[np.ix_(t_idx, t_idx)]
+    radius = friction_bound(p, friction, adhesion)  # the same for every projection of the pass
     q, _, _ = projected_gradient(
         d_tt,
         offset[t_idx] + matrix[np.ix_(t_idx, n_idx)] @ p,
         f[t_idx],
-        lambda x: project_discs(x, friction_bound(p, friction, adhesion)),
+        lambda x: project_discs(x, radius),
         tolerance,
         max_iterations,
         lipschitz,
@@ -603,7 +624,7 @@ def solve_coulomb(
     matrix = np.ascontiguousarray(matrix, dtype=float)
     offset = np.ascontiguousarray(offset, dtype=float)
     friction = float(friction)
-    strengths = np.zeros((len(offset) // 3, 2)) if adhesion is None else np.ascontiguousarray(adhesion, dtype=float)
+    strengths = _strengths(adhesion, len(offset) // 3)
 
     def newton(f: np.ndarray, r_n: np.ndarray, r_t: np.ndarray, budget: int) -> tuple[np.ndarray, int, float]:
         """`_newton` from f; returns (f, iterations, residual) at convergence, else the best
