@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 
+from twin.core.errors import UserError
 from twin.tools.bench import bench_observation, bench_pixels, bench_startup, bench_throughput, benchmark_physics
 
 
@@ -56,6 +58,38 @@ def test_physics_ratios_are_taken_round_by_round() -> None:
     for row in rows.values():
         assert 0 < row["ratio_min"] <= row["ratio_max"]
         assert row["ratio_to_flex_default"] == pytest.approx(row["ms_per_frame"] / flex["ms_per_frame"])
+
+
+def _scenario(folder: Path, name: str, body: str) -> Path:
+    path = folder / f"{name}.yaml"
+    path.write_text(
+        f"name: {name}\nobject: {{name: rectangle, friction: 1.0}}\neffects: [contact, friction]\n"
+        f"protocol: {{kind: taps, orientations_deg: [0], lateral_mm: [0], depths_mm: [2]}}\n{body}"
+    )
+    return path
+
+
+def test_a_scenarios_dome_is_timed_at_its_own_level(tmp_path) -> None:
+    """`twin bench physics --scenario`: a scenario's dome runs the same edge and steps as the
+    levels do, so a scenario that asks for the compliant fast level with the bench's
+    friction does the fast row's work to the increment, and one at the default level does not."""
+    fast = _scenario(tmp_path, "as_fast", "dome: compliant\nfidelity: fast\n")
+    default = _scenario(tmp_path, "as_default", "dome: compliant\nfidelity: default\n")
+    rows = benchmark_physics(["fast"], repeats=1, verbose=False, scenarios=[fast, default])
+    assert [(r["dome"], r["level"]) for r in rows] == [
+        ("flex", "fast"),
+        ("compliant", "fast"),
+        ("compliant", "scenario:as_fast"),
+        ("compliant", "scenario:as_default"),
+    ]
+    assert rows[2]["steps_per_frame"] == rows[1]["steps_per_frame"]
+    assert rows[3]["steps_per_frame"] != rows[1]["steps_per_frame"]
+
+
+def test_a_scenario_the_bench_cannot_build_is_refused_naming_its_field(tmp_path) -> None:
+    bad = _scenario(tmp_path, "bad", "dome: compliant\nphysics: {membrane_young_mpa: -1}\n")
+    with pytest.raises(UserError, match=r"bad\.yaml.*membrane_young_mpa"):
+        benchmark_physics(["fast"], repeats=1, verbose=False, scenarios=[bad])
 
 
 @pytest.mark.slow

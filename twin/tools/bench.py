@@ -12,7 +12,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -26,12 +26,12 @@ from twin.runs.backends import make_environment
 from twin.runs.parallel import WorkerPool, default_workers
 from twin.runs.protocols import protocol_moves
 from twin.runs.runner import chunk_moves, chunk_samples, close_worker_envs, run_chunk, worker_environment
-from twin.runs.spec import sim_spec
+from twin.runs.spec import dome_params, load_scenario_stimulus, sim_spec
 from twin.sensing.perception import benchmark_perception
 from twin.sensing.tracker import PinTracker
 from twin.tools.sweep_report import sweep_and_report
 from twin.world import gl
-from twin.world.dome.registry import DOME_MODELS
+from twin.world.dome.registry import DOME_MODELS, builder_of
 from twin.world.dome.testbed import edge_scene, sensor_down
 from twin.world.render import PinRenderer
 from twin.world.scene import build_scene
@@ -204,10 +204,11 @@ def bench_observation(quick: bool = False) -> list[dict]:
     ]
 
 
-def bench_physics(quick: bool = False) -> list[dict]:
-    """ms of physics per settled frame for each fidelity level (contour-like steps)."""
+def bench_physics(quick: bool = False, scenarios: Sequence[Path] = ()) -> list[dict]:
+    """ms of physics per settled frame for each fidelity level (contour-like steps), and
+    for each of `scenarios`' domes."""
 
-    rows = benchmark_physics(repeats=1 if quick else 5, verbose=False)
+    rows = benchmark_physics(repeats=1 if quick else 5, verbose=False, scenarios=scenarios)
     return [{"section": "physics", **r} for r in rows]
 
 
@@ -444,7 +445,9 @@ def _print_rows(title: str, rows: list[dict]) -> None:
 BASELINE_ROW = ("flex", "default")
 
 
-def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose: bool = True) -> list[dict]:
+def benchmark_physics(
+    levels: list[str] | None = None, repeats: int = 5, verbose: bool = True, scenarios: Sequence[Path] = ()
+) -> list[dict]:
     """ms of physics per settled frame for each dome model and fidelity level, best of
     `repeats`, and each row's time as a ratio of the flex default's (same run).
 
@@ -468,7 +471,10 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
     `default+membrane`, `default+shell`, `default+shell_held_65`, with 1 mm increments
     (`default+increment_1mm`, scenario `physics: {increment_mm: 1}`), and with an edge
     placed within a node (`default+edge_within_node`, `physics: {edge_within_node: true}`:
-    what that costs).
+    what that costs). Then one row for each of `scenarios` (level `scenario:<name>`): its
+    dome model at its fidelity level with its `physics`, its calibration's dome material
+    and its skin–object friction (or none where its effects leave friction out), on the
+    same edge and sequence: what a scenario's dome costs beside the flex default.
     """
 
     contour = ContourProtocol()
@@ -478,31 +484,33 @@ def benchmark_physics(levels: list[str] | None = None, repeats: int = 5, verbose
         + [sensor_down(0, step * k, depth) for k in range(1, 9)]
         + [sensor_down(0, 8 * step, -2)]
     )
-    models = [(builder, builder.levels) for builder in DOME_MODELS.values()]
-    models += [
-        (
-            builder,
-            {
-                f"default+{name}": builder.params("default", builder.settings(**physics), {}, "benchmark")
-                for name, physics in builder.presets.items()
-            },
-        )
+    tables = [builder.levels for builder in DOME_MODELS.values()]
+    tables += [
+        {
+            f"default+{name}": builder.params("default", builder.settings(**physics), {}, "benchmark")
+            for name, physics in builder.presets.items()
+        }
         for builder in DOME_MODELS.values()
         if builder.presets
     ]
-    rows, params_of_rows = [], []
-    for builder, table in models:
-        for level in [level for level in levels or list(table) if level in table]:
-            params = table[level]
-            precompute, cached = builder.precompute(params)
-            dome = builder.name
-            rows.append({"dome": dome, "level": level, "precompute_s": precompute, "cached_s": cached})
-            params_of_rows.append(params)
+    #: each row's level, dome parameters and edge contact (friction on, skin–object friction)
+    cases = [(level, table[level], True, 1.0) for table in tables for level in levels or list(table) if level in table]
+    for path in scenarios:
+        scenario = load_scenario(path)
+        friction = load_scenario_stimulus(scenario).friction
+        cases.append((f"scenario:{scenario.name}", dome_params(scenario), scenario.has("friction"), friction))
+    rows = []
+    for level, params, _, _ in cases:
+        builder = builder_of(params)
+        precompute, cached = builder.precompute(params)
+        rows.append({"dome": builder.name, "level": level, "precompute_s": precompute, "cached_s": cached})
     seconds = np.zeros((repeats, len(rows)))  # [round, row]
     steps = [0] * len(rows)
     for round_ in range(-1, repeats):  # round −1 untimed
-        for i, (r, params) in enumerate(zip(rows, params_of_rows)):
-            model, data, handles, physics = edge_scene(params, scenario=f"benchmark-{r['dome']}-{r['level']}")
+        for i, (r, (_, params, friction, object_friction)) in enumerate(zip(rows, cases)):
+            model, data, handles, physics = edge_scene(
+                params, friction, object_friction, scenario=f"benchmark-{r['dome']}-{r['level']}"
+            )
             t0 = time.perf_counter()
             for pose in poses:
                 physics.move(pose, contour.speed_mm_s)
@@ -541,17 +549,21 @@ def run_bench(
     workers: int | None = None,
     cluster: str | None = None,
     settings: list[str] | None = None,
+    scenarios: Sequence[Path] = (),
 ) -> int:
     """Run one section or all of them, print tables, optionally write CSVs to `out`.
 
     The sweep section always writes its files (to `out`, default out/bench) and runs its
     settings in parallel (`workers` local processes, default all cores, or a Ray
-    `cluster`); `settings` names the full sweep's settings to run (bench_sweep). Returns
+    `cluster`); `settings` names the full sweep's settings to run (bench_sweep);
+    `scenarios` adds their domes to the physics section (benchmark_physics). Returns
     the exit code: 1 when a sweep setting failed (reported, not hidden).
     """
     names = list(SECTIONS) if what == "all" else [what]
     if settings is not None and names != ["sweep"]:
         raise UserError("--settings chooses settings of the sweep: use it with `twin bench sweep`")
+    if scenarios and names != ["physics"]:
+        raise UserError("--scenario adds a scenario's dome to the physics rows: use it with `twin bench physics`")
     status = 0
     for name in names:
         if name not in SECTIONS:
@@ -564,7 +576,7 @@ def run_bench(
                 status = 1
             continue
         for table, bench in {name: SECTIONS[name], **_FOLLOW_UPS.get(name, {})}.items():
-            rows = bench(quick)
+            rows = bench(quick, scenarios=scenarios) if bench is bench_physics else bench(quick)
             _print_rows(table, rows)
             if out is not None:
                 out.mkdir(parents=True, exist_ok=True)

@@ -386,6 +386,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         workers=args.workers,
         cluster=args.cluster,
         settings=None if args.settings is None else [n.strip() for n in args.settings.split(",") if n.strip()],
+        scenarios=[Path(p) for p in args.scenario],
     )
 
 
@@ -651,6 +652,14 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="sweep: only these settings of the full sweep, comma-separated (names as in sweep.md; "
         "the reference must be among them), e.g. reference,fast,default,gl_renderer",
+    )
+    p.add_argument(
+        "--scenario",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="physics: also time this scenario's dome (its physics, dome material and friction) on the same "
+        "edge and steps, beside the flex default (repeatable)",
     )
     p.set_defaults(func=_cmd_bench)
     return parser
