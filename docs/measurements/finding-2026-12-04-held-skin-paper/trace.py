@@ -15,4 +15,6 @@ for run in runs:
     for line in Path(run, "samples.jsonl").read_text().splitlines()[:steps]:
         labels = json.loads(line)["labels"]
         error = (labels["perceived_normal_deg"] - labels["true_normal_deg"] + 180) % 360 - 180
-        print(f"  {labels['step']:4d}  {error:+13.1f}  {labels['lateral_hat_mm']:+5.2f}  {labels['true_lateral_mm']:+5.2f}")
+        print(
+            f"  {labels['step']:4d}  {error:+13.1f}  {labels['lateral_hat_mm']:+5.2f}  {labels['true_lateral_mm']:+5.2f}"
+        )
