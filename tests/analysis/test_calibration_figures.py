@@ -106,6 +106,36 @@ def test_the_figures_alone_recover_the_friction(recorded, tmp_path) -> None:
     assert "| 0 | drag/signal | -1 |" in (tmp_path / "cal" / "report.md").read_text()
 
 
+def test_the_turn_read_in_the_recorded_plane_ignores_what_lies_outside_it(recorded) -> None:
+    """settings edge_theta_plane: a replay that is the recording plus a pattern outside the
+    recording's first three PCs, of a size that varies from tap to tap, has that pattern as
+    its own first PC: read in its own PC2–PC3 its turn of θ_PC23 moves, read in the
+    recorded taps' plane it is the recording's own replay's (the pattern projects to nothing)."""
+    from twin.analysis.calibration_fit.figures import EdgeFigureTarget
+    from twin.analysis.edge_imprint import tap_pcs
+
+    real = load_run(recorded["real"])
+    components = tap_pcs(real).components
+    rng = np.random.default_rng(7)
+    pattern = rng.normal(size=components.shape[1])
+    pattern -= components.T @ (components @ pattern)
+    pattern *= 10.0 / np.sqrt(np.mean(pattern**2))  # 10 px RMS over the pins per unit size
+    tapped = np.array([not s["labels"].get("no_contact") for s in real.samples])
+    size = np.where(tapped, rng.normal(size=len(real.samples)), 0.0)
+    patterned = real.pins_px + size[:, None, None] * pattern.reshape(-1, 2)
+    rows = np.zeros(len(real.samples), dtype=int)
+
+    def turns(pins: np.ndarray, recorded_plane: bool) -> dict[float, float]:
+        target = EdgeFigureTarget.of([real], rows, 1.0, 0, 0, theta_in_recorded_plane=recorded_plane)
+        return {r["lateral_mm"]: r["twin"] for r in target.table(pins) if r["figure"] == "theta_pc23"}
+
+    in_recorded, own = turns(real.pins_px, True), turns(real.pins_px, False)
+    assert len(in_recorded) == 3 and all(v > 0 for v in in_recorded.values())
+    assert turns(patterned, True) == pytest.approx(in_recorded, rel=1e-6)
+    moved = turns(patterned, False)
+    assert max(abs(math.log(moved[l] / own[l])) for l in own) > math.log(FACTOR_TOLERANCE), (moved, own)
+
+
 def test_the_recorded_spread_is_seeded_and_off_at_zero_resamples(recorded) -> None:
     """The bootstrap spread of a run's figures: the same seed gives the same spread, every
     figure has one, and without resamples it is 0 (the tolerance alone)."""

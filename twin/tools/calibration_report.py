@@ -38,6 +38,7 @@ def _edge_figure_lines(figures: dict | None) -> list[str]:
             if figures.get("signal_shift") == "apart"
             else ""
         )
+        + ("; its θ_PC23 turn read in the recorded taps' PC2–PC3" if figures.get("theta_plane") == "recorded" else "")
         + "). Miss: over the tolerance (0.1 for the signal ratio and the shift, a "
         "factor 4/3 for the others) and, fitted, over √(tolerance² + spread²), the spread the recorded figure's "
         "over bootstrap resamples of its frames (the signal's and the shift's in their units, the others' in log units; "

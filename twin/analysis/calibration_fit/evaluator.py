@@ -74,6 +74,7 @@ class Evaluator:
                 settings.optimiser.seed,
                 [data.still_rows(r) for r in range(len(data.records))],
                 settings.edge_signal_shift == "apart",
+                settings.edge_theta_plane == "recorded",
             )
             if weight > 0
             else None

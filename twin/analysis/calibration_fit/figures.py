@@ -6,7 +6,9 @@ The figures, per lateral bin l (mm) of each run:
 
 * signal: the edge's orientation signal over its value at l = 0 (figure 1); a miss is
   the difference over SIGNAL_TOLERANCE (0.1);
-* theta_pc23: how far a 1 mm slide along the edge turns θ_PC23 (deg/mm, figure 3);
+* theta_pc23: how far a 1 mm slide along the edge turns θ_PC23 (deg/mm, figure 3), the
+  twin's read in its own taps' PC2–PC3 or (settings `edge_theta_plane: recorded`) in the
+  recorded run's (edge_imprint.turn_in_reference_plane);
 * drag/signal: the fitted slide and twist terms' spread over the angle term's (figure 3);
 * shift (settings `edge_signal_shift: apart`): the share of the signal that is a rigid shift
   of the pins (edge_imprint.signal_shift_share), a miss its difference over
@@ -46,6 +48,7 @@ from twin.analysis.edge_imprint import (
     sheared_fits,
     signal_profile,
     signal_shift_share,
+    turn_in_reference_plane,
 )
 from twin.core.errors import UserError
 from twin.core.scenario import SHEARED_TAP_MOTION
@@ -183,6 +186,7 @@ class EdgeFigureTarget:
     weight: float
     still_rows: list[np.ndarray | None]  # per run: the rows of its still replay in the pins given, or None
     shift_apart: bool = False  # the signal without its rigid shift, and the shift as a figure (settings)
+    theta_in_recorded_plane: bool = False  # the twin's θ_PC23 turn read in the recorded run's plane (settings)
 
     @classmethod
     def of(
@@ -194,11 +198,13 @@ class EdgeFigureTarget:
         seed: int,
         still_rows: list[np.ndarray | None] | None = None,
         shift_apart: bool = False,
+        theta_in_recorded_plane: bool = False,
     ) -> EdgeFigureTarget:
         """The recorded figures and their spread over `resamples` bootstrap resamples (seeded);
         UserError naming a run that is not sheared taps or has no lateral bin to compare.
         `still_rows`: per run, where its still replay's pins are (the twin's signal then
-        comes from them). `shift_apart`: settings edge_signal_shift is apart."""
+        comes from them). `shift_apart`: settings edge_signal_shift is apart;
+        `theta_in_recorded_plane`: settings edge_theta_plane is recorded."""
         recorded = []
         for run in records:
             if not is_sheared(run):
@@ -219,7 +225,8 @@ class EdgeFigureTarget:
             figure_spread(run, resamples, seed + r, figures, shift_apart)
             for r, (run, figures) in enumerate(zip(records, recorded))
         ]
-        return cls(records, rows, recorded, spread, weight, still_rows or [None] * len(records), shift_apart)
+        still = still_rows or [None] * len(records)
+        return cls(records, rows, recorded, spread, weight, still, shift_apart, theta_in_recorded_plane)
 
     def simulated_runs(self, pins_px: np.ndarray, still: bool = False) -> list[Run | None]:
         """Each recorded run with its pins replaced by those of `pins_px` (px) at its rows,
@@ -251,6 +258,10 @@ class EdgeFigureTarget:
         runs, stills = self.simulated_runs(pins_px), self.simulated_runs(pins_px, still=True)
         for r, (run, still, recorded, spread) in enumerate(zip(runs, stills, self.recorded, self.spread)):
             twin = figure_values(run, self.shift_apart)
+            if self.theta_in_recorded_plane:
+                turns = turn_in_reference_plane(self.records[r], run)["pc23_deg_per_mm"]
+                twin = {k: v for k, v in twin.items() if k[0] != "theta_pc23"}
+                twin |= _finite({("theta_pc23", l): v for l, v in turns.items()})
             if still is not None:
                 onto = {k: v for k, v in _imprint_values(still, self.shift_apart).items() if k[1] < 0.0}
                 twin = {k: v for k, v in twin.items() if not (k[0] in LINEAR and k[1] < 0.0)} | onto

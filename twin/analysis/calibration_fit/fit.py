@@ -249,6 +249,7 @@ def _calibrate(
             "weight": settings.weights.edge_figures,
             "signal_from": settings.edge_signal,
             "signal_shift": settings.edge_signal_shift,
+            "theta_plane": settings.edge_theta_plane,
             "before": figures_before,
             "after": figures_after,
         },

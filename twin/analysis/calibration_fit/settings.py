@@ -126,6 +126,11 @@ class CalibrationSettings(_Strict):
         "shift of the pins with that shift's share as a figure of its own ('apart') "
         "(twin.analysis.calibration_fit.figures)"
     )
+    edge_theta_plane: Literal["own", "recorded"] = Field(
+        description="the plane the twin's turn of θ_PC23 per mm of along-edge slide is read in: its "
+        "own taps' PC2–PC3 ('own'), or the recorded run's ('recorded': a twin whose first PCs are "
+        "nearly equal has a plane that jumps between candidates) (twin.analysis.calibration_fit.figures)"
+    )
     noise_px: float = Field(gt=0, le=50)
     identifiable_fraction: float = Field(gt=0, le=10)
     max_variance_inflation: float = Field(ge=1)
