@@ -501,6 +501,13 @@ def plane_angle_deg(a: TapPCs, b: TapPCs) -> float:
     return float(np.degrees(np.arccos(np.clip(cosines.min(), -1.0, 1.0))))
 
 
+def carried_pcs(pcs: TapPCs, of: Run, onto: Run) -> TapPCs:
+    """The PCs `pcs` of run `of`'s taps carried onto run `onto`'s rest pins, so that its
+    frames project by their displacements."""
+    moved = pins_to_vectors((onto.rest_pins_px - of.rest_pins_px)[None])[0]
+    return replace(pcs, mean=pcs.mean + moved)
+
+
 def turn_in_reference_plane(reference: Run, run: Run) -> dict:
     """How far a 1 mm slide along the edge turns `run`'s taps read in `reference`'s PC2–PC3
     plane rather than its own: "angle_deg" (`plane_angle_deg`) and "pc23_deg_per_mm" {l:
@@ -509,9 +516,7 @@ def turn_in_reference_plane(reference: Run, run: Run) -> dict:
     run's own turn it splits a miss of θ_PC23 into the drag's and the plane's."""
     fits = sheared_fits(run)
     ref, own = tap_pcs(reference), tap_pcs(run, fits)
-    moved = pins_to_vectors((run.rest_pins_px - reference.rest_pins_px)[None])[0]
-    carried = replace(ref, mean=ref.mean + moved)
-    turn = along_edge_turn_sheared(run, carried, fits)
+    turn = along_edge_turn_sheared(run, carried_pcs(ref, reference, run), fits)
     return {
         "angle_deg": plane_angle_deg(ref, own),
         "pc23_deg_per_mm": {l: v["pc23_deg_per_mm"] for l, v in turn.items()},

@@ -8,7 +8,7 @@ The figures, per lateral bin l (mm) of each run:
   the difference over SIGNAL_TOLERANCE (0.1);
 * theta_pc23: how far a 1 mm slide along the edge turns θ_PC23 (deg/mm, figure 3), the
   twin's read in its own taps' PC2–PC3 or (settings `edge_theta_plane: recorded`) in the
-  recorded run's (edge_imprint.turn_in_reference_plane);
+  recorded run's, carried onto the twin's rest pins (edge_imprint.carried_pcs);
 * drag/signal: the fitted slide and twist terms' spread over the angle term's (figure 3);
 * shift (settings `edge_signal_shift: apart`): the share of the signal that is a rigid shift
   of the pins (edge_imprint.signal_shift_share), a miss its difference over
@@ -42,13 +42,15 @@ import numpy as np
 
 from twin.analysis.edge_imprint import (
     BinFit,
+    TapPCs,
     along_edge_turn_sheared,
+    carried_pcs,
     drag_over_signal,
     is_sheared,
     sheared_fits,
     signal_profile,
     signal_shift_share,
-    turn_in_reference_plane,
+    tap_pcs,
 )
 from twin.core.errors import UserError
 from twin.core.scenario import SHEARED_TAP_MOTION
@@ -67,14 +69,16 @@ MISSING_MISS = 10.0
 Figures = dict[tuple[str, float], float]
 
 
-def figure_values(run: Run, shift_apart: bool = False) -> Figures:
+def figure_values(run: Run, shift_apart: bool = False, pcs: TapPCs | None = None) -> Figures:
     """{(figure, l): value} of a sheared-tap run (module docstring); l = 0's signal, 1 by
     definition, is left out. `shift_apart`: the signal without its rigid shift, and the
-    shift's share as figures of their own."""
+    shift's share as figures of their own. `pcs`: the PCs θ_PC23 is read in (the run's
+    own where None)."""
     fits = sheared_fits(run)
     values = _imprint_values(run, shift_apart, fits)
     values.update({("drag/signal", l): v["ratio"] for l, v in drag_over_signal(run, fits).items()})
-    values.update({("theta_pc23", l): v["pc23_deg_per_mm"] for l, v in along_edge_turn_sheared(run, fits=fits).items()})
+    turns = along_edge_turn_sheared(run, pcs, fits)
+    values.update({("theta_pc23", l): v["pc23_deg_per_mm"] for l, v in turns.items()})
     return _finite(values)
 
 
@@ -186,7 +190,9 @@ class EdgeFigureTarget:
     weight: float
     still_rows: list[np.ndarray | None]  # per run: the rows of its still replay in the pins given, or None
     shift_apart: bool = False  # the signal without its rigid shift, and the shift as a figure (settings)
-    theta_in_recorded_plane: bool = False  # the twin's θ_PC23 turn read in the recorded run's plane (settings)
+    #: per run, its taps' PCs, which the twin's θ_PC23 turn is read in (settings edge_theta_plane:
+    #: recorded), or None: the twin's own
+    recorded_pcs: list[TapPCs] | None = None
 
     @classmethod
     def of(
@@ -226,7 +232,8 @@ class EdgeFigureTarget:
             for r, (run, figures) in enumerate(zip(records, recorded))
         ]
         still = still_rows or [None] * len(records)
-        return cls(records, rows, recorded, spread, weight, still, shift_apart, theta_in_recorded_plane)
+        pcs = [tap_pcs(run) for run in records] if theta_in_recorded_plane else None
+        return cls(records, rows, recorded, spread, weight, still, shift_apart, pcs)
 
     def simulated_runs(self, pins_px: np.ndarray, still: bool = False) -> list[Run | None]:
         """Each recorded run with its pins replaced by those of `pins_px` (px) at its rows,
@@ -257,11 +264,8 @@ class EdgeFigureTarget:
         out = []
         runs, stills = self.simulated_runs(pins_px), self.simulated_runs(pins_px, still=True)
         for r, (run, still, recorded, spread) in enumerate(zip(runs, stills, self.recorded, self.spread)):
-            twin = figure_values(run, self.shift_apart)
-            if self.theta_in_recorded_plane:
-                turns = turn_in_reference_plane(self.records[r], run)["pc23_deg_per_mm"]
-                twin = {k: v for k, v in twin.items() if k[0] != "theta_pc23"}
-                twin |= _finite({("theta_pc23", l): v for l, v in turns.items()})
+            plane = None if self.recorded_pcs is None else carried_pcs(self.recorded_pcs[r], self.records[r], run)
+            twin = figure_values(run, self.shift_apart, plane)
             if still is not None:
                 onto = {k: v for k, v in _imprint_values(still, self.shift_apart).items() if k[1] < 0.0}
                 twin = {k: v for k, v in twin.items() if not (k[0] in LINEAR and k[1] < 0.0)} | onto
