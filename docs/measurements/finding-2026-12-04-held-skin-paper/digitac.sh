@@ -17,8 +17,10 @@ v held75_m0.5_s0076_f09_whole $held $(sway 0.076) calibration.friction=0.9 physi
 v held75_m0.5_s0063_f09_whole $held $(sway 0.063) calibration.friction=0.9 physics.edge_within_node=false
 v held75_m0.5_s0063_f09_whole_apex20 $held $(sway 0.063) calibration.friction=0.9 physics.edge_within_node=false \
   physics.apex_radius_mm=20
+v held75_m0.5_s0063_f09_whole_sp18 $held $(sway 0.063) calibration.friction=0.9 physics.edge_within_node=false \
+  physics.surface_spacing_mm=1.8
 names="held75_m0.5_s0063_f07 held75_m0.5_s0063_f07_whole held75_m0.5_s0076_f07_whole held75_m0.5_s0076_f09_whole
-  held75_m0.5_s0063_f09_whole held75_m0.5_s0063_f09_whole_apex20"
+  held75_m0.5_s0063_f09_whole held75_m0.5_s0063_f09_whole_apex20 held75_m0.5_s0063_f09_whole_sp18"
 for n in $names; do for taps in real45 realm45; do
   bash "$here/../finding-2026-12-04-skin-held/screen.sh" $n $taps
 done; done
