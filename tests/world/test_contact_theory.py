@@ -114,14 +114,15 @@ def test_hertz_force_and_contact_radius(depth_mm):
     )
 
 
-@pytest.mark.parametrize("apex_radius_mm", [30.0, 40.0])
-def test_a_flatter_apex_profile_is_hertz_with_its_radius(apex_radius_mm):
+@pytest.mark.parametrize(("apex_radius_mm", "spacing_mm"), [(30.0, None), (40.0, None), (30.0, 1.8)])
+def test_a_flatter_apex_profile_is_hertz_with_its_radius(apex_radius_mm, spacing_mm):
     """The profile the object meets (physics.apex_radius_mm) enters through the gap alone,
     as in Hertz theory: a flat pressed 0.5 mm gives Hertz's force and contact radius with
     the profile's radius, not the dome's (1.22 / 1.41 times the dome's force). Measured at
     30 / 40 mm: force −0.2 / −0.3 %, contact radius −1.3 / −1.0 % (the dome's own: −0.1 %,
-    −2.1 %)."""
-    env = _env(("contact",), enclosed=False, skin={"apex_radius_mm": apex_radius_mm})
+    −2.1 %). The 30 mm profile's patch is √(30 / 20) times as wide as the dome's own, so
+    nodes 1.8 mm apart span it as 1.5 mm span the dome's: force −0.2 %, radius −2.0 %."""
+    env = _env(("contact",), enclosed=False, skin={"apex_radius_mm": apex_radius_mm}, spacing_mm=spacing_mm)
     env.move_to(Pose(0, 0, 0.5, 0, 0, 0))
     frame = env.observe_frame()
     delta, radius_of_profile = 0.5e-3, apex_radius_mm * 1e-3
