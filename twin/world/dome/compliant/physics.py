@@ -142,7 +142,9 @@ class CompliantParams:
     apex_radius (m): the radius of curvature of the outer profile the object meets, a
       sphere through the apex (`apex_lift`); the compliance stays the geometry's dome's, as
       Hertz theory pairs a curved profile with a half-space's compliance. At or below the
-      geometry's dome radius (the default, 20 mm) the gap is the sphere's own.
+      geometry's dome radius (the default, 20 mm) the gap is the sphere's own. Its patch
+      is √(apex_radius / dome radius) times as wide at a depth: a spacing scaled alike
+      keeps as many nodes across it (docs/dome/compliant.md).
     edge_within_node: a node whose disc a face's boundary crosses (a straight edge's
       corner) takes contact over the part of its disc on the face, with that part's gap,
       compliance and centroid (twin.world.dome.compliant.cut_nodes), so an edge is placed
