@@ -13,6 +13,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Callable, Sequence
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -564,19 +565,20 @@ def run_bench(
         raise UserError("--settings chooses settings of the sweep: use it with `twin bench sweep`")
     if scenarios and names != ["physics"]:
         raise UserError("--scenario adds a scenario's dome to the physics rows: use it with `twin bench physics`")
+    sections = {**SECTIONS, "physics": partial(bench_physics, scenarios=scenarios)}
     status = 0
     for name in names:
-        if name not in SECTIONS:
-            raise UserError(f"unknown bench section {name!r}; choose from {', '.join(SECTIONS)}")
+        if name not in sections:
+            raise UserError(f"unknown bench section {name!r}; choose from {', '.join(sections)}")
         if name in _SELF_REPORTING:
-            rows = SECTIONS[name](quick, out=out, workers=workers, cluster=cluster, settings=settings)
+            rows = sections[name](quick, out=out, workers=workers, cluster=cluster, settings=settings)
             failed = [r["setting"] for r in rows if r.get("status") != "ok"]
             if failed:
                 print(f"{len(failed)} sweep setting(s) failed: {', '.join(failed)}")
                 status = 1
             continue
-        for table, bench in {name: SECTIONS[name], **_FOLLOW_UPS.get(name, {})}.items():
-            rows = bench(quick, scenarios=scenarios) if bench is bench_physics else bench(quick)
+        for table, bench in {name: sections[name], **_FOLLOW_UPS.get(name, {})}.items():
+            rows = bench(quick)
             _print_rows(table, rows)
             if out is not None:
                 out.mkdir(parents=True, exist_ok=True)

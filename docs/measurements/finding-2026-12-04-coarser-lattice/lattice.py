@@ -24,32 +24,34 @@ from twin.world.dome.testbed import edge_scene, sensor_down
 LATERAL_MM = (4, 2, 0, -2, -4, -6)
 
 
-def frames(params, friction: float) -> tuple[np.ndarray, float]:
+def frames(params, friction: float) -> tuple[np.ndarray, list[str], float]:
     """(frames, 127, 2) px: how far the pins' images moved from rest at each recorded frame,
-    and the seconds the sequence's physics took."""
+    each frame's label, and the seconds the sequence's physics took."""
     contour = ContourProtocol()
     depth, step = contour.depth_mm, contour.step_mm
     camera = CameraModel()
     _, _, _, physics = edge_scene(params, True, friction, scenario="lattice")
     rest = camera.project_tool_points(physics.rest_pins)
-    pins, seconds = [], 0.0
+    pins, labels, seconds = [], [], 0.0
 
-    def go(pose: np.ndarray, keep: bool = True) -> None:
+    def go(pose: np.ndarray, label: str | None = None) -> None:
         nonlocal seconds
         t0 = time.perf_counter()
         physics.move(pose, contour.speed_mm_s)
         frame = physics.settle()
         seconds += time.perf_counter() - t0
-        if keep:
+        if label is not None:
             pins.append(camera.project_tool_points(frame.pins_tool) - rest)
+            labels.append(label)
 
     for k in range(9):
-        go(sensor_down(0, step * k, depth))
-    for lateral in LATERAL_MM:
-        go(sensor_down(lateral, 0, -2), keep=False)
-        for pose in (sensor_down(lateral, 0, 3), sensor_down(lateral, 1, 3), sensor_down(lateral, 1, 3, 5)):
-            go(pose)
-    return np.array(pins), seconds
+        go(sensor_down(0, step * k, depth), f"bench {k}")
+    for x in LATERAL_MM:
+        go(sensor_down(x, 0, -2))  # lifted clear: not kept
+        go(sensor_down(x, 0, 3), f"l={x:+d} press")
+        go(sensor_down(x, 1, 3), f"l={x:+d} slide")
+        go(sensor_down(x, 1, 3, 5), f"l={x:+d} twist")
+    return np.array(pins), labels, seconds
 
 
 def main() -> None:
@@ -57,15 +59,12 @@ def main() -> None:
     base = dome_params(scenario)
     friction = load_scenario_stimulus(scenario).friction
     spacings = sorted(float(s) for s in sys.argv[2].split(","))
-    labels = [f"bench {k}" for k in range(9)] + [
-        f"l={x:+d} {w}" for x in LATERAL_MM for w in ("press", "slide", "twist")
-    ]
     pins, seconds = {}, {}
     for spacing in spacings:
         params = base.with_(spacing=spacing * 1e-3)
         builder_of(params).precompute(params)
         frames(params, friction)  # untimed: the first run fills the influence columns
-        pins[spacing], seconds[spacing] = frames(params, friction)
+        pins[spacing], labels, seconds[spacing] = frames(params, friction)
     finest = pins[spacings[0]]
     signal = np.sqrt((finest**2).sum(-1).mean(-1))  # (frames,) px: how far the pins moved, RMS
     own = base.spacing * 1e3

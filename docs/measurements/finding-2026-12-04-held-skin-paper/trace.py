@@ -2,17 +2,18 @@
 perceived normal minus the true one), the perceived and the true lateral position (mm;
 negative = onto the object). usage: python trace.py RUN... [--steps N] (N = 14)"""
 
+import argparse
 import json
-import sys
 from pathlib import Path
 
-args = sys.argv[1:]
-steps = int(args[args.index("--steps") + 1]) if "--steps" in args else 14
-runs = [a for a in args if a != "--steps" and not a.isdigit()]
-for run in runs:
+parser = argparse.ArgumentParser()
+parser.add_argument("runs", nargs="+", type=Path)
+parser.add_argument("--steps", type=int, default=14)
+args = parser.parse_args()
+for run in args.runs:
     print(run)
     print("  step  normal error °  l̂ mm   l mm")
-    for line in Path(run, "samples.jsonl").read_text().splitlines()[:steps]:
+    for line in (run / "samples.jsonl").read_text().splitlines()[: args.steps]:
         labels = json.loads(line)["labels"]
         error = (labels["perceived_normal_deg"] - labels["true_normal_deg"] + 180) % 360 - 180
         print(
