@@ -99,7 +99,7 @@ def test_the_figures_alone_recover_the_friction(recorded, tmp_path) -> None:
     assert u["identifiable"], u
     figures = r["edge_figures"]
     assert figures["weight"] == 1.0
-    assert {row["figure"] for row in figures["after"]} == {"signal", "drag/signal", "theta_pc23"}
+    assert {row["figure"] for row in figures["after"]} == {"signal", "drag/signal", "theta_pc23", "theta_pc23_across"}
     before = sum(row["miss"] ** 2 for row in figures["before"])
     after = sum(row["miss"] ** 2 for row in figures["after"])
     assert after < before / 4, (before, after)

@@ -154,6 +154,19 @@ def test_along_edge_drag_in_degrees_per_mm(run: Run) -> None:
         assert 0.0 <= figures["plane_share"] <= 1.0
 
 
+def test_across_edge_drag_in_degrees_per_mm(run: Run) -> None:
+    """g_x·g_θ / |g_θ|² with g_x the across-edge field and g_θ = fade/45 × θ's field, and the
+    calibration's figure is the same turn through θ_PC23."""
+    f = _fields()
+    across = E.across_edge_turn_sheared(run)
+    assert sorted(across) == sorted(FADE)
+    for l, figures in across.items():
+        expected = abs(np.sum(f["across"] * f["theta"])) / (FADE[l] / 45.0 * np.sum(f["theta"] ** 2))
+        assert figures["raw_deg_per_mm"] == pytest.approx(expected, rel=0.01)
+    values = figure_values(run)
+    assert {l: v["pc23_deg_per_mm"] for l, v in across.items()} == {l: values["theta_pc23_across", l] for l in across}
+
+
 def test_drag_over_signal_is_the_slides_pin_motion_against_the_angles(run: Run) -> None:
     """Drag: the RMS pin motion of each tap's slide and twist (from the known fields) about
     the bin's mean; signal: that of its angle."""
@@ -291,6 +304,31 @@ def test_turned_taps_read_the_orientation_without_the_rigid_shifts() -> None:
         assert figures["translation_share"] == pytest.approx(1.0, abs=1e-3)
         assert figures["plane_share"] < 1e-3
         assert figures["pc23_deg_per_mm"] < 0.5
+
+
+def test_a_slide_across_the_edge_turns_the_pair_by_its_part_in_it() -> None:
+    """`_imprint_run`'s taps, whose across-edge slide shifts every pin (a turned plane holds
+    no shift, so it turns θ_PC23 by nothing), with C px per mm of the pair's other pattern
+    S(90°)·r/ρ added to it. The bin's mean frame sits in the pair at ORIENT_PX × (mean cos 2θ,
+    mean sin 2θ) plus C × the mean slide along S(90°); the slide moves it by C along S(90°),
+    so θ_PC23 turns by the angle between the two (S(0) and S(90°) are orthogonal and of one size)."""
+    rigid = E.across_edge_turn_sheared(_imprint_run())
+    assert max(v["pc23_deg_per_mm"] for v in rigid.values()) < 0.5
+    c_px = 0.4
+    run = _imprint_run(extra=lambda tap: tap.slide_lateral_mm * c_px * _pattern(np.pi / 2))
+    turns = E.across_edge_turn_sheared(run)
+    theta, slide = np.radians(run.label("theta_deg")), run.label("slide_lateral_mm")
+    bins = np.round(run.label("lateral_mm")) + 0.0
+    for l, figures in turns.items():
+        m = E.usable(run) & (bins == l)
+        mean = np.array([ORIENT_PX * np.mean(np.cos(2 * theta[m])), ORIENT_PX * np.mean(np.sin(2 * theta[m]))])
+        mean[1] += c_px * np.mean(slide[m])
+        moved = mean + [0.0, c_px]
+        expected = abs(np.degrees(np.arctan2(moved[1], moved[0]) - np.arctan2(mean[1], mean[0])))
+        assert expected > 10.0  # the case is exercised
+        # within the fitted gradient's sampling error: the bin's ~300 taps leave the curvature
+        # of S(2θ), which its linear θ term cannot take, in the residual (0.1–3 % here)
+        assert figures["pc23_deg_per_mm"] == pytest.approx(expected, rel=0.05), l
 
 
 @pytest.mark.parametrize("fixed_deg", [90.0, -90.0, 0.0])
@@ -598,7 +636,7 @@ def test_compare_reads_both_runs_on_the_taps_they_share(run: Run, tmp_path: Path
         assert profile == pytest.approx(quarter, abs=1e-6)  # a record keeps 7 significant digits
     differences = result["edge_figure_differences"]
     assert differences["taps"] == len(run.samples[::4]) and differences["resamples"] == 4
-    assert {r["figure"] for r in differences["rows"]} == {"signal", "theta_pc23", "drag/signal"}
+    assert {r["figure"] for r in differences["rows"]} == {"signal", "theta_pc23", "theta_pc23_across", "drag/signal"}
     for r in differences["rows"]:
         assert r["b"] == pytest.approx(r["a"], rel=1e-6) and r["spread"] == pytest.approx(0.0, abs=1e-6), r
     assert f"B against A on the same {len(run.samples[::4])} taps" in printed and "+0.00 ± 0.00" in printed

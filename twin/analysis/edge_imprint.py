@@ -16,6 +16,8 @@ Unit-free figures, so they compare across cameras:
   direction a 1 mm slide along the edge moves the pins, in degrees of the edge angle
   (raw pins), and how far it turns θ_PC23, the angle in the taps' PC2–PC3 plane that the
   paper reads the orientation from; and the share of that drag's energy in the plane;
+* the across-edge drag in the same degrees (sheared taps): the slide across the edge,
+  which the paper's sensor read far worse than the slide along it;
 * the orientation pair by ring: where in the array the taps' rotating pair of PCs (PC2–PC3
   in the paper's taps) moves the pins, ring by ring, and how much of it moves them
   radially (towards or away from the centre) rather than round it;
@@ -479,18 +481,41 @@ def along_edge_turn_sheared(
     pcs = pcs or tap_pcs(run, fits)
     out = {}
     for f in fits:
-        g_a, g_t = f.gradients["slide_along_mm"], f.gradients["theta_deg"]
-        turn = wrap_deg(pcs.theta_pc23_deg(f.mean_z + g_a) - pcs.theta_pc23_deg(f.mean_z))[0]
+        g_a = f.gradients["slide_along_mm"]
         p = pcs.in_plane(f.tap_z)
         out[f.lateral_mm] = {
-            "raw_deg_per_mm": abs(float(g_a @ g_t / (g_t @ g_t))),
-            "pc23_deg_per_mm": abs(float(turn)),
+            **_slide_turn(pcs, f, "slide_along_mm"),
             "plane_share": pcs.plane_share(g_a),
             "radius_px": float(np.sqrt(np.mean(np.sum(p**2, axis=1)))),
             "translation_share": translation_share(g_a),
             "offset_deg": pressed_offset_deg(pcs, f),
         }
     return out
+
+
+def across_edge_turn_sheared(
+    run: Run, pcs: TapPCs | None = None, fits: list[BinFit] | None = None
+) -> dict[float, dict[str, float]]:
+    """Sheared taps, per lateral bin, for a 1 mm slide across the edge (onto or off the
+    object, ending at the tap's pose): "raw_deg_per_mm" and "pc23_deg_per_mm" as in
+    `along_edge_turn_sheared`. The paper's Table I reads slides across the edge far worse
+    than along it (22–53° On against 3.3° and 12.7°); onto the object the DigiTac set's
+    drag turns θ_PC23 three to eight times as far per mm across the edge as along it.
+    `fits`: the run's `sheared_fits`, where the caller has them."""
+    fits = sheared_fits(run) if fits is None else fits
+    if not fits:
+        return {}
+    pcs = pcs or tap_pcs(run, fits)
+    return {f.lateral_mm: _slide_turn(pcs, f, "slide_lateral_mm") for f in fits}
+
+
+def _slide_turn(pcs: TapPCs, fit: BinFit, term: str) -> dict[str, float]:
+    """A 1 mm slide's (the fitted gradient of `term`) "raw_deg_per_mm", its pin field along
+    the orientation direction in degrees of θ (g·g_θ / |g_θ|²), and "pc23_deg_per_mm", how far
+    it turns θ_PC23 from the bin's mean frame."""
+    g, g_t = fit.gradients[term], fit.gradients["theta_deg"]
+    turn = wrap_deg(pcs.theta_pc23_deg(fit.mean_z + g) - pcs.theta_pc23_deg(fit.mean_z))[0]
+    return {"raw_deg_per_mm": abs(float(g @ g_t / (g_t @ g_t))), "pc23_deg_per_mm": abs(float(turn))}
 
 
 def plane_angle_deg(a: TapPCs, b: TapPCs) -> float:
@@ -696,8 +721,8 @@ def edge_figures(taps: Run, slides: Run | None = None, reach_at: tuple[float, ..
     position). `reach_at`: the l (mm) of the reach profiles; those with no tap within 0.5 mm
     are left out. Keys: signal_profile, signal_by_depth, signal_shift_share, reach (l → ten
     bins), signal_rings (at the reach's l and l = 0), closest_pins, pcs_explained,
-    pcs_turned, pair_rings, drag_over_signal and along_edge (l → figures; sheared taps, or
-    plain taps with slides)."""
+    pcs_turned, pair_rings, drag_over_signal, along_edge (l → figures; sheared taps, or
+    plain taps with slides) and across_edge (l → figures; sheared taps)."""
     fits = sheared_fits(taps) if is_sheared(taps) else None
     pcs = tap_pcs(taps, fits)
     lateral = taps.label("lateral_mm")[usable(taps)]
@@ -715,10 +740,12 @@ def edge_figures(taps: Run, slides: Run | None = None, reach_at: tuple[float, ..
         "pair_rings": pair_rings(pcs, taps.rest_pins_px),
         "drag_over_signal": {},
         "along_edge": {},
+        "across_edge": {},
     }
     if is_sheared(taps):
         figures["drag_over_signal"] = drag_over_signal(taps, fits)
         figures["along_edge"] = along_edge_turn_sheared(taps, pcs, fits)
+        figures["across_edge"] = across_edge_turn_sheared(taps, pcs, fits)
     elif slides is not None:
         starts = np.isin(slides.label("direction_deg"), (90, 270)) & (slides.label("sample_in_slide") == 0)
         for l in sorted(set(slides.label("lateral_mm")[starts].tolist())):

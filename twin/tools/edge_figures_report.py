@@ -15,12 +15,12 @@ def _cell(value, fmt: str = "{:.2f}") -> str:
 
 
 def _rows_by_lateral(figures: list[dict], key: str, field: str | None, fmt: str, scale: float = 1.0) -> list[str]:
-    laterals = sorted({l for f in figures for l in f[key]}, reverse=True)
+    laterals = sorted({l for f in figures for l in f.get(key, {})}, reverse=True)
     lines = []
     for l in laterals:
         cells = []
         for f in figures:
-            row = f[key].get(l)
+            row = f.get(key, {}).get(l)
             value = row if field is None else (None if row is None else row.get(field))
             cells.append(_cell(None if value is None else value * scale, fmt))
         lines.append(f"    l {l:+g} mm".ljust(34) + "".join(cells))
@@ -112,6 +112,14 @@ def format_edge_figures(figures: list[dict], labels: list[str] | None = None) ->
         ):
             lines.append(f"   {what}:")
             lines += _rows_by_lateral(figures, "along_edge", field, fmt, scale)
+    if any(f.get("across_edge") for f in figures):
+        lines.append("  a 1 mm slide across the edge (sheared taps: fitted):")
+        for field, what in (
+            ("raw_deg_per_mm", "raw pins, deg of edge angle per mm"),
+            ("pc23_deg_per_mm", "θ_PC23 turned, deg per mm"),
+        ):
+            lines.append(f"   {what}:")
+            lines += _rows_by_lateral(figures, "across_edge", field, "{:.1f}")
     lines.append(
         "  PC1/PC2/PC3 of the taps, %".ljust(34)
         + "".join(
@@ -138,6 +146,7 @@ def format_edge_figures(figures: list[dict], labels: list[str] | None = None) ->
 DIFFERENCE_COLUMNS = (
     ("signal", "signal / l = 0's, B − A"),
     ("theta_pc23", "θ_PC23 per mm, B / A"),
+    ("theta_pc23_across", "the same across, B / A"),
     ("drag/signal", "drag / signal, B / A"),
 )
 

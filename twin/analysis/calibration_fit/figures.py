@@ -9,12 +9,16 @@ The figures, per lateral bin l (mm) of each run:
 * theta_pc23: how far a 1 mm slide along the edge turns θ_PC23 (deg/mm, figure 3), the
   twin's read in its own taps' PC2–PC3 or (settings `edge_theta_plane: recorded`) in the
   recorded run's, carried onto the twin's rest pins (edge_imprint.carried_pcs);
+* theta_pc23_across: the same for a 1 mm slide across the edge (edge_imprint.
+  across_edge_turn_sheared): onto the object the real drag turns θ_PC23 three to eight
+  times as far across the edge as along it, and a fit to the along-edge turn alone can
+  meet it by a drag that turns neither (docs/real-sensor.md, 2026-12-04, eighth);
 * drag/signal: the fitted slide and twist terms' spread over the angle term's (figure 3);
 * shift (settings `edge_signal_shift: apart`): the share of the signal that is a rigid shift
   of the pins (edge_imprint.signal_shift_share), a miss its difference over
   SHIFT_TOLERANCE (0.1); the signal ratios are then those of the signal without it.
 
-The last two span decades across l, so their miss is the log of the ratio over
+The last three span decades across l, so their miss is the log of the ratio over
 log(FACTOR_TOLERANCE) (a third either way), below a floor that keeps a vanishing figure finite.
 A recorded figure is itself an estimate: over 1,000 of the DigiTac set's taps the signal
 ratio 4 mm off the object reads 1.06 to 1.45 by which fifth is taken. So each miss is over
@@ -43,6 +47,7 @@ import numpy as np
 from twin.analysis.edge_imprint import (
     BinFit,
     TapPCs,
+    across_edge_turn_sheared,
     along_edge_turn_sheared,
     carried_pcs,
     drag_over_signal,
@@ -62,7 +67,7 @@ SHIFT_TOLERANCE = 0.1
 LINEAR = {"signal": SIGNAL_TOLERANCE, "shift": SHIFT_TOLERANCE}
 FACTOR_TOLERANCE = 4.0 / 3.0
 #: figure -> the value below which it counts as this floor (its unit)
-FLOORS = {"theta_pc23": 0.1, "drag/signal": 0.1}
+FLOORS = {"theta_pc23": 0.1, "theta_pc23_across": 0.1, "drag/signal": 0.1}
 #: the miss of a figure the recorded run has and the twin's does not (in tolerances)
 MISSING_MISS = 10.0
 
@@ -77,8 +82,13 @@ def figure_values(run: Run, shift_apart: bool = False, pcs: TapPCs | None = None
     fits = sheared_fits(run)
     values = _imprint_values(run, shift_apart, fits)
     values.update({("drag/signal", l): v["ratio"] for l, v in drag_over_signal(run, fits).items()})
-    turns = along_edge_turn_sheared(run, pcs, fits)
-    values.update({("theta_pc23", l): v["pc23_deg_per_mm"] for l, v in turns.items()})
+    if fits:
+        pcs = pcs or tap_pcs(run, fits)
+    for figure, turns in (
+        ("theta_pc23", along_edge_turn_sheared(run, pcs, fits)),
+        ("theta_pc23_across", across_edge_turn_sheared(run, pcs, fits)),
+    ):
+        values.update({(figure, l): v["pc23_deg_per_mm"] for l, v in turns.items()})
     return _finite(values)
 
 
