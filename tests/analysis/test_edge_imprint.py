@@ -370,29 +370,40 @@ def _outer_pattern(phi_rad: float) -> np.ndarray:
     return field * np.linalg.norm(pattern) / np.linalg.norm(field)
 
 
-def test_a_turn_read_in_another_runs_plane_splits_the_plane_from_the_drag() -> None:
+@pytest.mark.parametrize(
+    ("slide", "turns", "read_key", "angle_tolerance_deg"),
+    [
+        ("slide_along_mm", E.along_edge_turn_sheared, "pc23_deg_per_mm", 0.3),
+        # measured 20.8°: the planes' angle is not what this case is about, the turns are
+        ("slide_lateral_mm", E.across_edge_turn_sheared, "across_pc23_deg_per_mm", 1.0),
+    ],
+)
+def test_a_turn_read_in_another_runs_plane_splits_the_plane_from_the_drag(
+    slide, turns, read_key, angle_tolerance_deg
+) -> None:
     """A's imprint is a·S(2θ)·r/ρ; B's adds tan α times a rim-weighted pair orthogonal to it
     (`_outer_pattern`), so B's PC2–PC3 plane lies α from A's and projects onto A's as A's
-    imprint. Both runs' slides along the edge add the same non-rigid field, part in A's
-    pair and part in the rim's: in A's plane B's taps and drag are A's, so B's turn read
-    there is A's own, while in its own plane B turns otherwise."""
+    imprint. Both runs' slides along the edge (or across it) add the same non-rigid field,
+    part in A's pair and part in the rim's: in A's plane B's taps and drag are A's, so B's
+    turn read there is A's own, while in its own plane B turns otherwise."""
     alpha = np.radians(20.0)
     phi_a, phi_b = np.radians(60.0), np.radians(-30.0)
 
     def drag(tap) -> np.ndarray:
-        return tap.slide_along_mm * (0.3 * _pattern(phi_a) + 1.5 * _outer_pattern(phi_b))
+        return getattr(tap, slide) * (0.3 * _pattern(phi_a) + 1.5 * _outer_pattern(phi_b))
 
     a = _imprint_run(extra=drag)
     b = _imprint_run(
         extra=lambda tap: drag(tap) + np.tan(alpha) * ORIENT_PX * _outer_pattern(np.radians(2 * tap.theta_deg))
     )
-    own_a, own_b = E.along_edge_turn_sheared(a), E.along_edge_turn_sheared(b)
+    own_a, own_b = turns(a), turns(b)
     read, itself = E.turn_in_reference_plane(a, b), E.turn_in_reference_plane(a, a)
-    assert read["angle_deg"] == pytest.approx(20.0, abs=0.3)
+    assert read["angle_deg"] == pytest.approx(20.0, abs=angle_tolerance_deg)
     assert itself["angle_deg"] == pytest.approx(0.0, abs=1e-3)
-    for l, turn in read["pc23_deg_per_mm"].items():
+    assert sorted(read[read_key]) == sorted(own_a)
+    for l, turn in read[read_key].items():
         assert own_a[l]["pc23_deg_per_mm"] > 1.0  # the case is exercised: A's drag turns it
-        assert itself["pc23_deg_per_mm"][l] == pytest.approx(own_a[l]["pc23_deg_per_mm"], rel=1e-9)
+        assert itself[read_key][l] == pytest.approx(own_a[l]["pc23_deg_per_mm"], rel=1e-9)
         # the grid's turns map it onto itself to within its projection, so A's plane holds a
         # trace of the rim's pair: 1 % of the turn
         assert turn == pytest.approx(own_a[l]["pc23_deg_per_mm"], rel=0.02), l

@@ -151,15 +151,20 @@ DIFFERENCE_COLUMNS = (
 )
 
 
-IN_A_PLANE_HEADING = "θ_PC23 per mm in A's plane, B / A"
+#: the columns of B's θ_PC23 turns read in A's plane: its `turn_in_reference_plane` key, A's own figure, heading
+IN_A_PLANE_COLUMNS = (
+    ("pc23_deg_per_mm", "theta_pc23", "θ_PC23 per mm in A's plane, B / A"),
+    ("across_pc23_deg_per_mm", "theta_pc23_across", "the same across"),
+)
 
 
 def format_figure_differences(differences: dict) -> str:
     """`twin compare`'s edge figures of B against A on the taps both have
     (twin.analysis.comparison.figure_differences): the signal ratio's difference ± its
     paired bootstrap standard deviation; θ_PC23's and drag / signal's factor B / A ×÷ the
-    factor of one standard deviation (their spread is in log units); and B's θ_PC23 turn read
-    in A's PC2–PC3 plane over A's own, with the angle between the planes."""
+    factor of one standard deviation (their spread is in log units); and B's θ_PC23 turns,
+    along and across the edge, read in A's PC2–PC3 plane over A's own, with the angle
+    between the planes."""
     rows = {(r["figure"], r["lateral_mm"]): r for r in differences["rows"]}
     in_a = differences.get("b_in_a_plane")
     lines = [
@@ -167,7 +172,7 @@ def format_figure_differences(differences: dict) -> str:
         f"{differences['resamples']} bootstrap resamples of them, the same for both; seed {differences['seed']}):",
         " " * 34
         + "".join(heading.rjust(WIDTH + 4) for _, heading in DIFFERENCE_COLUMNS)
-        + (IN_A_PLANE_HEADING.rjust(WIDTH + 16) if in_a else ""),
+        + ("".join(heading.rjust(WIDTH + 16) for *_, heading in IN_A_PLANE_COLUMNS) if in_a else ""),
     ]
     for l in sorted({l for _, l in rows}, reverse=True):
         cells = []
@@ -181,13 +186,14 @@ def format_figure_differences(differences: dict) -> str:
                 cells.append(f"{row['b'] / row['a']:.2f} ×÷ {math.exp(row['spread']):.2f}" if row["a"] > 0 else "—")
         line = f"    l {l:+g} mm".ljust(34) + "".join(c.rjust(WIDTH + 4) for c in cells)
         if in_a:
-            own, turn = rows.get(("theta_pc23", l)), in_a["pc23_deg_per_mm"].get(l)
-            ok = own is not None and turn is not None and own["a"] > 0
-            line += (f"{turn / own['a']:.2f}" if ok else "—").rjust(WIDTH + 16)
+            for key, figure, _ in IN_A_PLANE_COLUMNS:
+                own, turn = rows.get((figure, l)), in_a.get(key, {}).get(l)
+                ok = own is not None and turn is not None and own["a"] > 0
+                line += (f"{turn / own['a']:.2f}" if ok else "—").rjust(WIDTH + 16)
         lines.append(line)
     if in_a:
         lines.append(
-            f"  (the last column: B's θ_PC23 read in A's PC2–PC3 plane, which lies {in_a['angle_deg']:.1f}° from B's;"
-            " where it meets A's and B's own does not, the planes differ, not the drag)"
+            f"  (the last two columns: B's θ_PC23 read in A's PC2–PC3 plane, which lies {in_a['angle_deg']:.1f}° from"
+            " B's; where they meet A's and B's own do not, the planes differ, not the drag)"
         )
     return "\n".join(lines)
