@@ -538,8 +538,8 @@ def turn_in_reference_plane(reference: Run, run: Run) -> dict:
     plane rather than its own: "angle_deg" (`plane_angle_deg`) and "pc23_deg_per_mm" {l:
     deg/mm} (`along_edge_turn_sheared` of the run's own fits, in the reference's PCs carried
     onto the run's rest pins, so that its frames project by their displacements); and
-    "across_pc23_deg_per_mm", the same for a slide across the edge (`across_edge_turn_sheared`). Beside the
-    run's own turn it splits a miss of θ_PC23 into the drag's and the plane's."""
+    "across_pc23_deg_per_mm", the same for a slide across the edge (`across_edge_turn_sheared`).
+    Beside the run's own turn it splits a miss of θ_PC23 into the drag's and the plane's."""
     fits = sheared_fits(run)
     ref, own = tap_pcs(reference), tap_pcs(run, fits)
     plane = carried_pcs(ref, reference, run)

@@ -15,12 +15,12 @@ def _cell(value, fmt: str = "{:.2f}") -> str:
 
 
 def _rows_by_lateral(figures: list[dict], key: str, field: str | None, fmt: str, scale: float = 1.0) -> list[str]:
-    laterals = sorted({l for f in figures for l in f.get(key, {})}, reverse=True)
+    laterals = sorted({l for f in figures for l in f[key]}, reverse=True)
     lines = []
     for l in laterals:
         cells = []
         for f in figures:
-            row = f.get(key, {}).get(l)
+            row = f[key].get(l)
             value = row if field is None else (None if row is None else row.get(field))
             cells.append(_cell(None if value is None else value * scale, fmt))
         lines.append(f"    l {l:+g} mm".ljust(34) + "".join(cells))
@@ -112,7 +112,7 @@ def format_edge_figures(figures: list[dict], labels: list[str] | None = None) ->
         ):
             lines.append(f"   {what}:")
             lines += _rows_by_lateral(figures, "along_edge", field, fmt, scale)
-    if any(f.get("across_edge") for f in figures):
+    if any(f["across_edge"] for f in figures):
         lines.append("  a 1 mm slide across the edge (sheared taps: fitted):")
         for field, what in (
             ("raw_deg_per_mm", "raw pins, deg of edge angle per mm"),
@@ -187,7 +187,7 @@ def format_figure_differences(differences: dict) -> str:
         line = f"    l {l:+g} mm".ljust(34) + "".join(c.rjust(WIDTH + 4) for c in cells)
         if in_a:
             for key, figure, _ in IN_A_PLANE_COLUMNS:
-                own, turn = rows.get((figure, l)), in_a.get(key, {}).get(l)
+                own, turn = rows.get((figure, l)), in_a[key].get(l)
                 ok = own is not None and turn is not None and own["a"] > 0
                 line += (f"{turn / own['a']:.2f}" if ok else "—").rjust(WIDTH + 16)
         lines.append(line)

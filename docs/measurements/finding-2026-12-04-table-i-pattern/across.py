@@ -7,44 +7,44 @@ direction, in degrees of θ).
 
     python across.py REAL_RUN [REPLAY_RUN ...]
 
-The recording's own figures come with their spread over RESAMPLES bootstrap draws of its
-taps (seeded), as the factor (×÷) one standard deviation of their log spans.
+The recording's own θ_PC23 turns come with their spread over RESAMPLES bootstrap draws of
+its taps (twin.analysis.calibration_fit.figures.figure_spread, seeded), as the factor (×÷)
+one standard deviation of their log spans.
 """
 
+import math
 import sys
 
-import numpy as np
-
+from twin.analysis.calibration_fit.figures import figure_spread
 from twin.analysis.comparison import taps_both_kept
-from twin.analysis.edge_imprint import carried_pcs, sheared_fits, tap_pcs
-from twin.core.poses import wrap_deg
+from twin.analysis.edge_imprint import (
+    across_edge_turn_sheared,
+    along_edge_turn_sheared,
+    carried_pcs,
+    sheared_fits,
+    tap_pcs,
+)
 from twin.runs.record import Run, load_run
 
-TERMS = {"along": "slide_along_mm", "across": "slide_lateral_mm"}
 RESAMPLES = 20
 SEED = 7
 
 
-def resampled(run: Run, rng: np.random.Generator) -> Run:
-    """The run with its taps drawn with replacement, its no-contact frames kept."""
-    rest = [s for s in run.samples if s["labels"].get("no_contact")]
-    taps = [s for s in run.samples if not s["labels"].get("no_contact")]
-    return Run(run.path, run.meta, rest + [taps[i] for i in rng.integers(0, len(taps), len(taps))])
-
-
-def turns(fits, pcs) -> dict[float, dict[str, float]]:
-    """{l: {"along_raw", "along_pc23", "across_raw", "across_pc23"}} deg per mm."""
-    out = {}
-    for f in fits:
-        g_t = f.gradients["theta_deg"]
-        row = {}
-        for name, term in TERMS.items():
-            g = f.gradients[term]
-            row[f"{name}_raw"] = abs(float(g @ g_t / (g_t @ g_t)))
-            turn = wrap_deg(pcs.theta_pc23_deg(f.mean_z + g) - pcs.theta_pc23_deg(f.mean_z))[0]
-            row[f"{name}_pc23"] = abs(float(turn))
-        out[f.lateral_mm] = row
-    return out
+def turns(run: Run, pcs=None) -> dict[float, dict[str, float]]:
+    """{l: {"along_raw", "along_pc23", "across_raw", "across_pc23"}} deg per mm, read in
+    `pcs` (the run's own where None)."""
+    fits = sheared_fits(run)
+    pcs = pcs or tap_pcs(run, fits)
+    along, across = along_edge_turn_sheared(run, pcs, fits), across_edge_turn_sheared(run, pcs, fits)
+    return {
+        l: {
+            "along_raw": along[l]["raw_deg_per_mm"],
+            "along_pc23": along[l]["pc23_deg_per_mm"],
+            "across_raw": across[l]["raw_deg_per_mm"],
+            "across_pc23": across[l]["pc23_deg_per_mm"],
+        }
+        for l in along
+    }
 
 
 def show(label: str, table: dict, laterals: list[float]) -> None:
@@ -55,36 +55,25 @@ def show(label: str, table: dict, laterals: list[float]) -> None:
 
 def main(real_path: str, replays: list[str]) -> None:
     real = load_run(real_path)
-    fits = sheared_fits(real)
-    laterals = [f.lateral_mm for f in fits]
-    print(f"{real_path}: {sum(f.n for f in fits)} taps; deg per mm of slide; l, mm:")
+    own = turns(real)
+    laterals = list(own)
+    print(f"{real_path}: {sum(f.n for f in sheared_fits(real))} taps; deg per mm of slide; l, mm:")
     print("    " + " " * 12, " ".join(f"{l:+6.0f}" for l in laterals))
-    own = turns(fits, tap_pcs(real, fits))
     show("recording, own plane", own, laterals)
-    rng = np.random.default_rng(SEED)
-    drawn = []
-    for _ in range(RESAMPLES):
-        r = resampled(real, rng)
-        r_fits = sheared_fits(r)
-        drawn.append(turns(r_fits, tap_pcs(r, r_fits)))
+    spread = figure_spread(real, RESAMPLES, SEED)  # log units, as twin calibrate counts them
     print(f"    its spread over {RESAMPLES} bootstrap draws, ×÷:")
-    for key in ("along_pc23", "across_pc23"):
-        factors = []
-        for l in laterals:
-            logs = [np.log(max(d[l][key], 1e-3)) for d in drawn if l in d]
-            factors.append(f"{np.exp(np.std(logs)):6.2f}")
-        print(f"    {key:12s}", " ".join(factors))
+    for key, figure in (("along_pc23", "theta_pc23"), ("across_pc23", "theta_pc23_across")):
+        print(f"    {key:12s}", " ".join(f"{math.exp(spread[figure, l]):6.2f}" for l in laterals))
     ratio = [own[l]["across_pc23"] / own[l]["along_pc23"] for l in laterals]
     print("    across / along", " ".join(f"{v:6.2f}" for v in ratio))
     for path in replays:
         replay = load_run(path)
         shared = taps_both_kept(real, replay)
         r, t = real.subset([i for i, _ in shared]), replay.subset([j for _, j in shared])
-        r_fits, t_fits = sheared_fits(r), sheared_fits(t)
         print(f"{path}: {len(shared)} taps both kept")
-        show("recording, these taps", turns(r_fits, tap_pcs(r, r_fits)), laterals)
-        show("replay, own plane", turns(t_fits, tap_pcs(t, t_fits)), laterals)
-        show("replay, recording's plane", turns(t_fits, carried_pcs(tap_pcs(r, r_fits), r, t)), laterals)
+        show("recording, these taps", turns(r), laterals)
+        show("replay, own plane", turns(t), laterals)
+        show("replay, recording's plane", turns(t, carried_pcs(tap_pcs(r), r, t)), laterals)
 
 
 if __name__ == "__main__":
