@@ -1,0 +1,57 @@
+#!/bin/bash
+# run.sh: the shipped scenarios (scenarios/*.yaml) as they are (sharp edges, each object's
+# own material friction) but for the dome: the fitted compliant dome of
+# ../finding-2026-12-05-across-fit/ (sway 0.063 mm/N; its friction is the objects' own here)
+# added as `dome: compliant` and `physics:`. The paper's taps, slides and held-out taps →
+# `twin evaluate` → table-i.txt, heldout.txt; the six contours and two of them as user STL
+# objects, on the model trained on those taps → contours.txt. About 15 minutes on 2 cores.
+# usage: bash run.sh [path/to/twin]
+set -e
+export MUJOCO_GL=${MUJOCO_GL:-egl} PYOPENGL_PLATFORM=${PYOPENGL_PLATFORM:-egl}
+twin=$(realpath "${1:-$(dirname "$0")/../../../.venv/bin/twin}")
+py=$(dirname "$twin")/python
+cd "$(dirname "$0")"
+S=../../../scenarios
+mkdir -p runs
+fitted() {  # fitted SCENARIO NAME [OBJECT]: the shipped scenario on the fitted dome, runs/NAME.yaml
+  sed -e "s/^name: .*/name: $2/" -e "s#^  controller: paper.*#  controller: paper\n  model: eval/model_pca.npz#" \
+    ${3:+-e "s#^object: .*#object: {stl: $3}#"} "$S/$1.yaml" > "runs/$2.yaml"
+  cat >> "runs/$2.yaml" <<'YAML'
+dome: compliant
+physics:
+  membrane_young_mpa: 0.5
+  gel_young_kpa: 40.0
+  skin_bending: true
+  skin_bending_mpa: 0.8664
+  skin_held_deg: 75
+  pin_lever_mm: 1.55
+  tip_sway_mm_per_n: 0.063
+  apex_radius_mm: 30
+  surface_spacing_mm: 1.8
+  edge_within_node: false
+YAML
+}
+run() {  # run NAME WORKERS: twin run runs/NAME.yaml into runs/NAME, unless a completed run is there
+  grep -qs '"status": "completed"' runs/$1/run.json && return
+  rm -rf runs/$1 && "$twin" run runs/$1.yaml --workers $2 --quiet --out runs/$1
+}
+for s in taps_rectangle slides_rectangle taps_heldout; do
+  fitted $s $s
+  run $s 2
+done
+"$twin" evaluate --train runs/taps_rectangle --test runs/slides_rectangle --out runs/eval > table-i.txt
+"$twin" evaluate --train runs/taps_rectangle --test runs/taps_heldout --out runs/eval_heldout > heldout.txt
+"$py" - <<'PY'
+from twin.world.stimuli.objects import builtin_stimulus
+for name in ("rectangle", "flower"):
+    mesh = builtin_stimulus(name).mesh.copy()
+    mesh.apply_scale(1000.0)  # the object's mesh is in metres
+    mesh.export(f"runs/{name}.stl")
+PY
+contours="rectangle large_circle small_circle flower spiral tape_measure rectangle_stl flower_stl"
+for o in $contours; do
+  base=${o%_stl}
+  fitted contour_$base contour_$o $([ "$o" != "$base" ] && echo $base.stl)
+  run contour_$o 1
+done
+"$py" ../finding-2026-12-03-paper-runs/contours.py $(for o in $contours; do echo runs/contour_$o; done) > contours.txt
