@@ -1,0 +1,109 @@
+"""Where the contact solve stalls on the fitted dome at 1.0 mm nodes and μ = 3
+(hard_case.py's press): the first frictional increment that takes over 3 s is kept, and
+semismooth Newton is run on it alone at augmentation parameters from 1 to 0.003 times each
+node's own stiffness. Prints the residual Newton stops at, the nodes that hold it, and how
+far each node's compliance row reaches beyond its diagonal.
+
+    python newton_stall.py > newton-stall.txt
+"""
+
+import time
+
+import numpy as np
+
+import twin.world.dome.compliant.contact as contact
+from twin.core.poses import Pose
+from twin.core.scenario import scenario_from_dict
+from twin.runs.sim_env import SimEnvironment
+
+FITTED = {
+    "membrane_young_mpa": 0.5,
+    "gel_young_kpa": 40.0,
+    "skin_bending": True,
+    "skin_bending_mpa": 0.8664,
+    "skin_held_deg": 75,
+    "pin_lever_mm": 1.55,
+    "tip_sway_mm_per_n": 0.063,
+    "apex_radius_mm": 30,
+    "surface_spacing_mm": 1.0,
+}
+solve_coulomb = contact.solve_coulomb
+kept: dict = {}
+
+
+class Kept(Exception):
+    """The slow increment is kept: stop the run."""
+
+
+def timed(matrix, offset, friction, start, tolerance, max_iterations, adhesion=None):
+    t0 = time.perf_counter()
+    result = solve_coulomb(matrix, offset, friction, start, tolerance, max_iterations, adhesion)
+    if time.perf_counter() - t0 > 3.0:
+        kept.update(matrix=matrix, offset=offset, friction=friction, start=start, tolerance=tolerance)
+        raise Kept
+    return result
+
+
+contact.solve_coulomb = timed
+spec = {
+    "name": "newton_stall",
+    "object": {"name": "rectangle", "friction": 3.0},
+    "dome": "compliant",
+    "effects": ["contact", "friction"],
+    "physics": FITTED,
+}
+env = SimEnvironment(scenario_from_dict(spec), start_pose=Pose(60, 0, -2, 0, 0, 0))
+env.reset()
+try:
+    for y in (0.0, 6.0, -6.0, 0.0):
+        env.move_to(Pose(60, y, 3.0, 0, 0, 0), 20.0)
+except Kept:
+    pass
+matrix, offset, mu, start, tolerance = (kept[k] for k in ("matrix", "offset", "friction", "start", "tolerance"))
+nodes = len(offset) // 3
+strengths = contact._strengths(None, nodes)
+stiffness_n, stiffness_t = contact.own_stiffness(matrix)
+normal = np.arange(nodes) * 3
+reach = np.abs(matrix[np.ix_(normal, normal)]).sum(axis=1) / np.diag(matrix)[normal]
+print(f"the slow increment: {nodes} candidate nodes, μ = {mu:g}, tolerance {tolerance:.3g} m")
+print(
+    f"each node's normal compliance row over its diagonal: median {np.median(reach):.1f}, range {reach.min():.1f}–{reach.max():.1f}"
+)
+for scale in (1.0, 0.3, 0.1, 0.03, 0.01, 0.003):
+    f, iterations, residual, _ = contact._newton(
+        matrix,
+        offset,
+        mu,
+        strengths,
+        np.ascontiguousarray(start, float),
+        scale * stiffness_n,
+        scale * stiffness_t,
+        1000,
+        tolerance,
+        contact.FULL_STEPS,
+    )
+    print(
+        f"r = {scale:5.3f} × own stiffness: Newton stops after {iterations:4d} iterations at a residual of {residual:.2g} m"
+    )
+f, _, _, in_contact = contact._newton(
+    matrix,
+    offset,
+    mu,
+    strengths,
+    np.ascontiguousarray(start, float),
+    stiffness_n,
+    stiffness_t,
+    1000,
+    tolerance,
+    contact.FULL_STEPS,
+)
+residual = contact._alart_curnier_residual(matrix, offset, mu, strengths, f, stiffness_n, stiffness_t).reshape(-1, 3)
+forces, motion = f.reshape(-1, 3), (matrix @ f + offset).reshape(-1, 3)
+print(f"at r = 1: {in_contact.sum()} of {nodes} nodes in contact; the six largest residuals:")
+print("  node  residual n, t1, t2 (µm)   pressure (N)  |q| / μp   gap (µm)  slip t1, t2 (µm)")
+for i in np.argsort(-np.abs(residual).max(axis=1))[:6]:
+    ratio = np.linalg.norm(forces[i, 1:]) / (mu * abs(forces[i, 0]) + 1e-30)
+    print(
+        f"  {i:4d}  {residual[i, 0] * 1e6:+6.2f} {residual[i, 1] * 1e6:+6.2f} {residual[i, 2] * 1e6:+6.2f}"
+        f"   {forces[i, 0]:+.5f}      {ratio:6.3f}   {motion[i, 0] * 1e6:+7.3f}  {motion[i, 1] * 1e6:+7.3f} {motion[i, 2] * 1e6:+7.3f}"
+    )
