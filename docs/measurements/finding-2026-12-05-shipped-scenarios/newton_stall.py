@@ -69,8 +69,9 @@ print(f"the slow increment: {nodes} candidate nodes, μ = {mu:g}, tolerance {tol
 print(
     f"each node's normal compliance row over its diagonal: median {np.median(reach):.1f}, range {reach.min():.1f}–{reach.max():.1f}"
 )
+stops = {}
 for scale in (1.0, 0.3, 0.1, 0.03, 0.01, 0.003):
-    f, iterations, residual, _ = contact._newton(
+    stops[scale] = contact._newton(
         matrix,
         offset,
         mu,
@@ -83,20 +84,10 @@ for scale in (1.0, 0.3, 0.1, 0.03, 0.01, 0.003):
         contact.FULL_STEPS,
     )
     print(
-        f"r = {scale:5.3f} × own stiffness: Newton stops after {iterations:4d} iterations at a residual of {residual:.2g} m"
+        f"r = {scale:5.3f} × own stiffness: Newton stops after {stops[scale][1]:4d} iterations "
+        f"at a residual of {stops[scale][2]:.2g} m"
     )
-f, _, _, in_contact = contact._newton(
-    matrix,
-    offset,
-    mu,
-    strengths,
-    np.ascontiguousarray(start, float),
-    stiffness_n,
-    stiffness_t,
-    1000,
-    tolerance,
-    contact.FULL_STEPS,
-)
+f, _, _, in_contact = stops[1.0]
 residual = contact._alart_curnier_residual(matrix, offset, mu, strengths, f, stiffness_n, stiffness_t).reshape(-1, 3)
 forces, motion = f.reshape(-1, 3), (matrix @ f + offset).reshape(-1, 3)
 print(f"at r = 1: {in_contact.sum()} of {nodes} nodes in contact; the six largest residuals:")
