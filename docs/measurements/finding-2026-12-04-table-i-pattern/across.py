@@ -18,6 +18,8 @@ import sys
 from twin.analysis.calibration_fit.figures import figure_spread
 from twin.analysis.comparison import taps_both_kept
 from twin.analysis.edge_imprint import (
+    BinFit,
+    TapPCs,
     across_edge_turn_sheared,
     along_edge_turn_sheared,
     carried_pcs,
@@ -30,11 +32,9 @@ RESAMPLES = 20
 SEED = 7
 
 
-def turns(run: Run, pcs=None) -> dict[float, dict[str, float]]:
-    """{l: {"along_raw", "along_pc23", "across_raw", "across_pc23"}} deg per mm, read in
-    `pcs` (the run's own where None)."""
-    fits = sheared_fits(run)
-    pcs = pcs or tap_pcs(run, fits)
+def turns(run: Run, fits: list[BinFit], pcs: TapPCs) -> dict[float, dict[str, float]]:
+    """{l: {"along_raw", "along_pc23", "across_raw", "across_pc23"}} deg per mm, of the
+    run's `sheared_fits` read in `pcs`."""
     along, across = along_edge_turn_sheared(run, pcs, fits), across_edge_turn_sheared(run, pcs, fits)
     return {
         l: {
@@ -55,9 +55,10 @@ def show(label: str, table: dict, laterals: list[float]) -> None:
 
 def main(real_path: str, replays: list[str]) -> None:
     real = load_run(real_path)
-    own = turns(real)
+    fits = sheared_fits(real)
+    own = turns(real, fits, tap_pcs(real, fits))
     laterals = list(own)
-    print(f"{real_path}: {sum(f.n for f in sheared_fits(real))} taps; deg per mm of slide; l, mm:")
+    print(f"{real_path}: {sum(f.n for f in fits)} taps; deg per mm of slide; l, mm:")
     print("    " + " " * 12, " ".join(f"{l:+6.0f}" for l in laterals))
     show("recording, own plane", own, laterals)
     spread = figure_spread(real, RESAMPLES, SEED)  # log units, as twin calibrate counts them
@@ -70,10 +71,12 @@ def main(real_path: str, replays: list[str]) -> None:
         replay = load_run(path)
         shared = taps_both_kept(real, replay)
         r, t = real.subset([i for i, _ in shared]), replay.subset([j for _, j in shared])
+        r_fits, t_fits = sheared_fits(r), sheared_fits(t)
+        r_pcs = tap_pcs(r, r_fits)
         print(f"{path}: {len(shared)} taps both kept")
-        show("recording, these taps", turns(r), laterals)
-        show("replay, own plane", turns(t), laterals)
-        show("replay, recording's plane", turns(t, carried_pcs(tap_pcs(r), r, t)), laterals)
+        show("recording, these taps", turns(r, r_fits, r_pcs), laterals)
+        show("replay, own plane", turns(t, t_fits, tap_pcs(t, t_fits)), laterals)
+        show("replay, recording's plane", turns(t, t_fits, carried_pcs(r_pcs, r, t)), laterals)
 
 
 if __name__ == "__main__":

@@ -3,11 +3,16 @@ test_frictionless_and_very_high_friction) on one dome: μ = 3, press 3 mm on the
 rectangle's edge, slide 6 mm along it, reverse 12 mm, come back. Prints each move's
 seconds and the contact force (N, tool frame) after it.
 
-    python hard_case.py LEVEL [physics_key=value ...]
+    python hard_case.py LEVEL [--fitted] [physics_key=value ...]
+
+--fitted: the fitted dome (fitted.yaml) at the level's node spacing; key=value entries
+change its `physics` (or the plain solid's, without --fitted).
 """
 
 import sys
 import time
+from collections.abc import Iterator
+from pathlib import Path
 
 import yaml
 
@@ -15,22 +20,42 @@ from twin.core.poses import Pose
 from twin.core.scenario import scenario_from_dict
 from twin.runs.sim_env import SimEnvironment
 
-level, physics = sys.argv[1], {k: yaml.safe_load(v) for k, v in (a.split("=", 1) for a in sys.argv[2:])}
-spec = {
-    "name": "hard_case",
-    "object": {"name": "rectangle", "friction": 3.0},
-    "dome": "compliant",
-    "fidelity": level,
-    "effects": ["contact", "friction"],
-    "physics": physics,
-}
-env = SimEnvironment(scenario_from_dict(spec), start_pose=Pose(60, 0, -2, 0, 0, 0))
-env.reset()
-for y in (0.0, 6.0, -6.0, 0.0):
+#: fitted.yaml's `physics`: the fitted dome's entries
+FITTED: dict = yaml.safe_load((Path(__file__).parent / "fitted.yaml").read_text())["physics"]
+
+
+def environment(level: str, physics: dict) -> SimEnvironment:
+    """The compliant dome at `level` with `physics`, started out of contact above the edge."""
+    spec = {
+        "name": "hard_case",
+        "object": {"name": "rectangle", "friction": 3.0},
+        "dome": "compliant",
+        "fidelity": level,
+        "effects": ["contact", "friction"],
+        "physics": physics,
+    }
+    env = SimEnvironment(scenario_from_dict(spec), start_pose=Pose(60, 0, -2, 0, 0, 0))
+    env.reset()
+    return env
+
+
+def moves(env: SimEnvironment) -> Iterator[float]:
+    """Press, slide, reverse and come back, yielding each move's y (mm) after it is made."""
+    for y in (0.0, 6.0, -6.0, 0.0):
+        env.move_to(Pose(60, y, 3.0, 0, 0, 0), 20.0)
+        yield y
+
+
+if __name__ == "__main__":
+    args = sys.argv[2:]
+    physics = dict(FITTED) if "--fitted" in args else {}
+    physics |= {k: yaml.safe_load(v) for k, v in (a.split("=", 1) for a in args if a != "--fitted")}
+    env = environment(sys.argv[1], physics)
     t0 = time.perf_counter()
-    env.move_to(Pose(60, y, 3.0, 0, 0, 0), 20.0)
-    force = env.observe_frame().contact_force_tool
-    print(
-        f"  y {y:+4.0f} mm: {time.perf_counter() - t0:7.1f} s, force ({force[0]:+.2f}, {force[1]:+.2f}, {force[2]:+.2f}) N",
-        flush=True,
-    )
+    for y in moves(env):
+        force = env.observe_frame().contact_force_tool
+        print(
+            f"  y {y:+4.0f} mm: {time.perf_counter() - t0:7.1f} s, force ({force[0]:+.2f}, {force[1]:+.2f}, {force[2]:+.2f}) N",
+            flush=True,
+        )
+        t0 = time.perf_counter()

@@ -1,5 +1,5 @@
 """Where the contact solve stalls on the fitted dome at 1.0 mm nodes and μ = 3
-(hard_case.py's press): the first frictional increment that takes over 3 s is kept, and
+(hard_case.py's moves): the first frictional increment that takes over 3 s is kept, and
 semismooth Newton is run on it alone at augmentation parameters from 1 to 0.003 times each
 node's own stiffness. Prints the residual Newton stops at, the nodes that hold it, and how
 far each node's compliance row reaches beyond its diagonal.
@@ -10,23 +10,10 @@ far each node's compliance row reaches beyond its diagonal.
 import time
 
 import numpy as np
+from hard_case import FITTED, environment, moves
 
 import twin.world.dome.compliant.contact as contact
-from twin.core.poses import Pose
-from twin.core.scenario import scenario_from_dict
-from twin.runs.sim_env import SimEnvironment
 
-FITTED = {
-    "membrane_young_mpa": 0.5,
-    "gel_young_kpa": 40.0,
-    "skin_bending": True,
-    "skin_bending_mpa": 0.8664,
-    "skin_held_deg": 75,
-    "pin_lever_mm": 1.55,
-    "tip_sway_mm_per_n": 0.063,
-    "apex_radius_mm": 30,
-    "surface_spacing_mm": 1.0,
-}
 solve_coulomb = contact.solve_coulomb
 kept: dict = {}
 
@@ -45,18 +32,9 @@ def timed(matrix, offset, friction, start, tolerance, max_iterations, adhesion=N
 
 
 contact.solve_coulomb = timed
-spec = {
-    "name": "newton_stall",
-    "object": {"name": "rectangle", "friction": 3.0},
-    "dome": "compliant",
-    "effects": ["contact", "friction"],
-    "physics": FITTED,
-}
-env = SimEnvironment(scenario_from_dict(spec), start_pose=Pose(60, 0, -2, 0, 0, 0))
-env.reset()
 try:
-    for y in (0.0, 6.0, -6.0, 0.0):
-        env.move_to(Pose(60, y, 3.0, 0, 0, 0), 20.0)
+    for _ in moves(environment("default", FITTED | {"surface_spacing_mm": 1.0})):
+        pass
 except Kept:
     pass
 matrix, offset, mu, start, tolerance = (kept[k] for k in ("matrix", "offset", "friction", "start", "tolerance"))

@@ -2,9 +2,10 @@
 # run.sh: the shipped scenarios (scenarios/*.yaml) as they are (sharp edges, each object's
 # own material friction) but for the dome: the fitted compliant dome of
 # ../finding-2026-12-05-across-fit/ (sway 0.063 mm/N; its friction is the objects' own here)
-# added as `dome: compliant` and `physics:`. The paper's taps, slides and held-out taps →
-# `twin evaluate` → table-i.txt, heldout.txt; the six contours and two of them as user STL
-# objects, on the model trained on those taps → contours.txt. About 15 minutes on 2 cores.
+# added as `dome: compliant` and `physics:` (fitted.yaml, on the fit's 1.8 mm nodes). The
+# paper's taps, slides and held-out taps → `twin evaluate` → table-i.txt, heldout.txt; the
+# six contours and two of them as user STL objects, on the model trained on those taps →
+# contours.txt. About 15 minutes on 2 cores.
 # usage: bash run.sh [path/to/twin]
 set -e
 export MUJOCO_GL=${MUJOCO_GL:-egl} PYOPENGL_PLATFORM=${PYOPENGL_PLATFORM:-egl}
@@ -16,20 +17,8 @@ mkdir -p runs
 fitted() {  # fitted SCENARIO NAME [OBJECT]: the shipped scenario on the fitted dome, runs/NAME.yaml
   sed -e "s/^name: .*/name: $2/" -e "s#^  controller: paper.*#  controller: paper\n  model: eval/model_pca.npz#" \
     ${3:+-e "s#^object: .*#object: {stl: $3}#"} "$S/$1.yaml" > "runs/$2.yaml"
-  cat >> "runs/$2.yaml" <<'YAML'
-dome: compliant
-physics:
-  membrane_young_mpa: 0.5
-  gel_young_kpa: 40.0
-  skin_bending: true
-  skin_bending_mpa: 0.8664
-  skin_held_deg: 75
-  pin_lever_mm: 1.55
-  tip_sway_mm_per_n: 0.063
-  apex_radius_mm: 30
-  surface_spacing_mm: 1.8
-  edge_within_node: false
-YAML
+  sed "/^#/d" fitted.yaml >> "runs/$2.yaml"
+  echo "  surface_spacing_mm: 1.8" >> "runs/$2.yaml"
 }
 run() {  # run NAME WORKERS: twin run runs/NAME.yaml into runs/NAME, unless a completed run is there
   grep -qs '"status": "completed"' runs/$1/run.json && return
