@@ -304,6 +304,42 @@ def test_each_skin_is_calibrated_to_the_same_edge_press_force(level):
     assert np.linalg.norm(env.observe_frame().contact_force_tool) == pytest.approx(4.3, rel=0.02)
 
 
+def test_scaling_every_stiffness_scales_the_forces_and_moves_no_pin():
+    """Linear elasticity, Signorini's gap and Coulomb's cone are homogeneous in the force:
+    every modulus (gel, membrane, bending, pretension) × k and the sway's compliance / k
+    give k times every contact force along a frictional path and the same pins. So taps
+    without forces (the DigiTac set) fix a dome's stiffness ratios, not their scale
+    (docs/real-sensor.md, "The fitted dome's stiffness scale")."""
+    skin = {
+        "gel_young_kpa": 40.0,
+        "membrane_young_mpa": 0.5,
+        "skin_bending": True,
+        "skin_bending_mpa": 0.8,
+        "skin_tension_n_m": 20.0,
+        "skin_held_deg": 75.0,
+        "pin_lever_mm": 1.55,
+        "tip_sway_mm_per_n": 0.06,
+    }
+    k = 0.4
+    softer = skin | {key: skin[key] * k for key in ("gel_young_kpa", "membrane_young_mpa", "skin_bending_mpa")}
+    softer |= {"skin_tension_n_m": skin["skin_tension_n_m"] * k, "tip_sway_mm_per_n": skin["tip_sway_mm_per_n"] / k}
+    readings = []
+    for physics in (skin, softer):
+        spec = {"name": "scale", "object": {"name": "rectangle"}, "dome": "compliant", "fidelity": "fast"}
+        env = SimEnvironment(scenario_from_dict(spec | {"physics": physics}), start_pose=Pose(60, 0, -2, 0, 0, 0))
+        env.reset()
+        path = []
+        for pose in (Pose(60, 0, 3, 0, 0, 0), Pose(60, 3, 3, 0, 0, 0), Pose(59, 5, 2, 0, 0, 8)):
+            env.move_to(pose, 20.0)
+            frame = env.observe_frame()
+            path.append((frame.contact_force_tool.copy(), frame.pins_tool.copy()))
+        readings.append(path)
+    for (force, pins), (force_k, pins_k) in zip(*readings, strict=True):
+        assert np.linalg.norm(force[:2]) > 0.1  # the path shears the skin
+        np.testing.assert_allclose(force_k, k * force, rtol=1e-6, atol=1e-9)
+        assert np.abs(pins_k - pins).max() < 1e-9  # m: within the solver's tolerance (0.1 µm) and far below it
+
+
 @pytest.mark.parametrize("obj", ["rectangle", "spiral"])
 def test_the_clearance_bound_is_never_longer_than_a_ray(obj):
     """The dome skips the rays where its sphere is certainly clear of the object: that
