@@ -18,6 +18,7 @@ from twin.core.poses import Pose
 from twin.core.scenario import scenario_from_dict
 from twin.runs.sim_env import SimEnvironment
 from twin.world.dome.compliant import COMPLIANT_LEVELS, SKIN_PHYSICS, CompliantPhysics
+from twin.world.dome.compliant import contact as compliant_contact
 from twin.world.dome.compliant import physics as compliant_physics
 
 LEVELS = list(COMPLIANT_LEVELS)
@@ -85,6 +86,47 @@ def test_frictionless_and_very_high_friction(level, friction):
         # of slip or gap is r·0.1 µm of force at a node of stiffness r (N/m), up to 0.03 %
         # of μ·p over the stiff skin membrane
         assert np.all(tangential <= 1.01 * friction * normal)
+
+
+def test_where_newton_stalls_it_follows_the_friction_up(monkeypatch):
+    """The skin shell held at 75° over its gel (the DigiTac fit, its stiffness scaled to the
+    4.3 N press: docs/real-sensor.md, "The fitted dome's stiffness scale") on 1.0 mm nodes
+    at μ = 3: pressing 3 mm onto the edge, Newton stalls from the warm start at every
+    augmentation parameter (docs/measurements/finding-2026-12-05-shipped-scenarios,
+    newton-stall.txt). Followed up from lower friction, Newton itself solves those
+    increments, where the alternation took 51 s; the forces keep Coulomb's bound."""
+    frictions, passes = [], []
+    newton, alternation = compliant_contact._newton, compliant_contact.alternation_pass
+
+    def newton_seen(matrix, offset, friction, *args):
+        frictions.append(friction)
+        return newton(matrix, offset, friction, *args)
+
+    def alternation_seen(*args, **kwargs):
+        passes.append(1)
+        return alternation(*args, **kwargs)
+
+    monkeypatch.setattr(compliant_contact, "_newton", newton_seen)
+    monkeypatch.setattr(compliant_contact, "alternation_pass", alternation_seen)
+    skin = {
+        "surface_spacing_mm": 1.0,
+        "gel_young_kpa": 18.78,
+        "membrane_young_mpa": 0.2347,
+        "skin_bending": True,
+        "skin_bending_mpa": 0.4068,
+        "skin_held_deg": 75,
+        "pin_lever_mm": 1.55,
+        "tip_sway_mm_per_n": 0.1342,
+        "apex_radius_mm": 30,
+    }
+    spec = {"name": "stall", "object": {"name": "rectangle", "friction": 3.0}, "dome": "compliant", "physics": skin}
+    env = SimEnvironment(scenario_from_dict(spec), start_pose=Pose(60, 0, -2, 0, 0, 0))
+    env.reset()
+    env.move_to(Pose(60, 0, 3.0, 0, 0, 0), 20.0)
+    assert any(0.0 < mu < 3.0 for mu in frictions)  # Newton stalled at μ and took the path
+    assert passes == []  # and the path solved every increment
+    force = env.observe_frame().contact_force_tool
+    assert 2.0 < abs(force[2]) and np.linalg.norm(force[:2]) <= 1.01 * 3.0 * abs(force[2])
 
 
 @pytest.mark.parametrize("level", LEVELS)

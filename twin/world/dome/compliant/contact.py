@@ -24,10 +24,17 @@ iterations (where its line search finds no descent at a kink of the merit functi
 the full step anyway, up to FULL_STEPS times); where Newton stalls (far from the solution,
 or nodes that barely touch) it is restarted from the warm start with smaller augmentation
 parameters (AUGMENTATION_SCALES: the same roots; they rescue high friction over the skin
-membrane), and where that stalls too the alternation takes over, converging linearly
+membrane); where that stalls too, the roots are followed up from lower friction
+(continuation in μ, each stage warm-started from the last: over a skin shell on 1.0 mm
+nodes at μ = 3, a press onto an edge in 3 s where the alternation took 51 s), and
+where that stalls as well the alternation takes over, converging linearly
 (up to ALTERNATION_PASSES), with Newton retried from its iterate every NEWTON_RETRY_PASSES
 passes: near the solution Newton finishes what the alternation started (μ = 2–3 over the
 skin membrane).
+Where an increment has several solutions, the one returned is the one its path reaches:
+at μ = 3 over that shell, paths of rising friction ending at the same increment of a
+reversal found six, up to 81 µm of gap or slip apart at a node
+(docs/measurements/finding-2026-12-05-friction-path).
 The normal problem alone (frictionless, and each alternation pass) is solved by active
 sets (exact Cholesky solves on the nodes in contact); the tangential one in a pass by
 accelerated projected gradient with adaptive restart (Nesterov; O'Donoghue & Candès
@@ -51,6 +58,10 @@ NEWTON_ITERATIONS = 100
 #: the augmentation parameter r as a multiple of a node's own stiffness: Newton's first
 #: run, then its restarts where it stalls
 AUGMENTATION_SCALES = (1.0, 0.3, 0.1)
+#: continuation in friction where Newton stalls at μ: its first step, and the smallest it
+#: halves to before the alternation takes over, as fractions of μ
+FRICTION_FIRST_STEP = 1.0 / 6.0
+FRICTION_SMALLEST_STEP = 1.0 / 64.0
 #: full Newton steps taken where the line search finds no descent, per Newton run
 FULL_STEPS = 10
 #: alternation passes that may take a stalled Newton iteration near the solution
@@ -615,7 +626,10 @@ def solve_coulomb(
     (r = a node's own stiffness), by semismooth Newton with a backtracking line search on
     |Φ|² (where it finds no descent, the full step, up to FULL_STEPS times); where that
     stalls, by Newton again from `start` with r scaled down (AUGMENTATION_SCALES); where
-    that stalls too, by `alternation_pass`, with Newton retried from its iterate every
+    that stalls too, by Newton along a path of rising friction (FRICTION_FIRST_STEP of μ
+    first, each stage from the last one's roots at each of those r, the step halved
+    where a stage stalls, down to FRICTION_SMALLEST_STEP, and doubled where it converges);
+    where that stalls as well, by `alternation_pass`, with Newton retried from its iterate every
     NEWTON_RETRY_PASSES passes, until the residual is below `tolerance`. The residual,
     Φ/r, is in metres: the largest gap, penetration or slip left over. max_iterations
     bounds each projected gradient, and Newton to NEWTON_ITERATIONS per run. Returns (f,
@@ -626,13 +640,15 @@ def solve_coulomb(
     friction = float(friction)
     strengths = _strengths(adhesion, len(offset) // 3)
 
-    def newton(f: np.ndarray, r_n: np.ndarray, r_t: np.ndarray, budget: int) -> tuple[np.ndarray, int, float]:
-        """`_newton` from f; returns (f, iterations, residual) at convergence, else the best
-        iterate where it stalls or runs out of iterations."""
+    def newton(
+        f: np.ndarray, r_n: np.ndarray, r_t: np.ndarray, budget: int, mu: float = friction
+    ) -> tuple[np.ndarray, int, float]:
+        """`_newton` at friction `mu` from f; returns (f, iterations, residual) at
+        convergence, else the best iterate where it stalls or runs out of iterations."""
         f, iterations, residual, contact = _newton(
             matrix,
             offset,
-            friction,
+            mu,
             strengths,
             np.ascontiguousarray(f, dtype=float),
             r_n,
@@ -658,10 +674,29 @@ def solve_coulomb(
             f, residual = attempt, attempt_residual
         if residual < tolerance:
             return f, done, residual
-    # Newton stalled at every scale (at a kink, a singular Jacobian, or cycling between
-    # contact sets at nodes that barely touch): the normal/tangential alternation, linear
-    # but steady, brings the iterate near the solution, and Newton, retried from there
-    # every NEWTON_RETRY_PASSES passes, finishes it. The alternation's own stop is the
+    # stalled at every scale: the same roots followed up from lower friction
+    if friction > 0.0:
+        path, reached, rise = start, 0.0, friction * FRICTION_FIRST_STEP
+        while rise >= friction * FRICTION_SMALLEST_STEP:
+            target = min(friction, reached + rise)
+            for scale in AUGMENTATION_SCALES:
+                attempt, iterations, attempt_residual = newton(
+                    path, scale * stiffness_n, scale * stiffness_t, budget, target
+                )
+                done += iterations
+                if attempt_residual < tolerance:
+                    break
+            if attempt_residual >= tolerance:
+                rise *= 0.5
+                continue
+            path, reached = attempt, target
+            if reached >= friction:
+                return attempt, done, attempt_residual
+            rise *= 2.0
+    # Newton stalled at every scale and along the friction path (at a kink, a singular
+    # Jacobian, cycling between contact sets at nodes that barely touch): the
+    # normal/tangential alternation, linear but steady, brings the iterate near the
+    # solution, and Newton, retried from there every NEWTON_RETRY_PASSES passes, finishes it. The alternation's own stop is the
     # residual, not the change per pass: at a contraction of 0.93 a change below the
     # tolerance still leaves 14 times as much to go.
     tangential = np.flatnonzero(np.arange(len(offset)) % 3)  # every node's t1, t2
