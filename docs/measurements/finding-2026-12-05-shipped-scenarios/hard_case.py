@@ -3,10 +3,10 @@ test_frictionless_and_very_high_friction) on one dome: μ = 3, press 3 mm on the
 rectangle's edge, slide 6 mm along it, reverse 12 mm, come back. Prints each move's
 seconds and the contact force (N, tool frame) after it.
 
-    python hard_case.py LEVEL [--fitted] [physics_key=value ...]
+    python hard_case.py LEVEL [--fitted] [--friction=MU] [physics_key=value ...]
 
 --fitted: the fitted dome (fitted.yaml) at the level's node spacing; key=value entries
-change its `physics` (or the plain solid's, without --fitted).
+change its `physics` (or the plain solid's, without --fitted); --friction: μ instead of 3.
 """
 
 import sys
@@ -24,11 +24,12 @@ from twin.runs.sim_env import SimEnvironment
 FITTED: dict = yaml.safe_load((Path(__file__).parent / "fitted.yaml").read_text())["physics"]
 
 
-def environment(level: str, physics: dict) -> SimEnvironment:
-    """The compliant dome at `level` with `physics`, started out of contact above the edge."""
+def environment(level: str, physics: dict, friction: float = 3.0) -> SimEnvironment:
+    """The compliant dome at `level` with `physics` on the rectangle of `friction`, started
+    out of contact above the edge."""
     spec = {
         "name": "hard_case",
-        "object": {"name": "rectangle", "friction": 3.0},
+        "object": {"name": "rectangle", "friction": friction},
         "dome": "compliant",
         "fidelity": level,
         "effects": ["contact", "friction"],
@@ -49,8 +50,9 @@ def moves(env: SimEnvironment) -> Iterator[float]:
 if __name__ == "__main__":
     args = sys.argv[2:]
     physics = dict(FITTED) if "--fitted" in args else {}
-    physics |= {k: yaml.safe_load(v) for k, v in (a.split("=", 1) for a in args if a != "--fitted")}
-    env = environment(sys.argv[1], physics)
+    friction = next((float(a.split("=", 1)[1]) for a in args if a.startswith("--friction=")), 3.0)
+    physics |= {k: yaml.safe_load(v) for k, v in (a.split("=", 1) for a in args if not a.startswith("--"))}
+    env = environment(sys.argv[1], physics, friction)
     t0 = time.perf_counter()
     for y in moves(env):
         force = env.observe_frame().contact_force_tool
