@@ -365,9 +365,9 @@ def test_scaling_every_stiffness_scales_the_forces_and_moves_no_pin():
     k = 0.4
     softer = skin | {key: skin[key] * k for key in ("gel_young_kpa", "membrane_young_mpa", "skin_bending_mpa")}
     softer |= {"skin_tension_n_m": skin["skin_tension_n_m"] * k, "tip_sway_mm_per_n": skin["tip_sway_mm_per_n"] / k}
+    spec = {"name": "scale", "object": {"name": "rectangle"}, "dome": "compliant", "fidelity": "fast"}
     readings = []
     for physics in (skin, softer):
-        spec = {"name": "scale", "object": {"name": "rectangle"}, "dome": "compliant", "fidelity": "fast"}
         env = SimEnvironment(scenario_from_dict(spec | {"physics": physics}), start_pose=Pose(60, 0, -2, 0, 0, 0))
         env.reset()
         path = []

@@ -8,10 +8,11 @@ force. This takes k from the 4 mm press centred on the edge (4.3 N, the force ev
 dome of the twin is calibrated to), then presses, slides and turns both domes side by
 side and prints the forces, their ratio and the largest pin difference.
 
-    python force_scale.py
+    python force_scale.py   # also writes scaled.yaml, the scaled entries
 """
 
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -22,10 +23,12 @@ from twin.core.poses import Pose
 from twin.core.scenario import scenario_from_dict
 from twin.runs.sim_env import SimEnvironment
 
-#: the fitted dome's `physics` (../finding-2026-12-05-shipped-scenarios/fitted.yaml) at its own 1.8 mm nodes
-FITTED = yaml.safe_load(
-    (Path(__file__).parent.parent / "finding-2026-12-05-shipped-scenarios" / "fitted.yaml").read_text()
-)["physics"] | {"surface_spacing_mm": 1.8}
+sys.path.insert(0, str(Path(__file__).parent.parent / "finding-2026-12-05-shipped-scenarios"))
+from hard_case import FITTED as FITTED_ENTRIES  # noqa: E402
+from hard_case import SCALED_FILE  # noqa: E402
+
+#: the fitted dome's `physics` at its own 1.8 mm nodes
+FITTED = FITTED_ENTRIES | {"surface_spacing_mm": 1.8}
 #: the force the twin's domes take at a 4 mm press centred on a straight edge (N)
 EDGE_PRESS_N = 4.3
 MODULI = ("gel_young_kpa", "membrane_young_mpa", "skin_bending_mpa")
@@ -69,6 +72,11 @@ if __name__ == "__main__":
     rounded = {key: float(f"{v:.4g}") for key, v in scaled(FITTED, k).items() if key in (*MODULI, "tip_sway_mm_per_n")}
     print(f"fitted dome: {fitted[1][1]:.3f} N at the 4 mm edge press; k = {EDGE_PRESS_N} / that = {k:.5f}")
     print("scaled entries (4 significant figures):", ", ".join(f"{key}: {v:g}" for key, v in rounded.items()))
+    SCALED_FILE.write_text(
+        f"# force_scale.py's output: the fitted dome's moduli × {k:.5f} and its sway / that,\n"
+        "# to go over ../finding-2026-12-05-shipped-scenarios/fitted.yaml's physics\n"
+        + yaml.safe_dump({"physics": rounded}, sort_keys=False)
+    )
     scaled_dome = readings(FITTED | rounded)
     print(
         f"{'move (x, y, z mm, gamma deg)':32s} {'fitted N':>9s} {'scaled N':>9s} {'ratio':>7s} {'pins differ (mm)':>17s}"

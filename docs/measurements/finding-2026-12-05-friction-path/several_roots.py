@@ -4,8 +4,8 @@
 Runs ../finding-2026-12-05-shipped-scenarios/hard_case.py's moves. At each increment of
 the reversal on which semismooth Newton stalls from the warm start at every augmentation
 parameter, it follows the friction up from μ/10 … μ/2, growing each converged stage by
-×1.3 … ×2 (halving where a stage stalls, as twin.world.dome.compliant.contact.
-solve_coulomb does), and prints how many of those paths reach μ = 3, their largest
+×1.3 … ×2 (twin.world.dome.compliant.contact.rising_friction, which solve_coulomb
+follows from μ/6, ×2), and prints how many of those paths reach μ = 3, their largest
 Alart–Curnier residual (below the 0.1 µm tolerance: each is a solution) and how far
 their forces and their nodes' gaps and slips lie apart. The run goes on from the first
 path's solution, and stops at the first increment whose paths end apart, or after
@@ -22,13 +22,10 @@ import numpy as np
 from twin.world.dome.compliant import contact
 
 sys.path.insert(0, str(Path(__file__).parent.parent / "finding-2026-12-05-shipped-scenarios"))
-from hard_case import FITTED, environment, moves  # noqa: E402
+from hard_case import FITTED, environment, moves, scaled_entries  # noqa: E402
 
-SCALED = {"gel_young_kpa": 18.78, "membrane_young_mpa": 0.2347, "skin_bending_mpa": 0.4068, "tip_sway_mm_per_n": 0.1342}
 #: (first stage as a fraction of μ, growth after a converged stage)
 PATHS = [(1 / 6, 2.0), (1 / 6, 1.5), (1 / 3, 1.5), (1 / 2, 2.0), (1 / 10, 1.3), (1 / 4, 1.5)]
-
-
 #: stalled increments looked at before giving up
 MAX_STALLS = 25
 
@@ -37,17 +34,14 @@ class Apart(Exception):
     """Stops the run at an increment with solutions apart."""
 
 
-def stalls(matrix, offset, friction, start, tolerance) -> bool:
-    """Whether Newton stalls from `start` at every augmentation parameter."""
-    strengths = contact._strengths(None, len(offset) // 3)
-    r_n, r_t = contact.own_stiffness(matrix)
-    return all(
-        contact._newton(
-            matrix, offset, friction, strengths, start, s * r_n, s * r_t, 100, tolerance, contact.FULL_STEPS
-        )[2]
-        >= tolerance
-        for s in contact.AUGMENTATION_SCALES
-    )
+def converged_from_start(runs: contact.NewtonRuns, start: np.ndarray, friction: float) -> np.ndarray | None:
+    """Newton's roots from `start` at the first augmentation parameter where it converges
+    (what solve_coulomb returns there), or None where it stalls at every one."""
+    for scale in contact.AUGMENTATION_SCALES:
+        f, _, residual = runs.newton(start, friction, scale)
+        if residual < runs.tolerance:
+            return f
+    return None
 
 
 def solve_along_paths(reversing: list[bool], stalled: list[int]):
@@ -56,11 +50,21 @@ def solve_along_paths(reversing: list[bool], stalled: list[int]):
     solve = contact.solve_coulomb
 
     def solve_and_report(matrix, offset, friction, start, tolerance, max_iterations, adhesion=None):
-        start = np.ascontiguousarray(start, float)
-        if not (reversing[0] and stalls(matrix, offset, friction, start, tolerance)):
+        if not reversing[0]:
             return solve(matrix, offset, friction, start, tolerance, max_iterations, adhesion)
+        runs = contact.NewtonRuns(
+            np.ascontiguousarray(matrix, float),
+            np.ascontiguousarray(offset, float),
+            contact._strengths(adhesion, len(offset) // 3),
+            tolerance,
+            contact.NEWTON_ITERATIONS,
+        )
+        start = np.ascontiguousarray(start, float)
+        f = converged_from_start(runs, start, friction)
+        if f is not None:
+            return f, 0, 0.0
         stalled[0] += 1
-        roots = report(matrix, offset, friction, start, tolerance, stalled[0])
+        roots = report(runs, friction, start, stalled[0])
         if len(roots) > 1 and max(np.abs(r - roots[0]).max() for r in roots[1:]) > 1e-4:
             raise Apart
         if stalled[0] >= MAX_STALLS:
@@ -72,61 +76,39 @@ def solve_along_paths(reversing: list[bool], stalled: list[int]):
     return solve_and_report
 
 
-def report(matrix, offset, friction, start, tolerance, number) -> list[np.ndarray]:
+def report(runs: contact.NewtonRuns, friction: float, start: np.ndarray, number: int) -> list[np.ndarray]:
     """The solutions at μ along PATHS, with a line on each."""
-    nodes = len(offset) // 3
-    strengths = contact._strengths(None, nodes)
-    r_n, r_t = contact.own_stiffness(matrix)
+    nodes = len(runs.offset) // 3
     print(f"stalled increment {number} of the reversal: {nodes} candidate nodes, μ = {friction:g}")
-    roots = []
+    roots, gaps_slips = [], []
     for first, grow in PATHS:
-        f = follow(matrix, offset, friction, start, tolerance, first, grow)
+        f, _, _ = contact.rising_friction(runs, start, friction, first, grow)
         label = f"from {first:.3f} μ, ×{grow:g}"
         if f is None:
             print(f"  {label}: stalled")
             continue
-        residual = np.abs(contact._alart_curnier_residual(matrix, offset, friction, strengths, f, r_n, r_t)).max()
-        forces, gaps_slips = f.reshape(-1, 3), (matrix @ f + offset).reshape(-1, 3)
+        forces, gaps_slips_f = f.reshape(-1, 3), (runs.matrix @ f + runs.offset).reshape(-1, 3)
         total = forces.sum(axis=0)
-        line = f"  {label}: residual {residual * 1e6:.3f} µm, total (p, q1, q2) ({total[0]:.4f}, {total[1]:+.4f}, {total[2]:+.4f}) N"
+        line = (
+            f"  {label}: residual {runs.residual(f, friction) * 1e6:.3f} µm, "
+            f"total (p, q1, q2) ({total[0]:.4f}, {total[1]:+.4f}, {total[2]:+.4f}) N"
+        )
         if roots:
             apart = np.abs(forces - roots[0].reshape(-1, 3)).max(axis=1)
             line += (
                 f"; from the first: force {apart.max() * 1e3:.1f} mN at most, {int((apart > 1e-4).sum())} nodes "
-                f"over 0.1 mN, gap/slip {np.abs(gaps_slips - (matrix @ roots[0] + offset).reshape(-1, 3)).max() * 1e6:.1f} µm at most"
+                f"over 0.1 mN, gap/slip {np.abs(gaps_slips_f - gaps_slips[0]).max() * 1e6:.1f} µm at most"
             )
         roots.append(f)
+        gaps_slips.append(gaps_slips_f)
         print(line, flush=True)
     return roots
-
-
-def follow(matrix, offset, friction, start, tolerance, first, grow):
-    """Newton along rising friction from `first` × μ; the roots at μ, or None."""
-    strengths = contact._strengths(None, len(offset) // 3)
-    r_n, r_t = contact.own_stiffness(matrix)
-    f, reached, rise = start, 0.0, friction * first
-    while rise >= friction / 64:
-        target = min(friction, reached + rise)
-        for s in contact.AUGMENTATION_SCALES:
-            attempt, _, residual, _ = contact._newton(
-                matrix, offset, target, strengths, f, s * r_n, s * r_t, 100, tolerance, contact.FULL_STEPS
-            )
-            if residual < tolerance:
-                break
-        if residual >= tolerance:
-            rise *= 0.5
-            continue
-        f, reached = attempt, target
-        if reached >= friction:
-            return f
-        rise *= grow
-    return None
 
 
 if __name__ == "__main__":
     reversing, stalled = [False], [0]
     contact.solve_coulomb = solve_along_paths(reversing, stalled)
-    env = environment("default", FITTED | SCALED | {"surface_spacing_mm": 1.0}, friction=3.0)
+    env = environment("default", FITTED | scaled_entries() | {"surface_spacing_mm": 1.0}, friction=3.0)
     try:
         for y in moves(env):
             reversing[0] = y == 6.0  # the next move is the reversal

@@ -3,10 +3,12 @@ test_frictionless_and_very_high_friction) on one dome: μ = 3, press 3 mm on the
 rectangle's edge, slide 6 mm along it, reverse 12 mm, come back. Prints each move's
 seconds and the contact force (N, tool frame) after it.
 
-    python hard_case.py LEVEL [--fitted] [--friction=MU] [physics_key=value ...]
+    python hard_case.py LEVEL [--fitted [--scaled]] [--friction=MU] [physics_key=value ...]
 
---fitted: the fitted dome (fitted.yaml) at the level's node spacing; key=value entries
-change its `physics` (or the plain solid's, without --fitted); --friction: μ instead of 3.
+--fitted: the fitted dome (fitted.yaml) at the level's node spacing; --scaled: with its
+stiffness scaled to the 4.3 N edge press (../finding-2026-12-05-force-scale/scaled.yaml);
+key=value entries change its `physics` (or the plain solid's, without --fitted);
+--friction: μ instead of 3.
 """
 
 import sys
@@ -22,6 +24,13 @@ from twin.runs.sim_env import SimEnvironment
 
 #: fitted.yaml's `physics`: the fitted dome's entries
 FITTED: dict = yaml.safe_load((Path(__file__).parent / "fitted.yaml").read_text())["physics"]
+#: the fitted dome's entries scaled to the 4.3 N edge press, written by force_scale.py there
+SCALED_FILE = Path(__file__).parent.parent / "finding-2026-12-05-force-scale" / "scaled.yaml"
+
+
+def scaled_entries() -> dict:
+    """SCALED_FILE's `physics` entries (the moduli and the sway), to go over FITTED."""
+    return yaml.safe_load(SCALED_FILE.read_text())["physics"]
 
 
 def environment(level: str, physics: dict, friction: float = 3.0) -> SimEnvironment:
@@ -50,6 +59,7 @@ def moves(env: SimEnvironment) -> Iterator[float]:
 if __name__ == "__main__":
     args = sys.argv[2:]
     physics = dict(FITTED) if "--fitted" in args else {}
+    physics |= scaled_entries() if "--scaled" in args else {}
     friction = next((float(a.split("=", 1)[1]) for a in args if a.startswith("--friction=")), 3.0)
     physics |= {k: yaml.safe_load(v) for k, v in (a.split("=", 1) for a in args if not a.startswith("--"))}
     env = environment(sys.argv[1], physics, friction)

@@ -47,6 +47,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve
@@ -62,6 +63,8 @@ AUGMENTATION_SCALES = (1.0, 0.3, 0.1)
 #: halves to before the alternation takes over, as fractions of μ
 FRICTION_FIRST_STEP = 1.0 / 6.0
 FRICTION_SMALLEST_STEP = 1.0 / 64.0
+#: what that step is multiplied by after a stage converges
+FRICTION_STEP_GROWTH = 2.0
 #: full Newton steps taken where the line search finds no descent, per Newton run
 FULL_STEPS = 10
 #: alternation passes that may take a stalled Newton iteration near the solution
@@ -606,6 +609,84 @@ def own_stiffness(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return 1.0 / diagonal[0::3], 1.0 / (0.5 * (diagonal[1::3] + diagonal[2::3]))
 
 
+@dataclass(frozen=True)
+class NewtonRuns:
+    """`solve_coulomb`'s problem, for semismooth Newton runs on it at any friction: matrix
+    (3m, 3m) m/N and offset (3m,) m as there, strengths (m, 2) N (`_strengths`), the
+    residual's tolerance (m) and each run's iteration budget. The augmentation parameters
+    are multiples of each node's own stiffness (`own_stiffness`)."""
+
+    matrix: np.ndarray
+    offset: np.ndarray
+    strengths: np.ndarray
+    tolerance: float
+    budget: int
+
+    @cached_property
+    def stiffness(self) -> tuple[np.ndarray, np.ndarray]:
+        """(m,), (m,) N/m: `own_stiffness` of the matrix."""
+        return own_stiffness(self.matrix)
+
+    def newton(
+        self, start: np.ndarray, friction: float, scale: float = 1.0, budget: int | None = None
+    ) -> tuple[np.ndarray, int, float]:
+        """`_newton` from `start` at `friction` with r = scale × own stiffness, for `budget`
+        iterations (None: the problem's); returns (f, iterations, residual) at
+        convergence, else the best iterate where it stalls or runs out of iterations."""
+        r_n, r_t = self.stiffness
+        f, iterations, residual, contact = _newton(
+            self.matrix,
+            self.offset,
+            friction,
+            self.strengths,
+            np.ascontiguousarray(start, dtype=float),
+            scale * r_n,
+            scale * r_t,
+            self.budget if budget is None else budget,
+            self.tolerance,
+            FULL_STEPS,
+        )
+        if residual < self.tolerance:
+            f.reshape(-1, 3)[~contact] = 0.0  # free nodes carry nothing (not round-off)
+        return f, iterations, residual
+
+    def residual(self, f: np.ndarray, friction: float) -> float:
+        """The largest Alart–Curnier residual (m) of f at `friction`, r = own stiffness."""
+        phi = _alart_curnier_residual(self.matrix, self.offset, friction, self.strengths, f, *self.stiffness)
+        return float(np.max(np.abs(phi), initial=0.0))
+
+
+def rising_friction(
+    problem: NewtonRuns,
+    start: np.ndarray,
+    friction: float,
+    first_step: float = FRICTION_FIRST_STEP,
+    growth: float = FRICTION_STEP_GROWTH,
+) -> tuple[np.ndarray | None, int, float]:
+    """The roots at `friction` (> 0) followed up from lower friction: Newton at
+    first_step × μ from `start`, then each stage from the last one's roots, at each of
+    AUGMENTATION_SCALES until one converges; the step × `growth` after a stage that
+    converges, halved after one that stalls, until μ is reached or the step falls below
+    FRICTION_SMALLEST_STEP × μ. Returns (f at μ or None, Newton iterations, the last
+    run's residual (m))."""
+    path, reached, rise, done, residual = start, 0.0, friction * first_step, 0, np.inf
+    while rise >= friction * FRICTION_SMALLEST_STEP:
+        target = min(friction, reached + rise)
+        for scale in AUGMENTATION_SCALES:
+            attempt, iterations, residual = problem.newton(path, target, scale)
+            done += iterations
+            if residual < problem.tolerance:
+                break
+        if residual >= problem.tolerance:
+            rise *= 0.5
+            continue
+        path, reached = attempt, target
+        if reached >= friction:
+            return attempt, done, residual
+        rise *= growth
+    return None, done, residual
+
+
 def solve_coulomb(
     matrix: np.ndarray,
     offset: np.ndarray,
@@ -628,7 +709,8 @@ def solve_coulomb(
     stalls, by Newton again from `start` with r scaled down (AUGMENTATION_SCALES); where
     that stalls too, by Newton along a path of rising friction (FRICTION_FIRST_STEP of μ
     first, each stage from the last one's roots at each of those r, the step halved
-    where a stage stalls, down to FRICTION_SMALLEST_STEP, and doubled where it converges);
+    where a stage stalls, down to FRICTION_SMALLEST_STEP, and grown by FRICTION_STEP_GROWTH
+    where it converges: `rising_friction`);
     where that stalls as well, by `alternation_pass`, with Newton retried from its iterate every
     NEWTON_RETRY_PASSES passes, until the residual is below `tolerance`. The residual,
     Φ/r, is in metres: the largest gap, penetration or slip left over. max_iterations
@@ -639,85 +721,43 @@ def solve_coulomb(
     offset = np.ascontiguousarray(offset, dtype=float)
     friction = float(friction)
     strengths = _strengths(adhesion, len(offset) // 3)
-
-    def newton(
-        f: np.ndarray, r_n: np.ndarray, r_t: np.ndarray, budget: int, mu: float = friction
-    ) -> tuple[np.ndarray, int, float]:
-        """`_newton` at friction `mu` from f; returns (f, iterations, residual) at
-        convergence, else the best iterate where it stalls or runs out of iterations."""
-        f, iterations, residual, contact = _newton(
-            matrix,
-            offset,
-            mu,
-            strengths,
-            np.ascontiguousarray(f, dtype=float),
-            r_n,
-            r_t,
-            budget,
-            tolerance,
-            FULL_STEPS,
-        )
-        if residual < tolerance:
-            f.reshape(-1, 3)[~contact] = 0.0  # free nodes carry nothing (not round-off)
-        return f, iterations, residual
-
+    problem = NewtonRuns(matrix, offset, strengths, tolerance, min(max_iterations, NEWTON_ITERATIONS))
     # r = a node's own stiffness; where Newton stalls with it (at high friction the
     # tangential predictor z = q − r v overshoots the disc), again from the start with
     # smaller r: the same roots, a gentler predictor
-    stiffness_n, stiffness_t = own_stiffness(matrix)
-    budget = min(max_iterations, NEWTON_ITERATIONS)
     done, residual = 0, np.inf
     for scale in AUGMENTATION_SCALES:
-        attempt, iterations, attempt_residual = newton(start, scale * stiffness_n, scale * stiffness_t, budget)
+        attempt, iterations, attempt_residual = problem.newton(start, friction, scale)
         done += iterations
         if attempt_residual < residual:
             f, residual = attempt, attempt_residual
         if residual < tolerance:
             return f, done, residual
-    # stalled at every scale: the same roots followed up from lower friction
     if friction > 0.0:
-        path, reached, rise = start, 0.0, friction * FRICTION_FIRST_STEP
-        while rise >= friction * FRICTION_SMALLEST_STEP:
-            target = min(friction, reached + rise)
-            for scale in AUGMENTATION_SCALES:
-                attempt, iterations, attempt_residual = newton(
-                    path, scale * stiffness_n, scale * stiffness_t, budget, target
-                )
-                done += iterations
-                if attempt_residual < tolerance:
-                    break
-            if attempt_residual >= tolerance:
-                rise *= 0.5
-                continue
-            path, reached = attempt, target
-            if reached >= friction:
-                return attempt, done, attempt_residual
-            rise *= 2.0
+        roots, iterations, residual = rising_friction(problem, start, friction)
+        done += iterations
+        if roots is not None:
+            return roots, done, residual
     # Newton stalled at every scale and along the friction path (at a kink, a singular
     # Jacobian, cycling between contact sets at nodes that barely touch): the
     # normal/tangential alternation, linear but steady, brings the iterate near the
-    # solution, and Newton, retried from there every NEWTON_RETRY_PASSES passes, finishes it. The alternation's own stop is the
-    # residual, not the change per pass: at a contraction of 0.93 a change below the
-    # tolerance still leaves 14 times as much to go.
+    # solution, and Newton, retried from there every NEWTON_RETRY_PASSES passes, finishes
+    # it. The alternation's own stop is the residual, not the change per pass: at a
+    # contraction of 0.93 a change below the tolerance still leaves 14 times as much to go.
     tangential = np.flatnonzero(np.arange(len(offset)) % 3)  # every node's t1, t2
     lipschitz = largest_eigenvalue(matrix[np.ix_(tangential, tangential)])  # the same for every pass
-    retry_budget = min(budget, NEWTON_RETRY_ITERATIONS)
+    retry_budget = min(problem.budget, NEWTON_RETRY_ITERATIONS)
     for passes in range(1, ALTERNATION_PASSES + 1):
         moved = alternation_pass(matrix, offset, friction, f, 0.1 * tolerance, max_iterations, lipschitz, adhesion)
         change = float(np.max(np.abs(matrix @ (moved - f)), initial=0.0))
         f = moved
         if change < tolerance or passes % NEWTON_RETRY_PASSES == 0:
             # Newton measures the residual first and returns at once where it is met
-            attempt, iterations, attempt_residual = newton(f, stiffness_n, stiffness_t, retry_budget)
+            attempt, iterations, attempt_residual = problem.newton(f, friction, budget=retry_budget)
             done += iterations
             if attempt_residual < tolerance:
                 return attempt, done + passes, attempt_residual
-    residual = float(
-        np.max(
-            np.abs(_alart_curnier_residual(matrix, offset, friction, strengths, f, stiffness_n, stiffness_t)),
-            initial=0.0,
-        )
-    )
+    residual = problem.residual(f, friction)
     raise ContactNotConverged(
         f"semismooth Newton stalled after {done} iterations and the normal/tangential "
         f"alternation leaves a residual of {residual:.3g} m (its last pass changed "
