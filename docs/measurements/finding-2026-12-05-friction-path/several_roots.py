@@ -34,16 +34,6 @@ class Apart(Exception):
     """Stops the run at an increment with solutions apart."""
 
 
-def converged_from_start(runs: contact.NewtonRuns, start: np.ndarray, friction: float) -> np.ndarray | None:
-    """Newton's roots from `start` at the first augmentation parameter where it converges
-    (what solve_coulomb returns there), or None where it stalls at every one."""
-    for scale in contact.AUGMENTATION_SCALES:
-        f, _, residual = runs.newton(start, friction, scale)
-        if residual < runs.tolerance:
-            return f
-    return None
-
-
 def solve_along_paths(reversing: list[bool], stalled: list[int]):
     """solve_coulomb, which at the reversal's stalled increments reports every path's
     solution, goes on from the first, and raises Apart where they differ."""
@@ -52,17 +42,11 @@ def solve_along_paths(reversing: list[bool], stalled: list[int]):
     def solve_and_report(matrix, offset, friction, start, tolerance, max_iterations, adhesion=None):
         if not reversing[0]:
             return solve(matrix, offset, friction, start, tolerance, max_iterations, adhesion)
-        runs = contact.NewtonRuns(
-            np.ascontiguousarray(matrix, float),
-            np.ascontiguousarray(offset, float),
-            contact._strengths(adhesion, len(offset) // 3),
-            tolerance,
-            contact.NEWTON_ITERATIONS,
-        )
+        runs = contact.NewtonRuns.of(matrix, offset, tolerance, max_iterations, adhesion)
         start = np.ascontiguousarray(start, float)
-        f = converged_from_start(runs, start, friction)
-        if f is not None:
-            return f, 0, 0.0
+        f, iterations, residual = runs.from_start(start, friction)
+        if residual < tolerance:
+            return f, iterations, residual  # what solve_coulomb returns there
         stalled[0] += 1
         roots = report(runs, friction, start, stalled[0])
         if len(roots) > 1 and max(np.abs(r - roots[0]).max() for r in roots[1:]) > 1e-4:

@@ -622,6 +622,26 @@ class NewtonRuns:
     tolerance: float
     budget: int
 
+    @classmethod
+    def of(
+        cls,
+        matrix: np.ndarray,
+        offset: np.ndarray,
+        tolerance: float,
+        max_iterations: int,
+        adhesion: np.ndarray | None = None,
+    ) -> NewtonRuns:
+        """`solve_coulomb`'s problem from its arguments: each run's budget is
+        max_iterations, at most NEWTON_ITERATIONS."""
+        offset = np.ascontiguousarray(offset, dtype=float)
+        return cls(
+            np.ascontiguousarray(matrix, dtype=float),
+            offset,
+            _strengths(adhesion, len(offset) // 3),
+            tolerance,
+            min(max_iterations, NEWTON_ITERATIONS),
+        )
+
     @cached_property
     def stiffness(self) -> tuple[np.ndarray, np.ndarray]:
         """(m,), (m,) N/m: `own_stiffness` of the matrix."""
@@ -650,6 +670,22 @@ class NewtonRuns:
             f.reshape(-1, 3)[~contact] = 0.0  # free nodes carry nothing (not round-off)
         return f, iterations, residual
 
+    def from_start(self, start: np.ndarray, friction: float) -> tuple[np.ndarray, int, float]:
+        """Newton from `start` at each of AUGMENTATION_SCALES until one converges: r = a
+        node's own stiffness first, then (where Newton stalls with it: at high friction the
+        tangential predictor z = q − r v overshoots the disc) smaller r, the same roots with
+        a gentler predictor. Returns (f, iterations, residual): the roots, or where every
+        run stalls the best iterate of all."""
+        done, best, residual = 0, start, np.inf
+        for scale in AUGMENTATION_SCALES:
+            attempt, iterations, attempt_residual = self.newton(start, friction, scale)
+            done += iterations
+            if attempt_residual < residual:
+                best, residual = attempt, attempt_residual
+            if residual < self.tolerance:
+                break
+        return best, done, residual
+
     def residual(self, f: np.ndarray, friction: float) -> float:
         """The largest Alart–Curnier residual (m) of f at `friction`, r = own stiffness."""
         phi = _alart_curnier_residual(self.matrix, self.offset, friction, self.strengths, f, *self.stiffness)
@@ -663,20 +699,16 @@ def rising_friction(
     first_step: float = FRICTION_FIRST_STEP,
     growth: float = FRICTION_STEP_GROWTH,
 ) -> tuple[np.ndarray | None, int, float]:
-    """The roots at `friction` (> 0) followed up from lower friction: Newton at
-    first_step × μ from `start`, then each stage from the last one's roots, at each of
-    AUGMENTATION_SCALES until one converges; the step × `growth` after a stage that
-    converges, halved after one that stalls, until μ is reached or the step falls below
-    FRICTION_SMALLEST_STEP × μ. Returns (f at μ or None, Newton iterations, the last
-    run's residual (m))."""
+    """The roots at `friction` (> 0) followed up from lower friction: Newton
+    (`NewtonRuns.from_start`) at first_step × μ from `start`, then each stage from the
+    last one's roots; the step × `growth` after a stage that converges, halved after one
+    that stalls, until μ is reached or the step falls below FRICTION_SMALLEST_STEP × μ.
+    Returns (f at μ or None, Newton iterations, the last run's residual (m))."""
     path, reached, rise, done, residual = start, 0.0, friction * first_step, 0, np.inf
     while rise >= friction * FRICTION_SMALLEST_STEP:
         target = min(friction, reached + rise)
-        for scale in AUGMENTATION_SCALES:
-            attempt, iterations, residual = problem.newton(path, target, scale)
-            done += iterations
-            if residual < problem.tolerance:
-                break
+        attempt, iterations, residual = problem.from_start(path, target)
+        done += iterations
         if residual >= problem.tolerance:
             rise *= 0.5
             continue
@@ -717,22 +749,11 @@ def solve_coulomb(
     bounds each projected gradient, and Newton to NEWTON_ITERATIONS per run. Returns (f,
     Newton iterations + passes, residual); raises ContactNotConverged.
     """
-    matrix = np.ascontiguousarray(matrix, dtype=float)
-    offset = np.ascontiguousarray(offset, dtype=float)
-    friction = float(friction)
-    strengths = _strengths(adhesion, len(offset) // 3)
-    problem = NewtonRuns(matrix, offset, strengths, tolerance, min(max_iterations, NEWTON_ITERATIONS))
-    # r = a node's own stiffness; where Newton stalls with it (at high friction the
-    # tangential predictor z = q − r v overshoots the disc), again from the start with
-    # smaller r: the same roots, a gentler predictor
-    done, residual = 0, np.inf
-    for scale in AUGMENTATION_SCALES:
-        attempt, iterations, attempt_residual = problem.newton(start, friction, scale)
-        done += iterations
-        if attempt_residual < residual:
-            f, residual = attempt, attempt_residual
-        if residual < tolerance:
-            return f, done, residual
+    problem = NewtonRuns.of(matrix, offset, tolerance, max_iterations, adhesion)
+    matrix, offset, friction = problem.matrix, problem.offset, float(friction)
+    f, done, residual = problem.from_start(start, friction)
+    if residual < tolerance:
+        return f, done, residual
     if friction > 0.0:
         roots, iterations, residual = rising_friction(problem, start, friction)
         done += iterations
