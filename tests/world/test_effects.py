@@ -1,6 +1,8 @@
 """Effects: each changes what is simulated, and an effect that is off is not
 built and costs nothing — checked on the compiled model and on the constraint rows MuJoCo
-actually creates (mjData.ncon / nefc), never with timing asserts.
+actually creates (mjData.ncon / nefc) for the flex dome, whose contact MuJoCo solves (the
+compliant dome's own: tests/world/test_dome_compliant.py::test_no_contact_effect_solves_nothing),
+never with timing asserts.
 
 Scenes through twin.runs.sim_env.SimEnvironment on the rectangle's +x edge (work x = 60).
 """
@@ -16,13 +18,16 @@ from twin.runs.sim_env import SimEnvironment
 from twin.sensing.tracker import PinTracker
 
 
-def _env(effects: list[str], fidelity: str = "default", start: Pose = Pose(54, 0, -5, 0, 0, 0)) -> SimEnvironment:
+def _env(
+    effects: list[str], fidelity: str = "default", start: Pose = Pose(54, 0, -5, 0, 0, 0), dome: str = "compliant"
+) -> SimEnvironment:
     scenario = scenario_from_dict(
         {
             "name": f"effects_{'_'.join(effects) or 'none'}",
             "object": {"name": "rectangle"},
             "fidelity": fidelity,
             "effects": effects,
+            "dome": dome,
         }
     )
     return SimEnvironment(scenario, start_pose=start)
@@ -66,8 +71,8 @@ def test_friction_off_gives_no_shear(fidelity):
 
 
 def test_friction_off_builds_no_friction_rows():
-    off = _env(["contact"])
-    on = _env(["contact", "friction"])
+    off = _env(["contact"], dome="flex")
+    on = _env(["contact", "friction"], dome="flex")
     flex = off.scene.dome_handles.flex
     assert off.scene.model.flex_condim[flex] == 1 and on.scene.model.flex_condim[flex] == 3
     logs = {}
@@ -85,7 +90,7 @@ def test_friction_off_builds_no_friction_rows():
 
 
 def test_contact_off_builds_no_collisions_and_no_constraints():
-    env = _env([])
+    env = _env([], dome="flex")
     model = env.scene.model
     carrier = model.body("stimulus").id
     object_geoms = [g for g in range(model.ngeom) if model.geom_bodyid[g] == carrier]

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from twin.core.scenario import SlideProtocol, TapProtocol, hover_over, scenario_from_dict
+from twin.core.scenario import DEFAULT_DOME, SlideProtocol, TapProtocol, hover_over, scenario_from_dict
 from twin.runs.protocols import slide_moves, tap_moves
 from twin.runs.sim_env import SimEnvironment
 
@@ -35,7 +35,7 @@ DEPTH_MM = 3.0
 CENTRAL_PIN = 0  # pin order of twin.core.sensor: the central pin first
 
 
-def _environment(fidelity: str, friction: bool, dome: str = "flex"):
+def _environment(fidelity: str, friction: bool, dome: str = DEFAULT_DOME):
 
     effects = ["contact", "friction"] if friction else ["contact"]
     scenario = scenario_from_dict(
@@ -50,7 +50,7 @@ def _environment(fidelity: str, friction: bool, dome: str = "flex"):
     return SimEnvironment(scenario, start_pose=hover_over(60.0, 0.0, 0.0))
 
 
-def collect_shear_data(fidelity: str = "default", friction: bool = True, dome: str = "flex") -> dict:
+def collect_shear_data(fidelity: str = "default", friction: bool = True, dome: str = DEFAULT_DOME) -> dict:
     """Run the taps and the 8 slides on the `dome` model ('flex' or 'compliant'); returns
     the raw traces.
 

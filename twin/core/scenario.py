@@ -227,6 +227,11 @@ Protocol = Annotated[
 ]
 
 
+#: the dome model a scenario without `dome:` runs (twin.world.dome.registry): the compliant
+#: dome, fitted to a real TacTip (docs/dome/compliant.md)
+DEFAULT_DOME = "compliant"
+
+
 class Scenario(StrictModel):
     """One run. docs/scenarios.md shows a whole file; every field's unit and range is in
     its model's description here (ObjectSpec, SensorSpec, the protocols) and, for `physics`,
@@ -244,7 +249,7 @@ class Scenario(StrictModel):
     fidelity: Literal["fast", "default", "reference"] = "default"
     #: the dome model's name (twin.world.dome.registry: flex, MuJoCo's flex grid, or compliant,
     #: the compliant contact model)
-    dome: str = "flex"
+    dome: str = DEFAULT_DOME
     #: overrides of the dome model's fidelity level, for sweeps: its own settings, units and
     #: bounds (the model's schema, twin.world.dome.<model>; checked by twin.runs.spec)
     physics: dict[str, Any] = {}

@@ -468,8 +468,8 @@ def benchmark_physics(
     ratio_to_flex_default (best against best) and ratio_min, ratio_max (the lowest and
     highest ratio within one round: how far a single run's ratio may be trusted; NaN
     where the flex default is not among the levels). Besides the levels, the compliant
-    default with each skin (twin.world.dome.compliant.SKIN_PHYSICS), as levels
-    `default+membrane`, `default+shell`, `default+shell_held_65`, with 1 mm increments
+    default as the plain solid without its skin (twin.world.dome.compliant.PLAIN_SOLID, level
+    `default+plain_solid`: what the skin costs), with 1 mm increments
     (`default+increment_1mm`, scenario `physics: {increment_mm: 1}`), and with an edge
     placed within a node (`default+edge_within_node`, `physics: {edge_within_node: true}`:
     what that costs). Then one row for each of `scenarios` (level `scenario:<name>`): its

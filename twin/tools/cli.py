@@ -17,7 +17,7 @@ from pathlib import Path
 from types import ModuleType
 
 from twin.core.errors import Terminated, UserError
-from twin.core.scenario import Scenario
+from twin.core.scenario import DEFAULT_DOME, Scenario
 from twin.runs.lab_recording import import_lab_recording, nominal_depth_mm, with_taps_from
 from twin.runs.parallel import one_blas_thread
 from twin.runs.record import load_run
@@ -624,7 +624,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="out/fig2_shear.png")
     p.add_argument("--fidelity", choices=("fast", "default", "reference"), default="default")
     p.add_argument("--no-friction", action="store_true", help="frictionless contact: slides should match taps")
-    p.add_argument("--dome", choices=list(DOME_MODELS), default="flex", help="the dome model (scenario `dome`)")
+    p.add_argument("--dome", choices=list(DOME_MODELS), default=DEFAULT_DOME, help="the dome model (scenario `dome`)")
     p.set_defaults(func=_cmd_figure)
 
     p = sub.add_parser("demo", help="the main job: the six-object contour-following demo")

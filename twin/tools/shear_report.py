@@ -10,6 +10,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from twin.analysis.shear import CENTRAL_PIN, DIRECTIONS_DEG, collect_shear_data, shear_numbers
+from twin.core.scenario import DEFAULT_DOME
 
 
 def plot_shear_figure(data: dict, out_png: Path, title: str = "") -> Path:
@@ -69,7 +70,9 @@ def plot_shear_figure(data: dict, out_png: Path, title: str = "") -> Path:
     return out_png
 
 
-def write_shear_figure(out_png: Path, fidelity: str = "default", friction: bool = True, dome: str = "flex") -> dict:
+def write_shear_figure(
+    out_png: Path, fidelity: str = "default", friction: bool = True, dome: str = DEFAULT_DOME
+) -> dict:
     """Collect the taps and slides, write Fig. 2 to `out_png`, return the numbers.
 
     Returns shear_numbers(...) plus "png" (path), "fidelity", "friction", "dome".

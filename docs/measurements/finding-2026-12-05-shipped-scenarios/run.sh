@@ -7,17 +7,21 @@
 # six contours and two of them as user STL objects, on the model trained on those taps →
 # contours.txt. About 15 minutes on 2 cores.
 # usage: bash run.sh [path/to/twin]
+# With AS_SHIPPED=1 and OUT=DIR (../finding-2026-12-05-default-dome/run.sh) it adds no
+# `dome:` or `physics:` and writes runs/ and its tables into DIR instead.
 set -e
 export MUJOCO_GL=${MUJOCO_GL:-egl} PYOPENGL_PLATFORM=${PYOPENGL_PLATFORM:-egl}
 twin=$(realpath "${1:-$(dirname "$0")/../../../.venv/bin/twin}")
 py=$(dirname "$twin")/python
-cd "$(dirname "$0")"
+here=$(cd "$(dirname "$0")" && pwd)
+cd "${OUT:-$here}"
 S=../../../scenarios
 mkdir -p runs
 fitted() {  # fitted SCENARIO NAME [OBJECT]: the shipped scenario on the fitted dome, runs/NAME.yaml
   sed -e "s/^name: .*/name: $2/" -e "s#^  controller: paper.*#  controller: paper\n  model: eval/model_pca.npz#" \
     ${3:+-e "s#^object: .*#object: {stl: $3}#"} "$S/$1.yaml" > "runs/$2.yaml"
-  sed "/^#/d" fitted.yaml >> "runs/$2.yaml"
+  [ -n "$AS_SHIPPED" ] && return
+  sed "/^#/d" "$here/fitted.yaml" >> "runs/$2.yaml"
   echo "  surface_spacing_mm: 1.8" >> "runs/$2.yaml"
 }
 run() {  # run NAME WORKERS: twin run runs/NAME.yaml into runs/NAME, unless a completed run is there

@@ -59,10 +59,9 @@ exact pins, so its pin error is 0 by construction). The compliant dome's setting
 (`compliant_*`, twin.world.dome.compliant) are measured against their own reference,
 `compliant_reference`: the two models' pins are not one another's truth, so pin errors
 are compared within a dome model only, while the θ and contour fronts (errors against
-the true orientation and the true contour) place both models together. The compliant
-skins (`compliant_membrane`, `compliant_shell`, `compliant_shell_held_65`) change the
-material itself, so they have no pin error; their time, θ and contour figures are placed
-as any other's.
+the true orientation and the true contour) place both models together. The plain
+solid without the skin (`compliant_plain_solid`) changes the material itself, so it has
+no pin error; its time, θ and contour figures are placed as any other's.
 **Pareto front** (primary): a setting is on it when no *peer* setting dominates it, i.e.
 is no slower and no worse in every physics-accuracy figure (pin error *and* settling
 error, `PRIMARY`) and better beyond the noise margins in time or in one of them

@@ -79,8 +79,8 @@ class Setting:
         return scenario_from_dict(data, f"<sweep setting {self.name}>")
 
 
-#: the compliant dome's skins over the gel, as scenario `physics` (twin.world.dome.compliant.SKIN_PHYSICS)
-SKIN_PRESETS = DOME_MODELS["compliant"].presets
+#: the compliant dome without its skin, as scenario `physics` (twin.world.dome.compliant.PLAIN_SOLID)
+PLAIN_SOLID = DOME_MODELS["compliant"].presets["plain_solid"]
 
 
 def _default_settle_px() -> float:
@@ -155,7 +155,7 @@ def full_settings() -> list[Setting]:
         ),
         Setting("compliant_fast", "compliant dome", "fast", dome="compliant", note="2.5 mm nodes, 1 mm increments"),
         Setting(
-            "compliant_default", "compliant dome", "default", dome="compliant", note="1.5 mm nodes, 0.5 mm increments"
+            "compliant_default", "compliant dome", "default", dome="compliant", note="1.8 mm nodes, 0.5 mm increments"
         ),
         Setting(
             "compliant_render_off",
@@ -187,37 +187,17 @@ def full_settings() -> list[Setting]:
             "default",
             physics={"increment_mm": 1.0},
             dome="compliant",
-            note="compliant, 1.5 mm nodes, 1 mm increments (the default's are 0.5 mm)",
+            note="compliant, 1.8 mm nodes, 1 mm increments (the default's are 0.5 mm)",
         ),
         Setting(
-            "compliant_membrane",
+            "compliant_plain_solid",
             "compliant skin",
             "default",
-            physics=SKIN_PRESETS["membrane"],
+            physics=PLAIN_SOLID,
             dome="compliant",
             pins_comparable=False,
-            note="compliant, the skin as a membrane over a softer gel (no pin error: "
+            note="compliant, the plain solid: one 67 kPa solid without the skin (no pin error: "
             "another material than compliant_reference)",
-        ),
-        Setting(
-            "compliant_shell",
-            "compliant skin",
-            "default",
-            physics=SKIN_PRESETS["shell"],
-            dome="compliant",
-            pins_comparable=False,
-            note="compliant, the skin as a thin shell over a softer gel (no pin error: "
-            "another material than compliant_reference)",
-        ),
-        Setting(
-            "compliant_shell_held_65",
-            "compliant skin",
-            "default",
-            physics=SKIN_PRESETS["shell_held_65"],
-            dome="compliant",
-            pins_comparable=False,
-            note="compliant, the thin shell held by the base at the "
-            "cap's rim, 65° (no pin error: another material than compliant_reference)",
         ),
     ]
 

@@ -18,24 +18,34 @@ from twin.core.sensor import CameraModel, TacTipGeometry
 from twin.core.validation import bounded
 from twin.world.dome.base import PhysicsSettings
 from twin.world.dome.compliant.compliance import CapSurface, DomeCompliance
-from twin.world.dome.compliant.physics import COMPLIANT_LEVELS, SKIN_PHYSICS, CompliantParams, CompliantPhysics
+from twin.world.dome.compliant.physics import COMPLIANT_LEVELS, PLAIN_SOLID, CompliantParams, CompliantPhysics
 from twin.world.dome.material import apply_dome_material
 
 
 class CompliantSettings(PhysicsSettings):
     """The compliant dome's scenario `physics`: overrides of the fidelity level's CompliantParams."""
 
-    surface_spacing_mm: float | None = bounded(0.5, 10, "mm", "node spacing on the dome's surface", None)
+    surface_spacing_mm: float | None = bounded(
+        0.5, 10, "mm", "node spacing on the dome's surface (default 1.8 at fidelity default)", None
+    )
     membrane_young_mpa: float | None = bounded(
-        0, 10, "MPa", "skin membrane's Young's modulus (twin.world.dome.compliant.compliance), 0 = off", None
+        0,
+        10,
+        "MPa",
+        "skin membrane's Young's modulus (twin.world.dome.compliant.compliance; default 0.2347), 0 = off",
+        None,
     )
     gel_young_kpa: float | None = bounded(
-        1, 1000, "kPa", "the gel's Young's modulus (the skin and gel as one solid without a membrane)", None
+        1,
+        1000,
+        "kPa",
+        "the gel's Young's modulus (the skin and gel as one solid without a membrane; default 18.78)",
+        None,
     )
     skin_bending: bool | None = Field(
         default=None,
         description="the skin membrane also resists bending, a thin shell of its "
-        "modulus and thickness (default false; needs membrane_young_mpa > 0 here or in the "
+        "modulus and thickness (default true; needs membrane_young_mpa > 0 here or in the "
         "calibration's dome_material)",
     )
     increment_mm: float | None = bounded(
@@ -52,14 +62,13 @@ class CompliantSettings(PhysicsSettings):
         "false = an open elastic half-space, the body of the closed-form contact checks",
     )
     skin_held_deg: float | None = bounded(
-        *DOME_MATERIAL["skin_held_deg"][1:3], "deg", DOME_MATERIAL["skin_held_deg"][3] + "; default 90", None
+        *DOME_MATERIAL["skin_held_deg"][1:3], "deg", DOME_MATERIAL["skin_held_deg"][3] + "; default 75", None
     )
     skin_bending_mpa: float | None = bounded(
         0.01,
         50,
         "MPa",
-        "the shell's bending modulus, D = E t³ / 12(1 − ν²) with this E (default membrane_young_mpa; "
-        "needs skin_bending: true)",
+        "the shell's bending modulus, D = E t³ / 12(1 − ν²) with this E (default 0.4068; needs skin_bending: true)",
         None,
     )
     skin_tension_n_m: float | None = bounded(
@@ -81,7 +90,7 @@ class CompliantSettings(PhysicsSettings):
         *DOME_MATERIAL["pin_lever_mm"][1:3],
         "mm",
         "the lever the skin's turn swings a pin tip by (twin.world.dome.compliant.compliance.post_tips; "
-        "default the pins' 2 mm length); with pins_in_gel, how far below the skin the tips move with the gel",
+        "default 1.55; 2 = the pins' length); with pins_in_gel, how far below the skin the tips move with the gel",
         None,
     )
 
@@ -94,7 +103,7 @@ class CompliantSettings(PhysicsSettings):
     tip_sway_mm_per_n: float | None = bounded(
         *DOME_MATERIAL["tip_sway_mm_per_n"][1:3],
         "mm/N",
-        DOME_MATERIAL["tip_sway_mm_per_n"][3] + " (twin.world.dome.compliant.compliance.sway_block; default 0)",
+        DOME_MATERIAL["tip_sway_mm_per_n"][3] + " (twin.world.dome.compliant.compliance.sway_block; default 0.1342)",
         None,
     )
     adhesion_kpa: float | None = bounded(
@@ -110,7 +119,7 @@ class CompliantSettings(PhysicsSettings):
         *DOME_MATERIAL["apex_radius_mm"][1:3],
         "mm",
         "the radius of curvature of the outer profile the object meets, a sphere through the apex "
-        "(twin.world.dome.compliant.physics.apex_lift; default 20, the dome's own)",
+        "(twin.world.dome.compliant.physics.apex_lift; default 30; 20 = the dome's own)",
         None,
     )
 
@@ -152,10 +161,10 @@ class CompliantBuilder:
     parameters = CompliantParams
     levels: Mapping[str, CompliantParams] = COMPLIANT_LEVELS
     settings = CompliantSettings
-    #: each skin over the gel (SKIN_PHYSICS), 1 mm increments (the default's are 0.5 mm), and
-    #: an edge placed within a node (the default's contact is at whole nodes)
+    #: the plain solid without the skin (PLAIN_SOLID), 1 mm increments (the default's are
+    #: 0.5 mm), and an edge placed within a node (the default's contact is at whole nodes)
     presets: Mapping[str, Mapping[str, Any]] = {
-        **SKIN_PHYSICS,
+        "plain_solid": PLAIN_SOLID,
         "increment_1mm": {"increment_mm": 1.0},
         "edge_within_node": {"edge_within_node": True},
     }
@@ -169,11 +178,14 @@ class CompliantBuilder:
             params = apply_dome_material(params, material)
         if params.skin_bending and not params.membrane_young:
             raise UserError(
-                f"{source}: physics.skin_bending: true needs the skin membrane, membrane_young_mpa > 0 in "
-                f"`physics` or in the calibration's dome_material (neither sets it)"
+                f"{source}: physics.skin_bending (true unless set false) needs the skin membrane, "
+                "membrane_young_mpa > 0 in `physics` or in the calibration's dome_material; with "
+                "membrane_young_mpa: 0 set skin_bending: false too"
             )
-        if params.bending_young is not None and not params.skin_bending:
+        if settings.skin_bending_mpa is not None and not params.skin_bending:
             raise UserError(f"{source}: physics.skin_bending_mpa needs physics.skin_bending: true")
+        if not params.skin_bending:
+            params = params.with_(bending_young=None)  # the level's shell modulus, with its shell turned off
         on_the_membrane = {
             "skin_tension_n_m": (params.skin_tension, 0.0),
             "skin_thickening": (params.skin_thickening, 1.0),

@@ -22,8 +22,9 @@ every increment of the path:
 A move is cut into increments of at most `step_length` of tool travel and
 `step_angle_deg` of rotation; the result of each is an equilibrium, so a frame needs no
 settling (`settle` returns the current state). Quasi-static: the speed only sets the
-simulated time. Out of contact, an increment whose sphere is certainly clear of the
-object (a bound from the pieces' bounding boxes, `_out_of_reach`) casts no rays: it would
+simulated time. Out of contact, an increment whose contact profile is certainly clear of
+the object (its bounding sphere against the pieces' bounding boxes, `profile_bound`,
+`_out_of_reach`) casts no rays: it would
 leave the dome at rest, as it is (taps: 0.83–0.85× the time of casting them). Without the
 `contact` effect the object has no collision pieces, no ray hits and no problem is
 solved; without `friction` only the normal problem is.
@@ -81,10 +82,13 @@ ADHESION_RAMP = 5e3
 class CompliantParams:
     """Material, resolution and solver parameters of the compliant dome (SI units).
 
-    young (Pa), poisson (–): the skin + gel as one elastic solid. The gel is a silicone
-      (ν ≈ 0.5, incompressible); young is the effective modulus of skin over sealed gel,
-      set so that a 4 mm press centred on a straight edge gives the same force as the flex
-      model (4.30 N; ≈ 4.3 N, "a few N at 4 mm" as the real sensor) — assets/tactip/README.md.
+    The defaults are the dome fitted to a real TacTip's edge taps (docs/real-sensor.md, "The
+    fit with the slide across the edge"): a skin shell held 75° from the apex over a
+    sealed 18.8 kPa gel, pins as 1.55 mm levers, the tip swaying 0.134 mm/N, a 30 mm apex
+    profile, on nodes 1.8 mm apart. Each field below says what it does when changed.
+
+    young (Pa), poisson (–): the gel's modulus under the skin (with membrane_young = 0: the
+      skin + gel as one elastic solid). The gel is a silicone (ν ≈ 0.5, incompressible).
     spacing (m): node spacing on the outer surface (the pins are 3.3 mm apart).
     extent_deg (deg): half-angle of the cap that can take contact; the pins reach 61°, a
       6 mm press on a flat 51°. The gel's pressure acts beyond it too, to the equator, so
@@ -104,19 +108,16 @@ class CompliantParams:
     enclosed: the gel is sealed in the dome and keeps its volume (twin.world.dome.compliant.compliance);
       False is an open half-space, the body of the closed-form contact checks.
     membrane_young (Pa): the skin as a membrane over the gel (twin.world.dome.compliant.compliance.
-      membrane_stiffness), 0 = none; `young` is then the gel's own modulus. Off by default
-      (SKIN_PHYSICS: a 0.6 MPa skin over a 41.9 kPa gel, the same 4.3 N; what it changes
-      is measured in docs/dome/skins.md).
-    skin_bending: the skin membrane also resists bending, as a thin shell of the same
-      modulus and thickness (twin.world.dome.compliant.compliance.bending_stiffness); needs
-      membrane_young. Off by default (assets/tactip/README.md).
+      membrane_stiffness), 0 = none (what it changes is measured in docs/dome/skins.md).
+    skin_bending: the skin membrane also resists bending, as a thin shell
+      (twin.world.dome.compliant.compliance.bending_stiffness); needs membrane_young.
     bending_young (Pa): the shell's bending modulus, D = E t³ / 12(1 − ν²) with this E, for
-      a skin that bends unlike it stretches (a layered skin); None (the default) =
-      membrane_young. Needs skin_bending.
+      a skin that bends unlike it stretches (a layered skin); None = membrane_young. Needs
+      skin_bending.
     skin_held_deg: where the base holds the skin, degrees from the apex: the skin and the
       gel's pressure go on from the cap's rim (extent_deg) down to it. The geometry's dome
-      meets its base at the equator (90, the default); a sensor whose skin is bonded
-      higher up holds it there.
+      meets its base at the equator (90); a sensor whose skin is bonded higher up holds it
+      there.
     skin_tension (N/m): the skin's pretension over the sealed gel (the gel's pressure
       2T/R holds it; twin.world.dome.compliant.compliance.tension_stiffness): it resists
       the skin's short wavelengths more than its long ones. 0 (the default) = none; needs
@@ -126,14 +127,13 @@ class CompliantParams:
       compliant.compliance.skin_thickness): a skin that thickens towards its base stiffens
       its rim. 1 (the default) = uniform; needs membrane_young.
     pin_lever (m): the lever the skin's turn swings a pin tip by (twin.world.dome.
-      compliant.compliance.post_tips); None (the default) = the geometry's pin length,
-      2 mm. Longer: the pins amplify the skin's slope more against its displacement.
+      compliant.compliance.post_tips); None = the geometry's pin length, 2 mm. Longer: the pins amplify the skin's slope more against its displacement.
     pins_in_gel: the pin tips move with the gel at the lever's depth below the skin
       (twin.world.dome.compliant.compliance.pin_tips_in_gel) instead of as posts turning
       with the skin, so neighbouring tips cannot pass each other. Off by default.
     tip_sway (m/N): the tip moves as a whole against the camera by this much per newton
       of net tangential contact force (twin.world.dome.compliant.compliance.sway_block),
-      in series with the rest. 0 (the default) = none.
+      in series with the rest. 0 = none.
     adhesion (Pa): the skin's adhesive shear strength τ on the object, with friction: a
       node slips at a shear stress of μ·pressure + τ once pressed past ADHESION_RAMP
       (twin.world.dome.compliant.contact.friction_bound), so the friction force grows with
@@ -142,7 +142,7 @@ class CompliantParams:
     apex_radius (m): the radius of curvature of the outer profile the object meets, a
       sphere through the apex (`apex_lift`); the compliance stays the geometry's dome's, as
       Hertz theory pairs a curved profile with a half-space's compliance. At or below the
-      geometry's dome radius (the default, 20 mm) the gap is the sphere's own. Its patch
+      geometry's dome radius (20 mm) the gap is the sphere's own. Its patch
       is √(apex_radius / dome radius) times as wide at a depth: a spacing scaled alike
       keeps as many nodes across it (docs/dome/compliant.md).
     edge_within_node: a node whose disc a face's boundary crosses (a straight edge's
@@ -157,9 +157,9 @@ class CompliantParams:
     #: the largest Poisson's ratio (–) the model takes (the incompressible gel's ν = 0.5 is the model's own)
     max_poisson: ClassVar[float] = 0.5
 
-    young: float = 6.7e4
+    young: float = 1.878e4
     poisson: float = 0.5
-    spacing: float = 0.0015
+    spacing: float = 0.0018
     extent_deg: float = 65.0
     step_length: float = 0.0005
     step_angle_deg: float = 2.0
@@ -170,17 +170,17 @@ class CompliantParams:
     max_force: float = 50.0
     max_pin_excursion: float = 0.012
     enclosed: bool = True
-    membrane_young: float = 0.0
-    skin_bending: bool = False
-    skin_held_deg: float = 90.0
+    membrane_young: float = 2.347e5
+    skin_bending: bool = True
+    skin_held_deg: float = 75.0
     skin_tension: float = 0.0
-    pin_lever: float | None = None
-    bending_young: float | None = None
+    pin_lever: float | None = 0.00155
+    bending_young: float | None = 4.068e5
     pins_in_gel: bool = False
     skin_thickening: float = 1.0
-    tip_sway: float = 0.0
+    tip_sway: float = 1.342e-4
     adhesion: float = 0.0
-    apex_radius: float = 0.020
+    apex_radius: float = 0.030
     edge_within_node: bool = False
 
     def with_(self, **changes) -> CompliantParams:
@@ -216,15 +216,19 @@ COMPLIANT_LEVELS: dict[str, CompliantParams] = {
 }
 
 
-#: The skin over the gel, as scenario `physics` entries (`dome: compliant`): a membrane, or a
-#: thin shell (membrane and bending), held by the base at the equator; and the shell held at
-#: the cap's rim, just beyond the pins (docs/dome/skins.md, "Where the skin is held"). Each over a gel
-#: whose modulus is calibrated so that the 4 mm press centred on a straight edge takes the
-#: default solid's 4.3 N (assets/tactip/README.md, "The compliant dome's material").
-SKIN_PHYSICS: dict[str, dict[str, float | bool]] = {
-    "membrane": {"membrane_young_mpa": 0.6, "gel_young_kpa": 41.9},
-    "shell": {"membrane_young_mpa": 0.6, "gel_young_kpa": 34.1, "skin_bending": True},
-    "shell_held_65": {"membrane_young_mpa": 0.6, "gel_young_kpa": 13.3, "skin_bending": True, "skin_held_deg": 65.0},
+#: The plain solid, as scenario `physics` entries: one sealed 67 kPa solid with no skin, no
+#: sway, 2 mm pin levers and the dome's own 20 mm profile (the compliant dome's material
+#: before the fitted dome; its nodes were 1.5 mm apart). With `gel_enclosed: false` it is
+#: the elastic half-space that the closed-form contact checks (Hertz, Cattaneo–Mindlin) are
+#: stated for.
+PLAIN_SOLID: dict[str, float | bool] = {
+    "membrane_young_mpa": 0.0,
+    "skin_bending": False,
+    "gel_young_kpa": 67.0,
+    "skin_held_deg": 90.0,
+    "pin_lever_mm": 2.0,
+    "tip_sway_mm_per_n": 0.0,
+    "apex_radius_mm": 20.0,
 }
 
 
@@ -281,8 +285,11 @@ class CompliantPhysics:
         self._ray_normal = np.zeros(3 * n)
         #: each node's lift along the dome's axis onto the flatter apex profile (m), None: the sphere's own
         self._lift = apex_lift(self.surface.points, self.geometry.dome_outer_radius, params.apex_radius)
-        #: how far the profile stands out of the sphere at most (m): the sphere's clearance overstates the profile's by it
-        self._lift_max = 0.0 if self._lift is None else float(self._lift.max())
+        #: the sphere through the apex (centre (3,) m, tool frame; radius m) that holds every
+        #: node's point of the contact profile: the clearance bound's (`_clearance`)
+        self._bound_centre, self._bound_radius = profile_bound(
+            self.surface.points, self._centre, self.geometry.dome_outer_radius, self._lift
+        )
         #: how far along its ray (m, from the sphere centre) each node's ray is cast: as far as a
         #: gap can be near (candidate_margin and the node's lift) or a face within a disc's reach
         #: (a spacing more), and CAST_SLACK beyond
@@ -554,20 +561,22 @@ class CompliantPhysics:
         self._cut = cut
 
     def _clearance(self) -> float:
-        """A lower bound (m) on the distance from the dome's outer sphere to the object at
-        the pose `_contact_geometry` last set: each collidable piece's distance to the
-        sphere's centre is at least that of its bounding box (inf: nothing collidable, −inf:
-        an unbounded plane). Every node's ray distance to the object is at least as long."""
+        """A lower bound (m) on the distance from the contact profile's bounding sphere
+        (`profile_bound`; the dome's outer sphere where the profile is its own) to the
+        object at the pose `_contact_geometry` last set: each collidable piece's distance
+        to the sphere's centre is at least that of its bounding box (inf: nothing
+        collidable, −inf: an unbounded plane). Every node's gap along its ray is at least
+        as long."""
         if not len(self._bounded):
             return math.inf
         if self._unbounded:
             return -math.inf
         d = self.data
         box = self.model.geom_aabb[self._bounded]  # centre (3) and half sizes (3), geom frame
-        rel = self._centre - d.geom_xpos[self._bounded]
+        rel = self._bound_centre - d.geom_xpos[self._bounded]
         local = np.einsum("gji,gj->gi", d.geom_xmat[self._bounded].reshape(-1, 3, 3), rel) - box[:, :3]
         outside = np.maximum(np.abs(local) - box[:, 3:], 0.0)
-        return float(np.linalg.norm(outside, axis=1).min()) - self.geometry.dome_outer_radius - self._lift_max
+        return float(np.linalg.norm(outside, axis=1).min()) - self._bound_radius
 
     def _out_of_reach(self, tool2world: np.ndarray) -> bool:
         """True, counted as an increment, where the dome at `tool2world` (4×4, m) is
@@ -587,8 +596,8 @@ class CompliantPhysics:
         return True
 
     def _sphere_centre(self, tool2world: np.ndarray) -> np.ndarray:
-        """(3,) m: the dome's sphere centre in the lab frame with the tool at `tool2world`."""
-        return tool2world[:3, :3] @ self._centre + tool2world[:3, 3]
+        """(3,) m: the clearance bound's sphere centre in the lab frame with the tool at `tool2world`."""
+        return tool2world[:3, :3] @ self._bound_centre + tool2world[:3, 3]
 
     def _increment(self, object2tool: np.ndarray) -> None:
         t0 = time.perf_counter()
@@ -787,6 +796,26 @@ def apex_lift(points: np.ndarray, dome_radius: float, apex_radius: float) -> np.
         return None
     axis2 = np.minimum(np.einsum("ij,ij->i", points[:, :2], points[:, :2]), dome_radius**2)
     return (dome_radius - np.sqrt(dome_radius**2 - axis2)) - (apex_radius - np.sqrt(apex_radius**2 - axis2))
+
+
+def profile_bound(
+    points: np.ndarray, centre: np.ndarray, dome_radius: float, lift: np.ndarray | None
+) -> tuple[np.ndarray, float]:
+    """The smallest sphere through the apex, centred on the axis, that holds each node's
+    point of the contact profile: the node (N, 3) m on the dome's sphere (`centre` (3,) m,
+    `dome_radius` m, apex towards +z) moved `lift` (N,) m further along its ray, where the
+    node's gap is measured. Its centre (3,) m and radius (m); the dome's own sphere where
+    `lift` is None. A point q is in the sphere of radius h centred h below the apex a where
+    |q − a|² ≤ 2h (a − q)_z."""
+    if lift is None:
+        return centre.copy(), dome_radius
+    apex = centre + np.array([0.0, 0.0, dome_radius])
+    profile = centre + (points - centre) * (1.0 + lift / dome_radius)[:, None]
+    rel = profile - apex
+    below = -rel[:, 2]
+    away = below > 1e-9 * dome_radius  # the apex itself bounds nothing
+    radius = max(dome_radius, float(np.max(np.einsum("ij,ij->i", rel[away], rel[away]) / (2.0 * below[away]))))
+    return apex - np.array([0.0, 0.0, radius]), radius
 
 
 @lru_cache(maxsize=8)
