@@ -129,12 +129,14 @@ def test_where_newton_stalls_it_follows_the_friction_up(monkeypatch):
     assert 2.0 < abs(force[2]) and np.linalg.norm(force[:2]) <= 1.01 * 3.0 * abs(force[2])
 
 
-@pytest.mark.parametrize("level", LEVELS)
+@pytest.mark.parametrize("level", ["fast", "default"])
 @pytest.mark.parametrize("poisson", [0.3, 0.499, 0.5])
 def test_poisson_ratio_down_to_compressible_and_up_to_incompressible(level, poisson):
     """ν = 0.5 decouples normal and tangential problems; ν < 0.5 couples them (solved
     jointly). Nearly incompressible gel (0.499) is as stable as 0.5, and its pins are
-    within 0.2 px of it (no locking: the influence model has no volume elements)."""
+    within 0.2 px of it (no locking: the influence model has no volume elements). At the
+    fast and default levels: the reference level runs the same code on 1 mm nodes, where
+    each ν's skinned influence matrices take the suite 25–30 s to compute."""
     env = _env(level, material={"poisson": poisson})
     _slide_and_back(env)
     pins = env.observe().pins_px
