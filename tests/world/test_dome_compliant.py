@@ -89,9 +89,8 @@ def test_frictionless_and_very_high_friction(level, friction):
 
 
 def test_where_newton_stalls_it_follows_the_friction_up(monkeypatch):
-    """The skin shell held at 75° over its gel (the DigiTac fit, its stiffness scaled to the
-    4.3 N press: docs/real-sensor.md, "The fitted dome's stiffness scale") on 1.0 mm nodes
-    at μ = 3: pressing 3 mm onto the edge, Newton stalls from the warm start at every
+    """The default dome (the DigiTac fit, its stiffness scaled to the 4.3 N press:
+    docs/real-sensor.md, "The fitted dome's stiffness scale") on 1.0 mm nodes at μ = 3: pressing 3 mm onto the edge, Newton stalls from the warm start at every
     augmentation parameter (docs/measurements/finding-2026-12-05-shipped-scenarios,
     newton-stall.txt). Followed up from lower friction, Newton itself solves those
     increments, where the alternation took 51 s; the forces keep Coulomb's bound."""
@@ -108,18 +107,12 @@ def test_where_newton_stalls_it_follows_the_friction_up(monkeypatch):
 
     monkeypatch.setattr(compliant_contact, "_newton", newton_seen)
     monkeypatch.setattr(compliant_contact, "alternation_pass", alternation_seen)
-    skin = {
-        "surface_spacing_mm": 1.0,
-        "gel_young_kpa": 18.78,
-        "membrane_young_mpa": 0.2347,
-        "skin_bending": True,
-        "skin_bending_mpa": 0.4068,
-        "skin_held_deg": 75,
-        "pin_lever_mm": 1.55,
-        "tip_sway_mm_per_n": 0.1342,
-        "apex_radius_mm": 30,
+    spec = {
+        "name": "stall",
+        "object": {"name": "rectangle", "friction": 3.0},
+        "dome": "compliant",
+        "physics": {"surface_spacing_mm": 1.0},
     }
-    spec = {"name": "stall", "object": {"name": "rectangle", "friction": 3.0}, "dome": "compliant", "physics": skin}
     env = SimEnvironment(scenario_from_dict(spec), start_pose=Pose(60, 0, -2, 0, 0, 0))
     env.reset()
     env.move_to(Pose(60, 0, 3.0, 0, 0, 0), 20.0)

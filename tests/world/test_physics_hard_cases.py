@@ -24,6 +24,7 @@ import pytest
 from twin.core.errors import PhysicsError
 from twin.core.poses import Pose
 from twin.core.scenario import scenario_from_dict
+from twin.core.sensor import TacTipGeometry
 from twin.runs.sim_env import SimEnvironment
 from twin.world.dome.compliant import COMPLIANT_LEVELS
 from twin.world.dome.flex import FIDELITY_LEVELS
@@ -198,7 +199,7 @@ def test_crossing_the_rectangle_corner(dome, level):
 def _profile_radius_mm(env: SimEnvironment) -> float:
     """The radius (mm) of the outer profile the object meets: the dome's own 20 mm, or the
     compliant dome's flatter apex profile (its physics.apex_radius_mm)."""
-    return max(20.0, 1e3 * getattr(env.scene.dome_params, "apex_radius", 0.0))
+    return 1e3 * max(TacTipGeometry().dome_outer_radius, getattr(env.scene.dome_params, "apex_radius", 0.0))
 
 
 def _spiral_tightest_turn(arc_mm: float = 27.0, step_mm: float = 3.0) -> tuple[np.ndarray, np.ndarray]:

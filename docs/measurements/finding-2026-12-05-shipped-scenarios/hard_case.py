@@ -7,7 +7,8 @@ seconds and the contact force (N, tool frame) after it.
 
 --fitted: the fitted dome (fitted.yaml) at the level's node spacing; --scaled: with its
 stiffness scaled to the 4.3 N edge press (../finding-2026-12-05-force-scale/scaled.yaml);
-key=value entries change its `physics` (or the plain solid's, without --fitted);
+key=value entries change its `physics` (or, without --fitted, the plain solid's:
+twin.world.dome.compliant.PLAIN_SOLID, the compliant dome's defaults when this ran);
 --friction: μ instead of 3.
 """
 
@@ -21,6 +22,7 @@ import yaml
 from twin.core.poses import Pose
 from twin.core.scenario import scenario_from_dict
 from twin.runs.sim_env import SimEnvironment
+from twin.world.dome.compliant import PLAIN_SOLID
 
 #: fitted.yaml's `physics`: the fitted dome's entries
 FITTED: dict = yaml.safe_load((Path(__file__).parent / "fitted.yaml").read_text())["physics"]
@@ -58,7 +60,7 @@ def moves(env: SimEnvironment) -> Iterator[float]:
 
 if __name__ == "__main__":
     args = sys.argv[2:]
-    physics = dict(FITTED) if "--fitted" in args else {}
+    physics = dict(FITTED) if "--fitted" in args else dict(PLAIN_SOLID)
     physics |= scaled_entries() if "--scaled" in args else {}
     friction = next((float(a.split("=", 1)[1]) for a in args if a.startswith("--friction=")), 3.0)
     physics |= {k: yaml.safe_load(v) for k, v in (a.split("=", 1) for a in args if not a.startswith("--"))}

@@ -9,7 +9,7 @@ while read -r name level extra; do
   timeout 300 "$py" hard_case.py $level $extra
   [ $? = 124 ] && echo "  stopped after 300 s"
 done <<LIST
-plain-solid-1.5mm default
+plain-solid-1.5mm default surface_spacing_mm=1.5
 plain-solid-1.0mm default surface_spacing_mm=1.0
 plain-solid-reference reference
 fitted-1.8mm default --fitted surface_spacing_mm=1.8

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 
 from twin.core.errors import UserError
 from twin.core.scenario import scenario_from_dict
+from twin.world.dome.compliant import PLAIN_SOLID
 from twin.world.dome.registry import DOME_MODELS
 
 if TYPE_CHECKING:
@@ -77,10 +78,6 @@ class Setting:
             "protocol": protocol,
         }
         return scenario_from_dict(data, f"<sweep setting {self.name}>")
-
-
-#: the compliant dome without its skin, as scenario `physics` (twin.world.dome.compliant.PLAIN_SOLID)
-PLAIN_SOLID = DOME_MODELS["compliant"].presets["plain_solid"]
 
 
 def _default_settle_px() -> float:

@@ -127,7 +127,8 @@ class CompliantParams:
       compliant.compliance.skin_thickness): a skin that thickens towards its base stiffens
       its rim. 1 (the default) = uniform; needs membrane_young.
     pin_lever (m): the lever the skin's turn swings a pin tip by (twin.world.dome.
-      compliant.compliance.post_tips); None = the geometry's pin length, 2 mm. Longer: the pins amplify the skin's slope more against its displacement.
+      compliant.compliance.post_tips); None = the geometry's pin length, 2 mm. Longer: the
+      pins amplify the skin's slope more against its displacement.
     pins_in_gel: the pin tips move with the gel at the lever's depth below the skin
       (twin.world.dome.compliant.compliance.pin_tips_in_gel) instead of as posts turning
       with the skin, so neighbouring tips cannot pass each other. Off by default.
