@@ -9,7 +9,6 @@ from typing import TYPE_CHECKING
 
 from twin.core.errors import UserError
 from twin.core.scenario import scenario_from_dict
-from twin.world.dome.compliant import PLAIN_SOLID
 from twin.world.dome.registry import DOME_MODELS
 
 if TYPE_CHECKING:
@@ -190,7 +189,7 @@ def full_settings() -> list[Setting]:
             "compliant_plain_solid",
             "compliant skin",
             "default",
-            physics=PLAIN_SOLID,
+            physics=dict(DOME_MODELS["compliant"].presets["plain_solid"]),  # the model's own, through the registry
             dome="compliant",
             pins_comparable=False,
             note="compliant, the plain solid: one 67 kPa solid without the skin (no pin error: "
