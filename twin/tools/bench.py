@@ -472,7 +472,8 @@ def benchmark_physics(
     `default+plain_solid`: what the skin costs), with 1 mm increments
     (`default+increment_1mm`, scenario `physics: {increment_mm: 1}`), and with an edge
     placed within a node (`default+edge_within_node`, `physics: {edge_within_node: true}`:
-    what that costs). Then one row for each of `scenarios` (level `scenario:<name>`): its
+    what that costs) and with finite sliding (`default+finite_sliding`, `physics:
+    {finite_sliding: true}`). Then one row for each of `scenarios` (level `scenario:<name>`): its
     dome model at its fidelity level with its `physics`, its calibration's dome material
     and its skin–object friction (or none where its effects leave friction out), on the
     same edge and sequence: what a scenario's dome costs beside the flex default.

@@ -17,8 +17,14 @@ from twin.core.errors import UserError
 from twin.core.sensor import CameraModel, TacTipGeometry
 from twin.core.validation import bounded
 from twin.world.dome.base import PhysicsSettings
+from twin.world.dome.compliant.closest import add_probe
 from twin.world.dome.compliant.compliance import CapSurface, DomeCompliance
-from twin.world.dome.compliant.physics import COMPLIANT_LEVELS, PLAIN_SOLID, CompliantParams, CompliantPhysics
+from twin.world.dome.compliant.physics import (
+    COMPLIANT_LEVELS,
+    PLAIN_SOLID,
+    CompliantParams,
+    CompliantPhysics,
+)
 from twin.world.dome.material import apply_dome_material
 
 
@@ -130,6 +136,14 @@ class CompliantSettings(PhysicsSettings):
         "a node (default false: contact at whole nodes, an edge to within half a spacing)",
     )
 
+    finite_sliding: bool | None = Field(
+        default=None,
+        description="each node meets the object where friction has dragged it, its ray cast through "
+        "its displaced point (twin.world.dome.compliant.physics.CompliantParams), so a node dragged "
+        "over an edge leaves the face (default false: the face under its rest point holds it; "
+        "needs edge_within_node false)",
+    )
+
     def changes(self) -> dict[str, Any]:
         """The settings given, as CompliantParams fields (SI)."""
         changes = {
@@ -149,6 +163,7 @@ class CompliantSettings(PhysicsSettings):
             "adhesion": None if self.adhesion_kpa is None else self.adhesion_kpa * 1e3,
             "apex_radius": None if self.apex_radius_mm is None else self.apex_radius_mm * 1e-3,
             "edge_within_node": self.edge_within_node,
+            "finite_sliding": self.finite_sliding,
         }
         return {k: v for k, v in changes.items() if v is not None}
 
@@ -162,11 +177,13 @@ class CompliantBuilder:
     levels: Mapping[str, CompliantParams] = COMPLIANT_LEVELS
     settings = CompliantSettings
     #: the plain solid without the skin (PLAIN_SOLID), 1 mm increments (the default's are
-    #: 0.5 mm), and an edge placed within a node (the default's contact is at whole nodes)
+    #: 0.5 mm), an edge placed within a node (the default's contact is at whole nodes), and
+    #: finite sliding (the default's is small)
     presets: Mapping[str, Mapping[str, Any]] = {
         "plain_solid": PLAIN_SOLID,
         "increment_1mm": {"increment_mm": 1.0},
         "edge_within_node": {"edge_within_node": True},
+        "finite_sliding": {"finite_sliding": True},
     }
     quasi_static = True
 
@@ -184,6 +201,8 @@ class CompliantBuilder:
             )
         if settings.skin_bending_mpa is not None and not params.skin_bending:
             raise UserError(f"{source}: physics.skin_bending_mpa needs physics.skin_bending: true")
+        if params.finite_sliding and params.edge_within_node:
+            raise UserError(f"{source}: physics.finite_sliding needs whole nodes, physics.edge_within_node: false")
         if not params.skin_bending:
             params = params.with_(bending_young=None)  # the level's shell modulus, with its shell turned off
         on_the_membrane = {
@@ -200,6 +219,8 @@ class CompliantBuilder:
         return params
 
     def add_to_scene(self, spec: mujoco.MjSpec, params: CompliantParams, friction: bool) -> None:
+        if params.finite_sliding:
+            add_probe(spec)
         return None
 
     def start(

@@ -54,6 +54,7 @@ from twin.core.errors import PhysicsError
 from twin.core.poses import invert_transform, make_transform
 from twin.core.sensor import TacTipGeometry
 from twin.world.dome.base import Frame, physics_error
+from twin.world.dome.compliant.closest import ClosestPoints
 from twin.world.dome.compliant.compliance import CapSurface, DomeCompliance, sway_block
 from twin.world.dome.compliant.contact import ContactNotConverged, solve_increment, unknowns_matrix
 from twin.world.dome.compliant.cut_nodes import (
@@ -71,6 +72,19 @@ from twin.world.dome.rays import rays_into_boxes
 #: moves that far gets its ray (`CompliantPhysics._uncast_reached`), so the margin only sets
 #: how often that happens
 CAST_SLACK = 0.001
+#: with `finite_sliding`, the solves of one increment, each casting the rays through the
+#: points the last displaced, before the points' drift counts as not settling
+FINITE_SLIDING_SWEEPS = 40
+#: how far (m) the displaced points may still move in the increment's last solve (0.07 px of pin motion)
+FINITE_SLIDING_TOLERANCE = 5e-6
+#: solves taken whole towards the points the last one displaced, before each takes half the step before
+FINITE_SLIDING_FREE_SWEEPS = 5
+#: where the halved steps have settled the points where the contact set switches, how far (m)
+#: the last solve may still move them (a node pressed on one side of the switch, free on the other)
+FINITE_SLIDING_SWITCH = 1e-4
+#: how far (m) a displaced point is drawn back along its outward normal before it is
+#: projected onto the object (`_closest_points`): more than an increment presses it in
+CLOSEST_SETBACK = 1e-3
 #: the pressure (Pa) over which a node's adhesion builds up as it is pressed (`CompliantParams.adhesion`):
 #: e^-1 of it is left to build at this pressure, a tenth of a 4 mm tap's mean pressure. Steeper
 #: ramps cost Newton iterations for little: on 12 sheared taps onto the object at 10 kPa, 2 kPa
@@ -153,6 +167,11 @@ class CompliantParams:
       centre (an edge to within half a spacing). On, the pins converge with the lattice
       twice as fast near an edge, for 1.4× the time of a frame there; what it changes in
       the perception's figures is measured in docs/dome/compliant.md.
+    finite_sliding: each node meets the object where its displaced point is, not where it
+      rests: its ray is cast through the point as the last increment displaced it along
+      the surface. Off (small sliding): the face under a node's rest point holds it, its
+      plane extended, however far friction drags the node; exact on a face, wrong where a
+      drag carries a node over an edge. Needs whole nodes (edge_within_node off).
     """
 
     #: the largest Poisson's ratio (–) the model takes (the incompressible gel's ν = 0.5 is the model's own)
@@ -183,6 +202,7 @@ class CompliantParams:
     adhesion: float = 0.0
     apex_radius: float = 0.030
     edge_within_node: bool = False
+    finite_sliding: bool = False
 
     def with_(self, **changes) -> CompliantParams:
         return replace(self, **changes)
@@ -268,6 +288,8 @@ class CompliantPhysics:
         geometry: TacTipGeometry | None = None,
         angular_speed_deg_s: float = 45.0,
     ) -> None:
+        if params.finite_sliding and params.edge_within_node:
+            raise ValueError("finite_sliding needs whole nodes: edge_within_node off")
         self.model, self.data, self.params = model, data, params
         self.friction = float(friction)
         self.scenario_name = scenario_name
@@ -299,8 +321,14 @@ class CompliantPhysics:
         )
         if self._lift is not None:
             self._cast_length += self._lift
-        #: the nodes whose ray the last `_contact_geometry` cast
+        #: the nodes whose ray the last `_contact_geometry` cast, and each node's ray direction (`_ray_directions`)
         self._cast = np.zeros(n, bool)
+        self._dirs = self.surface.normals
+        #: each node's rest point on the contact profile (N, 3) m, tool frame (`finite_sliding`)
+        self._rest_points = self.surface.points.copy()
+        if self._lift is not None:
+            self._rest_points[:, 2] += self._lift
+        self._through = np.zeros((n, 3))
         #: each node's disc's share on a face that ends within it, where `edge_within_node` (1: whole)
         self._covered = np.ones(n)
         self._cut: CutNodes | None = None
@@ -310,6 +338,8 @@ class CompliantPhysics:
         self._collidable = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
         self._bounded = np.flatnonzero(self._collidable)
         self._unbounded = bool(np.any(model.geom_type[self._bounded] == mujoco.mjtGeom.mjGEOM_PLANE))
+        #: the collidable pieces' closest points to the nodes (`finite_sliding`)
+        self._closest = ClosestPoints(model, self._bounded) if params.finite_sliding else None
         #: where the dome's sphere centre was (lab frame, m) when it was last found farther than
         #: candidate_margin + `_reach` (m) from the object; increments within `_reach` of it skip the rays
         self._clear_centre: np.ndarray | None = None
@@ -329,6 +359,8 @@ class CompliantPhysics:
         self.solve_seconds = 0.0  # of which in the contact solver (s)
         self.iterations = 0  # solver iterations, all increments
         self.skipped = 0  # increments proven out of the object's reach, no rays cast
+        #: with `finite_sliding`, increments settled where the contact set switches (FINITE_SLIDING_SWITCH)
+        self.contact_switches = 0
         self._commanded = np.asarray(start_tool2world, float)
         self._at = self._commanded  # the pose of the increment being solved (named in errors)
         self._object2tool = self._object_pose(self._commanded)
@@ -398,7 +430,9 @@ class CompliantPhysics:
     def _object_pose(self, tool2world: np.ndarray) -> np.ndarray:
         return invert_transform(tool2world) @ self.stimulus2world
 
-    def _contact_geometry(self, object2tool: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _contact_geometry(
+        self, object2tool: np.ndarray, through: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Each node's rigid gap to the object (N,) m, measured along the object's surface
         normal where the node's normal ray hits it (inf: no hit, or no ray cast), and its
         contact frame (N, 3, 3): rows (c, t1, t2), c the object's inward normal (from the
@@ -408,7 +442,10 @@ class CompliantPhysics:
         Only the rays that can meet a piece's bounding box within `_cast_length` are cast,
         and those of loaded nodes: a node beyond that cannot enter the contact problem or
         be reached by its place among the edges (`_uncast_reached` covers what the solve
-        moves towards the object)."""
+        moves towards the object). With `finite_sliding` the nodes are where `through`
+        (N, 3) m displaces them (None: the last increment's displacement): their rays go
+        through those points and their gaps are to the object's closest points
+        (`_closest_points`)."""
         gaps, frames = np.full(self.surface.count, np.inf), self.surface.frames.copy()
         self._ray_dist[:] = -1.0
         self._ray_geom[:] = -1
@@ -421,7 +458,9 @@ class CompliantPhysics:
         # cost 0.15 ms of each increment's ~2
         mujoco.mju_mat2Quat(d.qpos[self._qadr + 3 : self._qadr + 7], object2tool[:3, :3].ravel())
         mujoco.mj_kinematics(self.model, d)
-        nodes = rays_into_boxes(self.model, d, self._centre, self.surface.normals, self._cast_length, -1)
+        through = self.displacement if through is None else through
+        self._dirs, self._through = self._ray_directions(through), through
+        nodes = rays_into_boxes(self.model, d, self._centre, self._dirs, self._cast_length, -1)
         nodes = np.union1d(nodes, np.flatnonzero(np.any(self.forces != 0.0, axis=1)))
         self._cast[:] = False
         self._cast[nodes] = True
@@ -429,6 +468,16 @@ class CompliantPhysics:
         if self.params.edge_within_node:
             self._place_edges(gaps, frames)
         return gaps, frames
+
+    def _ray_directions(self, through: np.ndarray) -> np.ndarray:
+        """(N, 3) unit: each node's ray from the sphere centre, through its rest point, or
+        with `finite_sliding` through its point displaced by `through` (N, 3) m along the
+        surface (a displacement along its normal keeps the direction)."""
+        if not self.params.finite_sliding:
+            return self.surface.normals
+        n, u = self.surface.normals, through
+        through = self.geometry.dome_outer_radius * n + u - np.einsum("ij,ij->i", u, n)[:, None] * n
+        return through / np.linalg.norm(through, axis=1)[:, None]
 
     def _cast_rays(self, nodes: np.ndarray, gaps: np.ndarray, frames: np.ndarray) -> None:
         """Cast the normal rays of `nodes` (k,) at the object where `_contact_geometry` posed
@@ -442,7 +491,7 @@ class CompliantPhysics:
             self.model,
             self.data,
             self._centre,
-            np.ascontiguousarray(self.surface.normals[nodes].ravel()),
+            np.ascontiguousarray(self._dirs[nodes].ravel()),
             None,
             1,
             -1,
@@ -456,9 +505,9 @@ class CompliantPhysics:
         self._ray_normal.reshape(-1, 3)[nodes] = normal.reshape(-1, 3)
         seen = (dist >= 0.0) & self._collidable[geom]
         hit = nodes[seen]
-        normals = self.surface.normals[hit]
+        normals, dirs = self.surface.normals[hit], self._dirs[hit]
         c = -normal.reshape(-1, 3)[seen]
-        c *= np.sign(np.einsum("ij,ij->i", c, normals))[:, None]  # into the object, whichever way the face was hit
+        c *= np.sign(np.einsum("ij,ij->i", c, dirs))[:, None]  # into the object, whichever way the face was hit
         t1 = frames[hit, 1] - np.einsum("ij,ij->i", frames[hit, 1], c)[:, None] * c
         t1 /= np.linalg.norm(t1, axis=1)[:, None]
         frames[hit] = np.stack([c, t1, np.cross(c, t1)], axis=1)
@@ -466,7 +515,8 @@ class CompliantPhysics:
         # The distance to the face's plane is the gap only near the hit point: a ray that
         # grazes a face far away (an edge's side wall seen past the edge) is not a contact.
         margin = self.params.candidate_margin
-        normal_gap = along_ray * np.einsum("ij,ij->i", c, normals)
+        # the face's distance from the rest point along c (the ray's hit point less the rest point)
+        normal_gap = dist[seen] * np.einsum("ij,ij->i", c, dirs) - r * np.einsum("ij,ij->i", c, normals)
         if self._lift is None:
             near = along_ray < margin
         else:
@@ -475,6 +525,33 @@ class CompliantPhysics:
             normal_gap -= lift * c[:, 2]
             near = (along_ray < margin + lift) & (normal_gap < margin)
         gaps[hit] = np.where(near, normal_gap, along_ray)
+        if self.params.finite_sliding:
+            self._closest_points(nodes, gaps, frames)
+
+    def _closest_points(self, nodes: np.ndarray, gaps: np.ndarray, frames: np.ndarray) -> None:
+        """With `finite_sliding`: the gaps and contact frames of `nodes` (k,) where their
+        displaced points are, in place. Each node's rest point on the profile, moved by
+        `_through`, is drawn back CLOSEST_SETBACK along its outward normal (out of the object
+        however deep the increment pressed it) and projected onto the nearest piece; the
+        projection's direction is the contact normal c and the tangent plane there is the
+        node's face: g = c·(projection − rest point). Projection onto a convex piece is
+        continuous, so a node dragged round an edge meets the edge's round, then its wall,
+        without the jump of a ray's hit. Nodes no piece is within reach of keep their ray's
+        gap and frame."""
+        if not len(nodes) or not len(self._bounded):
+            return
+        rest = self._rest_points[nodes]
+        setback = rest + self._through[nodes] - CLOSEST_SETBACK * self.surface.normals[nodes]
+        reach = self.params.candidate_margin + self.params.spacing + CAST_SLACK + CLOSEST_SETBACK
+        distance, closest = self._closest(self.data, setback, reach)
+        found = np.flatnonzero(np.isfinite(distance) & (distance > 0.0))  # not inside a piece
+        c = closest[found] - setback[found]
+        c /= np.linalg.norm(c, axis=1)[:, None]  # into the object
+        node = nodes[found]
+        t1 = frames[node, 1] - np.einsum("ij,ij->i", frames[node, 1], c)[:, None] * c
+        t1 /= np.linalg.norm(t1, axis=1)[:, None]
+        frames[node] = np.stack([c, t1, np.cross(c, t1)], axis=1)
+        gaps[node] = np.einsum("ij,ij->i", c, closest[found] - rest[found])
 
     def _uncast_reached(self, displacement: np.ndarray, gaps: np.ndarray, frames: np.ndarray) -> None:
         """Cast the rays `_contact_geometry` left out where the solve's `displacement` (N, 3)
@@ -606,29 +683,69 @@ class CompliantPhysics:
         self._since_frame += 1
         self._clear_centre = None
         p = self.params
-        gaps, frames = self._contact_geometry(object2tool)
+        r = self.geometry.dome_outer_radius
         shift = object2tool @ invert_transform(self._object2tool)  # the object's motion since the last increment
         self._object2tool = object2tool.copy()
-        r = self.geometry.dome_outer_radius
-        if np.min(gaps) < -0.5 * r:
-            self._fail(
-                f"indentation {-np.min(gaps) * 1e3:.2f} mm: deeper than the dome model reaches ({0.5 * r * 1e3:.0f} mm)"
-            )
         loaded = np.flatnonzero(np.any(self.forces != 0.0, axis=1))
-        candidates = np.union1d(np.flatnonzero(gaps < p.candidate_margin), loaded)
-        candidates = candidates[np.isfinite(gaps[candidates])]  # a node the object left carries nothing
-        if not len(candidates):
-            self.forces[:] = 0.0
-            self._before = None
-            self.displacement[:] = 0.0
-            self._pins = self.rest_pins.copy()
-            reach = self._clearance() - p.candidate_margin
-            if reach > 0.0:
-                self._clear_centre, self._reach = self._sphere_centre(self._at), reach
-            self.step_seconds += time.perf_counter() - t0
-            return
         points = self.surface.points + self.displacement
         moved = points @ shift[:3, :3].T + shift[:3, 3] - points  # the object's displacement at each node (tool)
+        through = self.displacement
+        for sweep in range(FINITE_SLIDING_SWEEPS if p.finite_sliding else 1):
+            gaps, frames = self._contact_geometry(object2tool, through)
+            if np.min(gaps) < -0.5 * r:
+                self._fail(
+                    f"indentation {-np.min(gaps) * 1e3:.2f} mm: deeper than the dome model reaches "
+                    f"({0.5 * r * 1e3:.0f} mm)"
+                )
+            candidates = np.union1d(np.flatnonzero(gaps < p.candidate_margin), loaded)
+            candidates = candidates[np.isfinite(gaps[candidates])]  # a node the object left carries nothing
+            if not len(candidates):
+                self.forces[:] = 0.0
+                self._before = None
+                self.displacement[:] = 0.0
+                self._pins = self.rest_pins.copy()
+                reach = self._clearance() - p.candidate_margin
+                if reach > 0.0:
+                    self._clear_centre, self._reach = self._sphere_centre(self._at), reach
+                self.step_seconds += time.perf_counter() - t0
+                return
+            candidates, forces, displacement, after = self._solve(candidates, gaps, frames, moved, shift)
+            if not p.finite_sliding:
+                break
+            cast = self._cast
+            drift = float(np.max(np.linalg.norm(displacement[cast] - through[cast], axis=1), initial=0.0))
+            if drift <= FINITE_SLIDING_TOLERANCE:
+                break
+            # the step taken towards the new points: whole, then halved each solve, so that
+            # where the points cycle (a node in and out of contact at an edge) they settle
+            # where the contact set switches
+            relax = 0.5 ** max(0, sweep + 1 - FINITE_SLIDING_FREE_SWEEPS)
+            if relax * drift <= FINITE_SLIDING_TOLERANCE and drift <= FINITE_SLIDING_SWITCH:
+                self.contact_switches += 1
+                break
+            through = through + relax * (displacement - through)
+        else:
+            self._fail(
+                f"finite sliding: the nodes' points still moved {drift * 1e6:.2f} µm after {FINITE_SLIDING_SWEEPS} "
+                f"solves (at most {FINITE_SLIDING_SWITCH * 1e6:.0f} µm where the contact set switches)"
+            )
+        self._before = (self.forces, candidates, shift)
+        self.forces = np.zeros_like(self.forces)
+        self.forces[candidates] = forces
+        self.displacement = displacement
+        self._pins = self.rest_pins + self.compliance.pin_displacement(*self._pin_loads(candidates, forces), p.tip_sway)
+        self.step_seconds += time.perf_counter() - t0
+        self._check(after)
+
+    def _solve(
+        self, candidates: np.ndarray, gaps: np.ndarray, frames: np.ndarray, moved: np.ndarray, shift: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Solve the increment's contact problem on `candidates` (k,), adding any node found
+        penetrating after a solve: the nodes solved, their forces (N, tool frame), every
+        node's displacement (N, 3) m and gap after it (N,) m (`gaps`, `frames` as
+        `_contact_geometry` gives them; `moved` (N, 3) m the object's displacement at each
+        node, `shift` its motion 4×4 since the last increment)."""
+        p = self.params
         for _ in range(10):
             t1 = time.perf_counter()
             f = frames[candidates]
@@ -662,17 +779,9 @@ class CompliantPhysics:
             penetrating[candidates] = False
             outside = np.flatnonzero(penetrating)
             if not len(outside):
-                break
+                return candidates, forces, displacement, after
             candidates = np.union1d(candidates, outside)
-        else:
-            self._fail("the contact set did not settle within 10 re-solves")
-        self._before = (self.forces, candidates, shift)
-        self.forces = np.zeros_like(self.forces)
-        self.forces[candidates] = forces
-        self.displacement = displacement
-        self._pins = self.rest_pins + self.compliance.pin_displacement(*self._pin_loads(candidates, forces), p.tip_sway)
-        self.step_seconds += time.perf_counter() - t0
-        self._check(after)
+        self._fail("the contact set did not settle within 10 re-solves")
 
     def _adhesion(self, nodes: np.ndarray) -> np.ndarray | None:
         """(m, 2) N: the adhesive strength and ramp of `nodes` (`friction_bound`), over the
