@@ -72,8 +72,8 @@ from twin.world.dome.rays import rays_into_boxes
 #: moves that far gets its ray (`CompliantPhysics._uncast_reached`), so the margin only sets
 #: how often that happens
 CAST_SLACK = 0.001
-#: with `finite_sliding`, the solves of one increment, each casting the rays through the
-#: points the last displaced, before the points' drift counts as not settling
+#: with `finite_sliding`, the solves of one increment, each measuring the gaps where the
+#: last one displaced the nodes, before the points' drift counts as not settling
 FINITE_SLIDING_SWEEPS = 40
 #: how far (m) the displaced points may still move in the increment's last solve (0.07 px of pin motion)
 FINITE_SLIDING_TOLERANCE = 5e-6
@@ -167,11 +167,13 @@ class CompliantParams:
       centre (an edge to within half a spacing). On, the pins converge with the lattice
       twice as fast near an edge, for 1.4× the time of a frame there; what it changes in
       the perception's figures is measured in docs/dome/compliant.md.
-    finite_sliding: each node meets the object where its displaced point is, not where it
-      rests: its ray is cast through the point as the last increment displaced it along
-      the surface. Off (small sliding): the face under a node's rest point holds it, its
-      plane extended, however far friction drags the node; exact on a face, wrong where a
-      drag carries a node over an edge. Needs whole nodes (edge_within_node off).
+    finite_sliding: each node meets the object where friction has dragged it, not where
+      it rests: its gap is to the object's closest point to its displaced point
+      (twin.world.dome.compliant.closest), and each increment is solved again until those
+      points settle (FINITE_SLIDING_TOLERANCE). Off (small sliding): the face under a
+      node's rest point holds it, its plane extended, however far friction drags the node;
+      exact on a face, wrong where a drag carries a node over an edge. Needs whole nodes
+      (edge_within_node off).
     """
 
     #: the largest Poisson's ratio (–) the model takes (the incompressible gel's ν = 0.5 is the model's own)
