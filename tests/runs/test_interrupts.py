@@ -95,3 +95,32 @@ def test_off_the_main_thread_nothing_is_held() -> None:
     thread.start()
     thread.join()
     assert seen == [signal.getsignal(signal.SIGINT)]
+
+
+def _sigterm_inside_a_c_callback() -> None:
+    """What the interpreter raises where SIGTERM's handler ran inside a C extension's
+    callback that then returned normally (numba's dispatcher unpickling a function)."""
+    try:
+        raise Terminated("SIGTERM")
+    except Terminated as err:
+        raise SystemError("<function _numba_unpickle> returned a result with an exception set") from err
+
+
+def test_a_sigterm_arriving_as_a_systemerror_is_still_a_sigterm(tmp_path, capsys) -> None:
+    """The CLI exits 143 for it, not 1 (an internal error), and a run it stops is marked
+    interrupted by SIGTERM, its samples kept, with Terminated raised on."""
+    from twin.core.scenario import load_scenario
+    from twin.runs.record import RunRecorder, load_run
+    from twin.tools.boundary import EXIT_SIGTERM, guarded
+
+    assert guarded(_sigterm_inside_a_c_callback) == EXIT_SIGTERM
+    assert "stopped by SIGTERM" in capsys.readouterr().err
+    with pytest.raises(Terminated):
+        with RunRecorder(tmp_path / "run", load_scenario("rectangle_render"), seed=0, backend="sim"):
+            _sigterm_inside_a_c_callback()
+    run = load_run(tmp_path / "run")
+    assert run.meta["status"] == "interrupted" and run.meta["error"] == "SIGTERM"
+    with pytest.raises(SystemError):  # any other SystemError stays what it is
+        with RunRecorder(tmp_path / "other", load_scenario("rectangle_render"), seed=0, backend="sim"):
+            raise SystemError("a real fault")
+    assert load_run(tmp_path / "other").meta["status"] == "failed"

@@ -58,3 +58,12 @@ class MistrackedPinsError(LostPinsError):
 class Terminated(KeyboardInterrupt):
     """SIGTERM (job schedulers, Ray, `timeout`, `kill`): handled like Ctrl-C — the run
     stops, keeps everything recorded and is marked "interrupted"; the CLI exits 143."""
+
+
+def interruption(err: BaseException | None) -> KeyboardInterrupt | None:
+    """The Ctrl-C or SIGTERM behind `err`, or None. A signal's handler raises in whatever
+    Python code runs when it arrives, including a callback inside a C extension (numba's
+    dispatcher unpickling a function), which then reports a SystemError caused by it."""
+    while isinstance(err, SystemError):
+        err = err.__cause__ or err.__context__
+    return err if isinstance(err, KeyboardInterrupt) else None

@@ -41,7 +41,7 @@ import cv2
 import numpy as np
 
 from twin.core.environment import Observation
-from twin.core.errors import UserError
+from twin.core.errors import UserError, interruption
 from twin.core.files import remove_leftovers, replace_file
 from twin.core.poses import Pose
 from twin.runs.interrupts import signals_held
@@ -310,8 +310,10 @@ class RunRecorder:
     def __exit__(self, exc_type, exc, tb) -> None:
         if exc_type is None:
             self.close("completed")
-        elif issubclass(exc_type, KeyboardInterrupt):
-            self.close("interrupted", str(exc) or "SIGINT")
+        elif (stop := interruption(exc)) is not None:
+            self.close("interrupted", str(stop) or "SIGINT")
+            if stop is not exc:
+                raise stop from None  # the interruption, not the SystemError it arrived as
         else:
             self.close("failed", f"{exc_type.__name__}: {exc}")
 

@@ -25,7 +25,7 @@ import traceback
 from collections.abc import Callable
 from pathlib import Path
 
-from twin.core.errors import Terminated, TwinError, UserError
+from twin.core.errors import Terminated, TwinError, UserError, interruption
 from twin.core.resources import cache_dir
 
 #: exit codes (README "What you can run")
@@ -162,7 +162,10 @@ def output_folder(path: Path, what: str) -> Path:
 def guarded(call: Callable[[], int | None]) -> int:
     """Run a command; return its exit code, every ending mapped as the module says."""
     try:
-        return int(call() or 0)
+        try:
+            return int(call() or 0)
+        except SystemError as err:  # a signal's handler raised inside a C extension's callback
+            raise (interruption(err) or err) from None
     except ParserExit as done:
         return done.status
     except Terminated:
