@@ -19,12 +19,7 @@ from twin.core.validation import bounded
 from twin.world.dome.base import PhysicsSettings
 from twin.world.dome.compliant.closest import add_probe
 from twin.world.dome.compliant.compliance import CapSurface, DomeCompliance
-from twin.world.dome.compliant.physics import (
-    COMPLIANT_LEVELS,
-    PLAIN_SOLID,
-    CompliantParams,
-    CompliantPhysics,
-)
+from twin.world.dome.compliant.physics import COMPLIANT_LEVELS, PLAIN_SOLID, CompliantParams, CompliantPhysics
 from twin.world.dome.material import apply_dome_material
 
 
@@ -138,10 +133,9 @@ class CompliantSettings(PhysicsSettings):
 
     finite_sliding: bool | None = Field(
         default=None,
-        description="each node meets the object where friction has dragged it, its ray cast through "
-        "its displaced point (twin.world.dome.compliant.physics.CompliantParams), so a node dragged "
-        "over an edge leaves the face (default false: the face under its rest point holds it; "
-        "needs edge_within_node false)",
+        description="each node meets the object where friction has dragged it, its gap to the object's "
+        "closest point (twin.world.dome.compliant.closest), so a node dragged over an edge leaves the "
+        "face (default false: the face under its rest point holds it; needs edge_within_node false)",
     )
 
     def changes(self) -> dict[str, Any]:

@@ -518,7 +518,11 @@ class CompliantPhysics:
         # grazes a face far away (an edge's side wall seen past the edge) is not a contact.
         margin = self.params.candidate_margin
         # the face's distance from the rest point along c (the ray's hit point less the rest point)
-        normal_gap = dist[seen] * np.einsum("ij,ij->i", c, dirs) - r * np.einsum("ij,ij->i", c, normals)
+        c_normal = np.einsum("ij,ij->i", c, normals)
+        if self.params.finite_sliding:
+            normal_gap = dist[seen] * np.einsum("ij,ij->i", c, dirs) - r * c_normal
+        else:  # the ray through the rest point: the same, with one product less
+            normal_gap = along_ray * c_normal
         if self._lift is None:
             near = along_ray < margin
         else:
