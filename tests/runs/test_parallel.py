@@ -84,14 +84,14 @@ def test_worker_pool_keeps_one_ray_instance() -> None:
     assert not ray.is_initialized()  # the instance the pool started is stopped with it
 
 
-def _send_then_wait_for_flag(flag: str, send) -> None:
+def _send_then_wait_for_flag(flag: str, patience_s: float, send) -> None:
     """Send 'first', then whether `flag` appeared (the parent creates it on receiving
-    'first') within 60 s: 'streamed', or 'not streamed' when the parent waited for the end."""
+    'first') within `patience_s` s: 'streamed', or 'not streamed' when it did not."""
     import time
     from pathlib import Path
 
     send("first")
-    deadline = time.monotonic() + 60.0
+    deadline = time.monotonic() + patience_s
     while not Path(flag).exists() and time.monotonic() < deadline:
         time.sleep(0.01)
     send("streamed" if Path(flag).exists() else "not streamed")
@@ -111,7 +111,7 @@ def test_streamed_items_arrive_while_the_job_runs(tmp_path) -> None:
     flag = tmp_path / "first_received"
     with WorkerPool(workers=2) as pool:
         items = []
-        for item in pool.map_streamed(_send_then_wait_for_flag, [(str(flag),), (str(tmp_path / "never"),)]):
+        for item in pool.map_streamed(_send_then_wait_for_flag, [(str(flag), 60.0), (str(tmp_path / "never"), 0.5)]):
             items.append(item)
             if item == "first":
                 flag.touch()

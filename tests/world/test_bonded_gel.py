@@ -26,6 +26,8 @@ SOLID_G, SHELL_G, SKIN_E = 67e3 / 3, 34.1e3 / 3, 6e5  # Pa: the shipped solid an
 PRESSES = [(depth, edge) for depth in (0.002, 0.004) for edge in (np.inf, 0.006, 0.0)]
 CAMERA = CameraModel()
 REST = GEOMETRY.pin_tip_points()
+#: the finite-element models take 35–45 s to build: one xdist worker builds them once
+pytestmark = pytest.mark.xdist_group("bonded_gel")
 
 
 @pytest.fixture(scope="module")
