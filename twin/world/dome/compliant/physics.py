@@ -695,7 +695,7 @@ class CompliantPhysics:
         loaded = np.flatnonzero(np.any(self.forces != 0.0, axis=1))
         points = self.surface.points + self.displacement
         moved = points @ shift[:3, :3].T + shift[:3, 3] - points  # the object's displacement at each node (tool)
-        through = self.displacement
+        through, swept = self.displacement, None
         for sweep in range(FINITE_SLIDING_SWEEPS if p.finite_sliding else 1):
             gaps, frames = self._contact_geometry(object2tool, through)
             if np.min(gaps) < -0.5 * r:
@@ -715,9 +715,11 @@ class CompliantPhysics:
                     self._clear_centre, self._reach = self._sphere_centre(self._at), reach
                 self.step_seconds += time.perf_counter() - t0
                 return
-            candidates, forces, displacement, after = self._solve(candidates, gaps, frames, moved, shift)
+            candidates, forces, displacement, after = self._solve(candidates, gaps, frames, moved, shift, swept)
             if not p.finite_sliding:
                 break
+            swept = np.zeros_like(self.forces)
+            swept[candidates] = forces
             cast = self._cast
             drift = float(np.max(np.linalg.norm(displacement[cast] - through[cast], axis=1), initial=0.0))
             if drift <= FINITE_SLIDING_TOLERANCE:
@@ -744,13 +746,21 @@ class CompliantPhysics:
         self._check(after)
 
     def _solve(
-        self, candidates: np.ndarray, gaps: np.ndarray, frames: np.ndarray, moved: np.ndarray, shift: np.ndarray
+        self,
+        candidates: np.ndarray,
+        gaps: np.ndarray,
+        frames: np.ndarray,
+        moved: np.ndarray,
+        shift: np.ndarray,
+        swept: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Solve the increment's contact problem on `candidates` (k,), adding any node found
         penetrating after a solve: the nodes solved, their forces (N, tool frame), every
         node's displacement (N, 3) m and gap after it (N,) m (`gaps`, `frames` as
         `_contact_geometry` gives them; `moved` (N, 3) m the object's displacement at each
-        node, `shift` its motion 4×4 since the last increment)."""
+        node, `shift` its motion 4×4 since the last increment). `swept` (N, 3) N, tool
+        frame: with finite sliding, the forces of the increment's last solve, where a re-solve
+        starts (None: `_warm_start`'s)."""
         p = self.params
         for _ in range(10):
             t1 = time.perf_counter()
@@ -758,7 +768,8 @@ class CompliantPhysics:
             local = self._local_matrix(candidates, f)
             previous = np.einsum("nij,nj->ni", f[:, 1:], self.displacement[candidates])
             shift_t = np.einsum("nij,nj->ni", f[:, 1:], moved[candidates])
-            start = np.einsum("nij,nj->ni", f, self._warm_start(candidates, shift))
+            begin = self._warm_start(candidates, shift) if swept is None else swept[candidates]
+            start = np.einsum("nij,nj->ni", f, begin)
             try:
                 solution = solve_increment(
                     local,
