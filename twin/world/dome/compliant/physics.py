@@ -695,7 +695,7 @@ class CompliantPhysics:
         loaded = np.flatnonzero(np.any(self.forces != 0.0, axis=1))
         points = self.surface.points + self.displacement
         moved = points @ shift[:3, :3].T + shift[:3, 3] - points  # the object's displacement at each node (tool)
-        through, swept = self.displacement, None
+        through, resolved = self.displacement, None
         for sweep in range(FINITE_SLIDING_SWEEPS if p.finite_sliding else 1):
             gaps, frames = self._contact_geometry(object2tool, through)
             if np.min(gaps) < -0.5 * r:
@@ -715,11 +715,10 @@ class CompliantPhysics:
                     self._clear_centre, self._reach = self._sphere_centre(self._at), reach
                 self.step_seconds += time.perf_counter() - t0
                 return
-            candidates, forces, displacement, after = self._solve(candidates, gaps, frames, moved, shift, swept)
+            candidates, forces, displacement, after = self._solve(candidates, gaps, frames, moved, shift, resolved)
             if not p.finite_sliding:
                 break
-            swept = np.zeros_like(self.forces)
-            swept[candidates] = forces
+            resolved = (candidates, forces)
             cast = self._cast
             drift = float(np.max(np.linalg.norm(displacement[cast] - through[cast], axis=1), initial=0.0))
             if drift <= FINITE_SLIDING_TOLERANCE:
@@ -752,15 +751,14 @@ class CompliantPhysics:
         frames: np.ndarray,
         moved: np.ndarray,
         shift: np.ndarray,
-        swept: np.ndarray | None = None,
+        resolved: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Solve the increment's contact problem on `candidates` (k,), adding any node found
         penetrating after a solve: the nodes solved, their forces (N, tool frame), every
         node's displacement (N, 3) m and gap after it (N,) m (`gaps`, `frames` as
         `_contact_geometry` gives them; `moved` (N, 3) m the object's displacement at each
-        node, `shift` its motion 4×4 since the last increment). `swept` (N, 3) N, tool
-        frame: with finite sliding, the forces of the increment's last solve, where a re-solve
-        starts (None: `_warm_start`'s)."""
+        node, `shift` its motion 4×4 since the last increment; `resolved` the nodes and forces
+        of the increment's last solve when finite sliding re-solves it, see `_warm_start`)."""
         p = self.params
         for _ in range(10):
             t1 = time.perf_counter()
@@ -768,7 +766,7 @@ class CompliantPhysics:
             local = self._local_matrix(candidates, f)
             previous = np.einsum("nij,nj->ni", f[:, 1:], self.displacement[candidates])
             shift_t = np.einsum("nij,nj->ni", f[:, 1:], moved[candidates])
-            begin = self._warm_start(candidates, shift) if swept is None else swept[candidates]
+            begin = self._warm_start(candidates, shift, resolved)
             start = np.einsum("nij,nj->ni", f, begin)
             try:
                 solution = solve_increment(
@@ -809,12 +807,23 @@ class CompliantPhysics:
         area = self.surface.area * self._covered[nodes]
         return np.column_stack([self.params.adhesion * area, ADHESION_RAMP * area])
 
-    def _warm_start(self, candidates: np.ndarray, shift: np.ndarray) -> np.ndarray:
-        """(m, 3) N, tool frame: where the solver starts at `candidates`. The last forces;
-        where the same nodes carry contact and the object moves as it did over the last
-        increment (a straight move), their linear extrapolation, which takes Newton to the
-        same solution in fewer iterations while friction builds up (128 → 106 iterations on
-        `twin bench physics`'s path)."""
+    def _warm_start(
+        self, candidates: np.ndarray, shift: np.ndarray, resolved: tuple[np.ndarray, np.ndarray] | None = None
+    ) -> np.ndarray:
+        """(m, 3) N, tool frame: where the solver starts at `candidates`. A re-solve of the
+        same increment (finite sliding; `resolved` the nodes and forces of its last solve)
+        starts from that solve's forces, zero at nodes it did not hold (10,990 → 5,636 Newton
+        iterations on every 20th DigiTac tap). Otherwise the last increment's forces; where the
+        same nodes carry contact and the object moves as it did over the last increment (a
+        straight move), their linear extrapolation, which takes Newton to the same solution in
+        fewer iterations while friction builds up (128 → 106 iterations on `twin bench
+        physics`'s path)."""
+        if resolved is not None:
+            nodes, forces = resolved
+            begin = np.zeros((len(candidates), 3))
+            _, here, there = np.intersect1d(candidates, nodes, assume_unique=True, return_indices=True)
+            begin[here] = forces[there]
+            return begin
         if self._before is not None:
             forces, nodes, motion = self._before
             if np.array_equal(nodes, candidates) and np.abs(motion - shift).max() <= 1e-12:
