@@ -79,6 +79,23 @@ def test_material_names_map_onto_the_dome() -> None:
     assert dome_material_of(params) == {"young_kpa": 70.0, "poisson": 0.3, "membrane_young_mpa": 0.5}
 
 
+def test_a_fitted_adhesion_reaches_the_dome_it_simulates() -> None:
+    """`material.adhesion_kpa`, fitted by `twin calibrate`, goes into the calibration's dome
+    material and from there into the compliant dome's contact law (Pa); the scenario's own
+    `physics.adhesion_kpa` is where it starts."""
+    from twin.analysis.calibration_fit.settings import load_settings
+    from twin.analysis.calibration_fit.space import Space
+
+    scenario = scenario_from_dict(
+        {"name": "adhesive", "object": {"name": "rectangle"}, "physics": {"adhesion_kpa": 4.0}}, "s.yaml"
+    )
+    space = Space(scenario, load_settings(None))
+    assert space.defaults["material.adhesion_kpa"] == 4.0
+    fitted = space.physics_scenario({"material.adhesion_kpa": 12.5})
+    assert fitted.calibration().dome_material["adhesion_kpa"] == 12.5
+    assert dome_params(fitted).adhesion == pytest.approx(12500.0)
+
+
 def test_sim_backend_applies_the_calibration(tmp_path) -> None:
     base = {"name": "cal", "object": {"name": "rectangle"}, "effects": ["contact", "friction"]}
     offsets = np.random.default_rng(0).normal(0, 1.0, (127, 2)).round(3)

@@ -91,6 +91,13 @@ DOME_MATERIAL: dict[str, tuple[str, float, float, str]] = {
         5.0,
         "compliant dome: how far the tip moves as a whole against the camera per newton of tangential contact force",
     ),
+    "adhesion_kpa": (
+        "kPa",
+        0.0,
+        100.0,
+        "compliant dome: the skin's adhesive shear strength on the object: with friction a node slips at "
+        "μ·pressure + this (0 = Coulomb's law alone)",
+    ),
 }
 
 

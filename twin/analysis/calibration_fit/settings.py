@@ -39,6 +39,7 @@ PHYSICS = (
     "material.pin_lever_mm",
     "material.apex_radius_mm",
     "material.tip_sway_mm_per_n",
+    "material.adhesion_kpa",
     "friction",
     "tcp.x_mm",
     "tcp.y_mm",

@@ -108,11 +108,9 @@ class CompliantSettings(PhysicsSettings):
         None,
     )
     adhesion_kpa: float | None = bounded(
-        0,
-        100,
+        *DOME_MATERIAL["adhesion_kpa"][1:3],
         "kPa",
-        "the skin's adhesive shear strength on the object: with friction a node slips at μ·pressure + this "
-        "(twin.world.dome.compliant.contact.friction_bound; default 0: Coulomb's law alone)",
+        DOME_MATERIAL["adhesion_kpa"][3] + " (twin.world.dome.compliant.contact.friction_bound; default 0)",
         None,
     )
 
