@@ -61,7 +61,9 @@ case "$job" in
     # the docs site: a broken link, anchor, snippet or API reference is a warning, and --strict fails on it
     NO_MKDOCS_2_WARNING=1 .venv/bin/mkdocs build --strict || die "the docs do not build (mkdocs build --strict, above)"
     set +e
-    .venv/bin/python -m pytest -n 2 --dist loadgroup "$@"
+    # a test that takes its worker down fails the run, naming the test, instead of a new
+    # worker: pytest-xdist 3.8.0's loadgroup scheduler can then wait forever (its issue 1323)
+    .venv/bin/python -m pytest -n 2 --dist loadgroup --max-worker-restart 0 "$@"
     rc=$?
     [ $rc -eq 5 ] && { echo "no tests were collected" >&2; exit 1; }
     exit $rc ;;

@@ -11,19 +11,24 @@ import time
 import pytest
 
 from twin.core.errors import Terminated
-from twin.runs.interrupts import signals_held, stop_signals_blocked
+from twin.runs.interrupts import HeldSignals, signals_held, stop_signals_blocked
 
 
-def _send(signum: int) -> None:
-    """`signum` to this whole process, then a moment for Python to run its handler."""
+def _send(signum: int, held: HeldSignals) -> None:
+    """`signum` to this whole process, then wait (at most 10 s) until `held` has noted it:
+    the thread the kernel hands it to may not run at once on a loaded machine, and a
+    signal handled only after the hold ends would land outside the test."""
     os.kill(os.getpid(), signum)
-    time.sleep(0.05)
+    deadline = time.monotonic() + 10.0
+    while signum not in held._noted:
+        assert time.monotonic() < deadline, f"{signal.Signals(signum).name} not noted within 10 s"
+        time.sleep(0.001)
 
 
 def test_a_held_ctrl_c_lands_where_it_is_delivered() -> None:
     reached = []
     with signals_held() as held:
-        _send(signal.SIGINT)
+        _send(signal.SIGINT, held)
         reached.append("after the signal")
         with pytest.raises(KeyboardInterrupt):
             held.deliver()
@@ -34,15 +39,15 @@ def test_a_held_ctrl_c_lands_where_it_is_delivered() -> None:
 def test_one_not_delivered_lands_on_leaving_and_the_handlers_are_back() -> None:
     before = signal.getsignal(signal.SIGINT)
     with pytest.raises(KeyboardInterrupt):
-        with signals_held():
-            _send(signal.SIGINT)
+        with signals_held() as held:
+            _send(signal.SIGINT, held)
     assert signal.getsignal(signal.SIGINT) is before
 
 
 def test_a_nested_hold_hands_its_signal_to_the_outer_one() -> None:
     with signals_held() as outer:
-        with signals_held():
-            _send(signal.SIGINT)
+        with signals_held() as inner:
+            _send(signal.SIGINT, inner)
         outer_got_it = True  # the inner hold's leaving did not raise
         with pytest.raises(KeyboardInterrupt):
             outer.deliver()
@@ -56,7 +61,7 @@ def test_sigterm_goes_to_the_programs_own_handler() -> None:
     previous = signal.signal(signal.SIGTERM, terminated)
     try:
         with signals_held() as held:
-            _send(signal.SIGTERM)
+            _send(signal.SIGTERM, held)
             with pytest.raises(Terminated):
                 held.deliver()
     finally:
@@ -72,8 +77,8 @@ def test_held_even_when_another_thread_takes_the_signal() -> None:
     taker.start()
     reached = []
     try:
-        with signals_held(), stop_signals_blocked():
-            _send(signal.SIGINT)
+        with signals_held() as held, stop_signals_blocked():
+            _send(signal.SIGINT, held)
             reached.append("the block's end")
     except KeyboardInterrupt:
         reached.append("interrupted on leaving")

@@ -7,6 +7,7 @@ Lagrange multiplier) and all of the geometry, so the tests compare the two."""
 from __future__ import annotations
 
 import math
+import signal
 from dataclasses import dataclass
 
 import gmsh
@@ -35,7 +36,11 @@ class BondedGel:
     @classmethod
     def build(cls, geometry: TacTipGeometry, size: float, poisson: float, inner_size: float = 0.005) -> BondedGel:
         radius, centre_z = geometry.dome_outer_radius, geometry.sphere_centre_z
-        gmsh.initialize()
+        # gmsh's initialize sets SIGINT to its default action (undone by no finalize of gmsh
+        # 4.15) and SIGPIPE too: a worker that then writes to a closed pipe, or a held Ctrl-C
+        # handed on, would be killed outright (tests/conftest.py checks every test for it)
+        sigpipe = signal.getsignal(signal.SIGPIPE)
+        gmsh.initialize(interruptible=False)
         try:
             gmsh.option.setNumber("General.Terminal", 0)
             gmsh.model.add("gel")
@@ -59,6 +64,7 @@ class BondedGel:
             _, _, connectivity = gmsh.model.mesh.getElements(3)
         finally:
             gmsh.finalize()
+            signal.signal(signal.SIGPIPE, sigpipe)
         index = np.zeros(int(tags.max()) + 1, int)
         index[tags.astype(int)] = np.arange(len(tags))
         tets = index[connectivity[0].astype(int)].reshape(-1, 4)
