@@ -77,6 +77,8 @@ class WorkerPool:
         self._outbox = None  # the local workers' queue of (job index, item) (map_streamed)
         self._ray_remote = None
         self._ray_started = False
+        #: SIGTERM's handler before this pool started Ray, which installs its own (put back on close)
+        self._sigterm_before_ray: object = None
 
     def __enter__(self) -> WorkerPool:
         return self
@@ -233,6 +235,9 @@ class WorkerPool:
 
             ray.shutdown()
             self._ray_started = False
+            if self._sigterm_before_ray is not None and threading.current_thread() is threading.main_thread():
+                signal.signal(signal.SIGTERM, self._sigterm_before_ray)
+                self._sigterm_before_ray = None
         self._ray_remote = None
 
     def _local_pool(self) -> ProcessPoolExecutor:
@@ -304,6 +309,8 @@ class WorkerPool:
             raise UserError("a Ray cluster needs the ray extra: uv sync --extra ray") from None
         if self._ray_remote is None:
             if not ray.is_initialized():
+                if threading.current_thread() is threading.main_thread():
+                    self._sigterm_before_ray = signal.getsignal(signal.SIGTERM)
                 if self.cluster == "local":
                     ray.init(num_cpus=default_workers(), include_dashboard=False, log_to_driver=False)
                 else:
