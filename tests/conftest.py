@@ -34,6 +34,7 @@ def _signal_state() -> dict[str, object]:
         state[f"{name} blocked"] = signum in blocked
         if caught is not None:
             state[f"{name} caught by the kernel"] = bool(caught >> (signum - 1) & 1)
+    state["SIGPIPE handler"] = signal.getsignal(signal.SIGPIPE)
     if ignored is not None:
         state["SIGPIPE ignored by the kernel"] = bool(ignored >> (signal.SIGPIPE - 1) & 1)
     return state
@@ -54,17 +55,20 @@ def _kernel_masks() -> tuple[int | None, int | None]:
 
 #: this process's signal state once set up, which every test must find and leave
 SIGNALS_AT_START = _signal_state()
-_HANDLERS_AT_START = {signum: signal.getsignal(signum) for signum in (*STOP_SIGNALS, signal.SIGPIPE)}
-_MASK_AT_START = signal.pthread_sigmask(signal.SIG_BLOCK, [])
 
 
 def _signals_changed() -> dict[str, tuple[object, object]]:
-    """What differs from SIGNALS_AT_START (name: (then, now)), which is then put back."""
+    """What differs from SIGNALS_AT_START (name: (then, now)), which is then put back:
+    the mask and the handlers (setting a handler sets the kernel's too)."""
     now = _signal_state()
     changed = {key: (then, now[key]) for key, then in SIGNALS_AT_START.items() if now[key] is not then}
     if changed:
-        signal.pthread_sigmask(signal.SIG_SETMASK, _MASK_AT_START)
-        for signum, handler in _HANDLERS_AT_START.items():
+        for signum in (*STOP_SIGNALS, signal.SIGPIPE):
+            name = signal.Signals(signum).name
+            if f"{name} blocked" in SIGNALS_AT_START:
+                how = signal.SIG_BLOCK if SIGNALS_AT_START[f"{name} blocked"] else signal.SIG_UNBLOCK
+                signal.pthread_sigmask(how, [signum])
+            handler = SIGNALS_AT_START[f"{name} handler"]
             if handler is not None:  # None: set outside Python, which cannot be put back from here
                 signal.signal(signum, handler)
     return changed
