@@ -650,12 +650,15 @@ def test_compare_reads_both_runs_on_the_taps_they_share(run: Run, tmp_path: Path
     assert {r["figure"] for r in differences["rows"]} == {"signal", "theta_pc23", "theta_pc23_across", "drag/signal"}
     for r in differences["rows"]:
         assert r["b"] == pytest.approx(r["a"], rel=1e-6) and r["spread"] == pytest.approx(0.0, abs=1e-6), r
+        if r["figure"].startswith("theta_pc23"):  # read in A's plane too, which is B's own
+            assert r["in_a_plane"] == pytest.approx(r["a"], rel=1e-6), r
+            assert r["spread_in_a_plane"] == pytest.approx(0.0, abs=1e-6), r
     assert f"B against A on the same {len(run.samples[::4])} taps" in printed and "+0.00 ± 0.00" in printed
     assert differences["b_in_a_plane"]["angle_deg"] == pytest.approx(0.0, abs=1e-3)
     assert "which lies 0.0° from B's" in printed
 
 
-def test_compare_leaves_out_of_both_runs_the_taps_either_lost_a_pin_in(tmp_path: Path) -> None:
+def test_compare_leaves_out_of_both_runs_the_taps_either_lost_a_pin_in(tmp_path: Path, capsys) -> None:
     """A recording that lost a pin in some taps (the DigiTac set's tracker, in a tenth of its
     frames, most at the deepest presses onto the object) beside a replay that lost none:
     the replay's figures come from the taps the recording kept, not from all of its own,
@@ -678,6 +681,11 @@ def test_compare_leaves_out_of_both_runs_the_taps_either_lost_a_pin_in(tmp_path:
     assert max(abs(expected[l] - everything[l]) for l in expected) > 0.02  # the case is exercised
     profile = {float(l): v for l, v in result["edge_figures"]["b"]["signal_profile"]["3.0"].items()}
     assert profile == pytest.approx(expected, abs=1e-6)
+    rows = result["edge_figure_differences"]["rows"]
+    pooled = result["edge_figure_differences"]["pooled"]["signal"]  # each side's bins, pooled
+    for side, on_side in (("onto", lambda l: l < 0), ("off", lambda l: l >= 0)):
+        assert pooled[side]["bins"] == sum(r["figure"] == "signal" and on_side(r["lateral_mm"]) for r in rows)
+    assert "pooled onto the object (l < 0)" in capsys.readouterr().out
 
 
 def test_the_paired_spread_is_the_scatter_of_the_difference_over_new_taps() -> None:

@@ -12,7 +12,12 @@ import cv2
 import numpy as np
 from skimage.metrics import structural_similarity
 
-from twin.analysis.calibration_fit.figures import figure_values, paired_figure_spread
+from twin.analysis.calibration_fit.figures import (
+    difference,
+    figure_values,
+    figure_values_in_plane_of,
+    paired_figure_spread,
+)
 from twin.analysis.edge_imprint import REACH_AT_MM, edge_figures, is_sheared, turn_in_reference_plane, usable
 from twin.analysis.evaluation import along_edge_drag_px, orientation_signal_px
 from twin.core.errors import UserError
@@ -95,32 +100,76 @@ def taps_both_kept(a: Run, b: Run, pairs: list[tuple[int, int]] | None = None) -
     return [(i, j) for i, j in shared if kept_a[i] == kept_b[j]]
 
 
+#: the figures θ_PC23 is read for, in a run's own plane or another's
+THETA_FIGURES = ("theta_pc23", "theta_pc23_across")
+
+
 def figure_differences(a: Run, b: Run, resamples: int, seed: int) -> dict:
     """B's edge figures against A's on the same taps (`a` and `b` hold them in the same
     order): per figure and lateral bin, both values and the standard deviation of their
     difference over `resamples` paired bootstrap resamples (twin.analysis.calibration_fit.
     figures.paired_figure_spread; in the figure's miss units: the ratio's difference for
-    the signal, the log of B / A for θ_PC23 and drag / signal); and B's θ_PC23 turn read in
-    A's PC2–PC3 plane (twin.analysis.edge_imprint.turn_in_reference_plane): "b_in_a_plane"."""
+    the signal, the log of B / A for θ_PC23 and drag / signal); for θ_PC23's rows also B's
+    turn read in A's PC2–PC3 plane and its spread, "in_a_plane" and "spread_in_a_plane"
+    (twin.analysis.edge_imprint.turn_in_reference_plane, which gives "b_in_a_plane": the
+    angle between the planes and those turns); and each figure's difference pooled over
+    the bins on either side of the edge (`pooled_differences`): "pooled", and
+    "pooled_in_a_plane" for θ_PC23 read in A's plane."""
     values_a, values_b = figure_values(a), figure_values(b)
+    in_plane = figure_values_in_plane_of(a, b)
     spread = paired_figure_spread(a, b, resamples, seed, (values_a, values_b))
-    rows = [
-        {
-            "figure": figure,
-            "lateral_mm": l,
-            "a": values_a[figure, l],
-            "b": values_b[figure, l],
-            "spread": spread[figure, l],
-        }
-        for figure, l in sorted(spread)
-    ]
+    spread_in_plane = paired_figure_spread(a, b, resamples, seed, (values_a, in_plane), in_a_plane=True)
+    rows = []
+    for figure, l in sorted(spread):
+        row = {"figure": figure, "lateral_mm": l, "a": values_a[figure, l], "b": values_b[figure, l]}
+        row["spread"] = spread[figure, l]
+        if figure in THETA_FIGURES and (figure, l) in spread_in_plane:
+            row.update(in_a_plane=in_plane[figure, l], spread_in_a_plane=spread_in_plane[figure, l])
+        rows.append(row)
+    in_a_rows = [{**r, "b": r["in_a_plane"], "spread": r["spread_in_a_plane"]} for r in rows if "in_a_plane" in r]
     return {
         "taps": sum(not s["labels"].get("no_contact") for s in a.samples),
         "resamples": resamples,
         "seed": seed,
         "rows": rows,
         "b_in_a_plane": turn_in_reference_plane(a, b),
+        "pooled": pooled_differences(rows),
+        "pooled_in_a_plane": pooled_differences(in_a_rows),
     }
+
+
+#: the sides of the edge a figure's bins are pooled over (l in mm): onto the object, off it
+SIDES = {"onto": lambda l: l < 0, "off": lambda l: l >= 0}
+
+
+def pooled_differences(rows: list[dict]) -> dict[str, dict[str, dict]]:
+    """{figure: {side: pooled}} of `figure_differences`'s rows: B's figure less A's (in its
+    miss's units: calibration_fit.figures.difference) over the lateral bins on each side of
+    the edge (SIDES), each bin weighted by the inverse of its paired variance. A bin's
+    figure may be known to a factor of 4 where its neighbour's is known to 20 %, so a plain
+    mean over the bins says what the worst-measured bin says. pooled: "difference" (the
+    weighted mean), "error" (its standard error, 1 / √Σw, times Birge's ratio √(χ² / dof)
+    where the bins scatter about the mean more than their spreads allow), "chi2_per_dof"
+    and "bins". The bins' taps are disjoint, so their differences are independent. A side
+    with a bin whose spread is 0 (no resamples) is left out: it cannot be weighted."""
+    pooled: dict[str, dict[str, dict]] = {}
+    for figure in sorted({r["figure"] for r in rows}):
+        for side, on_side in SIDES.items():
+            bins = [r for r in rows if r["figure"] == figure and on_side(r["lateral_mm"])]
+            if not bins or any(r["spread"] <= 0 for r in bins):
+                continue
+            d = np.array([difference(figure, r["a"], r["b"]) for r in bins])
+            w = np.array([r["spread"] ** -2 for r in bins])
+            mean = float(np.sum(w * d) / np.sum(w))
+            chi2_per_dof = float(np.sum(w * (d - mean) ** 2) / (len(d) - 1)) if len(d) > 1 else 0.0
+            error = float(np.sqrt(max(chi2_per_dof, 1.0) / np.sum(w)))
+            pooled.setdefault(figure, {})[side] = {
+                "difference": mean,
+                "error": error,
+                "chi2_per_dof": chi2_per_dof,
+                "bins": len(d),
+            }
+    return pooled
 
 
 #: tap protocols on the straight edge whose runs compare by the edge figures even unpaired

@@ -151,20 +151,22 @@ DIFFERENCE_COLUMNS = (
 )
 
 
-#: the columns of B's θ_PC23 turns read in A's plane: its `turn_in_reference_plane` key, A's own figure, heading
+#: the columns of B's θ_PC23 turns read in A's plane: the figure, heading
 IN_A_PLANE_COLUMNS = (
-    ("pc23_deg_per_mm", "theta_pc23", "θ_PC23 per mm in A's plane, B / A"),
-    ("across_pc23_deg_per_mm", "theta_pc23_across", "the same across"),
+    ("theta_pc23", "θ_PC23 per mm in A's plane, B / A"),
+    ("theta_pc23_across", "the same across"),
 )
+#: the pooled lines below the bins: side (twin.analysis.comparison.SIDES), label
+POOLED_LINES = (("onto", "pooled onto the object (l < 0)"), ("off", "pooled off it (l ≥ 0)"))
 
 
 def format_figure_differences(differences: dict) -> str:
     """`twin compare`'s edge figures of B against A on the taps both have
     (twin.analysis.comparison.figure_differences): the signal ratio's difference ± its
     paired bootstrap standard deviation; θ_PC23's and drag / signal's factor B / A ×÷ the
-    factor of one standard deviation (their spread is in log units); and B's θ_PC23 turns,
+    factor of one standard deviation (their spread is in log units); B's θ_PC23 turns,
     along and across the edge, read in A's PC2–PC3 plane over A's own, with the angle
-    between the planes."""
+    between the planes; and below the bins, each figure pooled over either side of the edge."""
     rows = {(r["figure"], r["lateral_mm"]): r for r in differences["rows"]}
     in_a = differences.get("b_in_a_plane")
     lines = [
@@ -172,28 +174,59 @@ def format_figure_differences(differences: dict) -> str:
         f"{differences['resamples']} bootstrap resamples of them, the same for both; seed {differences['seed']}):",
         " " * 34
         + "".join(heading.rjust(WIDTH + 4) for _, heading in DIFFERENCE_COLUMNS)
-        + ("".join(heading.rjust(WIDTH + 16) for *_, heading in IN_A_PLANE_COLUMNS) if in_a else ""),
+        + ("".join(heading.rjust(WIDTH + 16) for _, heading in IN_A_PLANE_COLUMNS) if in_a else ""),
     ]
     for l in sorted({l for _, l in rows}, reverse=True):
-        cells = []
-        for figure, _ in DIFFERENCE_COLUMNS:
-            row = rows.get((figure, l))
-            if row is None:
-                cells.append("—")
-            elif figure == "signal":
-                cells.append(f"{row['b'] - row['a']:+.2f} ± {row['spread']:.2f}")
-            else:
-                cells.append(f"{row['b'] / row['a']:.2f} ×÷ {math.exp(row['spread']):.2f}" if row["a"] > 0 else "—")
-        line = f"    l {l:+g} mm".ljust(34) + "".join(c.rjust(WIDTH + 4) for c in cells)
+        line = f"    l {l:+g} mm".ljust(34)
+        line += "".join(
+            _difference_cell(figure, rows.get((figure, l))).rjust(WIDTH + 4) for figure, _ in DIFFERENCE_COLUMNS
+        )
         if in_a:
-            for key, figure, _ in IN_A_PLANE_COLUMNS:
-                own, turn = rows.get((figure, l)), in_a[key].get(l)
-                ok = own is not None and turn is not None and own["a"] > 0
-                line += (f"{turn / own['a']:.2f}" if ok else "—").rjust(WIDTH + 16)
+            for figure, _ in IN_A_PLANE_COLUMNS:
+                row = rows.get((figure, l))
+                read = None
+                if row is not None and "in_a_plane" in row:
+                    read = {**row, "b": row["in_a_plane"], "spread": row["spread_in_a_plane"]}
+                line += _difference_cell(figure, read).rjust(WIDTH + 16)
         lines.append(line)
+    pooled, pooled_in_a = differences.get("pooled", {}), differences.get("pooled_in_a_plane", {})
+    for side, label in POOLED_LINES:
+        cells = [_pooled_cell(figure, pooled.get(figure, {}).get(side)) for figure, _ in DIFFERENCE_COLUMNS]
+        in_a_cells = [_pooled_cell(f, pooled_in_a.get(f, {}).get(side)) for f, _ in IN_A_PLANE_COLUMNS] if in_a else []
+        if any(c != "—" for c in cells + in_a_cells):
+            lines.append(
+                f"    {label}".ljust(34)
+                + "".join(c.rjust(WIDTH + 4) for c in cells)
+                + "".join(c.rjust(WIDTH + 16) for c in in_a_cells)
+            )
+    if pooled:
+        lines.append(
+            "  (pooled: each bin weighted by 1 / its variance, ± one standard error, widened where the bins"
+            " scatter more than their spreads allow; twin.analysis.comparison.pooled_differences)"
+        )
     if in_a:
         lines.append(
             f"  (the last two columns: B's θ_PC23 read in A's PC2–PC3 plane, which lies {in_a['angle_deg']:.1f}° from"
             " B's; where they meet A's and B's own do not, the planes differ, not the drag)"
         )
     return "\n".join(lines)
+
+
+def _difference_cell(figure: str, row: dict | None) -> str:
+    """One bin's B against A: the signal's B − A ± its spread, the others' B / A ×÷ the
+    factor of one spread (their spreads are in log units)."""
+    if row is None:
+        return "—"
+    if figure == "signal":
+        return f"{row['b'] - row['a']:+.2f} ± {row['spread']:.2f}"
+    return f"{row['b'] / row['a']:.2f} ×÷ {math.exp(row['spread']):.2f}" if row["a"] > 0 else "—"
+
+
+def _pooled_cell(figure: str, pooled: dict | None) -> str:
+    """A pooled difference as the per-bin cells show theirs: the signal's B − A ± its error,
+    the others' B / A ×÷ the factor of one error (their differences are logs)."""
+    if pooled is None:
+        return "—"
+    if figure == "signal":
+        return f"{pooled['difference']:+.2f} ± {pooled['error']:.2f}"
+    return f"{math.exp(pooled['difference']):.2f} ×÷ {math.exp(pooled['error']):.2f}"

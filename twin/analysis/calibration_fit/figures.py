@@ -121,12 +121,18 @@ def _tolerance(figure: str) -> float:
     return LINEAR.get(figure, math.log(FACTOR_TOLERANCE))
 
 
+def difference(figure: str, a: float, b: float) -> float:
+    """B's value of a figure less A's, in its miss's units: the difference of the signal
+    ratios and shares, the log of B / A (each floored at FLOORS) for the others."""
+    return _scale(figure, b) - _scale(figure, a)
+
+
 def miss(figure: str, twin: float | None, recorded: float, spread: float = 0.0) -> float:
     """The twin's miss of one recorded figure over √(tolerance² + spread²), `spread` the
     recorded figure's in the miss's units (signed: + = the twin's is larger)."""
     if twin is None or not math.isfinite(twin):
         return MISSING_MISS
-    return (_scale(figure, twin) - _scale(figure, recorded)) / math.hypot(_tolerance(figure), spread)
+    return difference(figure, recorded, twin) / math.hypot(_tolerance(figure), spread)
 
 
 def figure_spread(
@@ -147,26 +153,40 @@ def figure_spread(
     return {k: float(np.std(v)) if len(v) > 1 else 0.0 for k, v in drawn.items()}
 
 
+def figure_values_in_plane_of(reference: Run, run: Run) -> Figures:
+    """`figure_values` of `run` with its θ_PC23 turns read in `reference`'s taps' PC2–PC3
+    plane, carried onto `run`'s rest pins (edge_imprint.carried_pcs), as a calibration
+    reads a twin's against a recording's with `edge_theta_plane: recorded`."""
+    return figure_values(run, pcs=carried_pcs(tap_pcs(reference), reference, run))
+
+
 def paired_figure_spread(
-    a: Run, b: Run, resamples: int, seed: int, values: tuple[Figures, Figures] | None = None
+    a: Run,
+    b: Run,
+    resamples: int,
+    seed: int,
+    values: tuple[Figures, Figures] | None = None,
+    in_a_plane: bool = False,
 ) -> Figures:
     """The standard deviation (in each figure's miss's units) of b's figure less a's over
     `resamples` bootstrap resamples of their taps, the same taps drawn for both: `a` and
     `b` hold the same taps in the same order (a recording and its replay on the taps they
     share, twin.runs.pairing.shared_taps), so what the draw of taps does to both figures
     alike drops out of the difference. Only figures both runs have; 0 for each when
-    `resamples` is 0. `values`: the runs' own figures (`figure_values`), where the caller
-    has them."""
-    values_a, values_b = (figure_values(a), figure_values(b)) if values is None else values
+    `resamples` is 0. `in_a_plane`: b's θ_PC23 turns read in each resample of a's plane
+    (`figure_values_in_plane_of`). `values`: the runs' figures (a's `figure_values`, b's
+    as `in_a_plane` reads them), where the caller has them."""
+    read_b = figure_values_in_plane_of if in_a_plane else lambda _, run: figure_values(run)
+    values_a, values_b = (figure_values(a), read_b(a, b)) if values is None else values
     keys = set(values_a) & set(values_b)
     if resamples == 0:
         return dict.fromkeys(keys, 0.0)
     drawn: dict[tuple[str, float], list[float]] = {k: [] for k in keys}
     for ra, rb in _resampled([a, b], resamples, seed):
-        va, vb = figure_values(ra), figure_values(rb)
+        va, vb = figure_values(ra), read_b(ra, rb)
         for k in keys:
             if k in va and k in vb:
-                drawn[k].append(_scale(k[0], vb[k]) - _scale(k[0], va[k]))
+                drawn[k].append(difference(k[0], va[k], vb[k]))
     return {k: float(np.std(v)) if len(v) > 1 else 0.0 for k, v in drawn.items()}
 
 
