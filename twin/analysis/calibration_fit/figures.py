@@ -156,8 +156,12 @@ def figure_spread(
 def figure_values_in_plane_of(reference: Run, run: Run) -> Figures:
     """`figure_values` of `run` with its θ_PC23 turns read in `reference`'s taps' PC2–PC3
     plane, carried onto `run`'s rest pins (edge_imprint.carried_pcs), as a calibration
-    reads a twin's against a recording's with `edge_theta_plane: recorded`."""
-    return figure_values(run, pcs=carried_pcs(tap_pcs(reference), reference, run))
+    reads a twin's against a recording's with `edge_theta_plane: recorded`. Without a
+    reference plane (no lateral bin of `reference` holds enough taps) it has no θ_PC23."""
+    fits = sheared_fits(reference)
+    if not fits:
+        return {k: v for k, v in figure_values(run).items() if k[0] not in ("theta_pc23", "theta_pc23_across")}
+    return figure_values(run, pcs=carried_pcs(tap_pcs(reference, fits), reference, run))
 
 
 def paired_figure_spread(
