@@ -710,7 +710,7 @@ def test_the_paired_spread_is_the_scatter_of_the_difference_over_new_taps() -> N
         va, vb = (figure_values(r) for r in pair(seed))
         differences.append([vb["signal", l] - va["signal", l] for l in bins])
     scatter = np.std(differences, axis=0, ddof=1)
-    estimates = [paired_figure_spread(*pair(100 + k), 12, seed=k) for k in range(3)]
+    estimates = [paired_figure_spread(*pair(100 + k), 12, seed=k)[0] for k in range(3)]
     estimated = np.mean([[e["signal", l] for l in bins] for e in estimates], axis=0)
     assert np.all((estimated / scatter > 0.5) & (estimated / scatter < 1.5)), (bins, estimated, scatter)
 

@@ -12,13 +12,8 @@ import cv2
 import numpy as np
 from skimage.metrics import structural_similarity
 
-from twin.analysis.calibration_fit.figures import (
-    difference,
-    figure_values,
-    figure_values_in_plane_of,
-    paired_figure_spread,
-)
-from twin.analysis.edge_imprint import REACH_AT_MM, edge_figures, is_sheared, turn_in_reference_plane, usable
+from twin.analysis.calibration_fit.figures import THETA_FIGURES, difference, paired_figure_spread, paired_figures
+from twin.analysis.edge_imprint import REACH_AT_MM, edge_figures, is_sheared, usable
 from twin.analysis.evaluation import along_edge_drag_px, orientation_signal_px
 from twin.core.errors import UserError
 from twin.runs.pairing import pair_samples, shared_taps
@@ -100,42 +95,48 @@ def taps_both_kept(a: Run, b: Run, pairs: list[tuple[int, int]] | None = None) -
     return [(i, j) for i, j in shared if kept_a[i] == kept_b[j]]
 
 
-#: the figures θ_PC23 is read for, in a run's own plane or another's
-THETA_FIGURES = ("theta_pc23", "theta_pc23_across")
-
-
 def figure_differences(a: Run, b: Run, resamples: int, seed: int) -> dict:
     """B's edge figures against A's on the same taps (`a` and `b` hold them in the same
     order): per figure and lateral bin, both values and the standard deviation of their
     difference over `resamples` paired bootstrap resamples (twin.analysis.calibration_fit.
     figures.paired_figure_spread; in the figure's miss units: the ratio's difference for
     the signal, the log of B / A for θ_PC23 and drag / signal); for θ_PC23's rows also B's
-    turn read in A's PC2–PC3 plane and its spread, "in_a_plane" and "spread_in_a_plane"
-    (twin.analysis.edge_imprint.turn_in_reference_plane, which gives "b_in_a_plane": the
-    angle between the planes and those turns); and each figure's difference pooled over
-    the bins on either side of the edge (`pooled_differences`): "pooled", and
-    "pooled_in_a_plane" for θ_PC23 read in A's plane."""
-    values_a, values_b = figure_values(a), figure_values(b)
-    in_plane = figure_values_in_plane_of(a, b)
-    spread = paired_figure_spread(a, b, resamples, seed, (values_a, values_b))
-    spread_in_plane = paired_figure_spread(a, b, resamples, seed, (values_a, in_plane), in_a_plane=True)
+    turn read in A's PC2–PC3 plane and its spread, "in_a_plane" and "spread_in_a_plane";
+    "b_in_a_plane": the angle between the planes and those turns by l (None where a run
+    has no plane); and each figure's difference pooled over the bins on either side of the
+    edge (`pooled_differences`): "pooled", and "pooled_in_a_plane" for θ_PC23 read in A's
+    plane."""
+    paired = paired_figures(a, b)
+    spread, spread_in_plane = paired_figure_spread(a, b, resamples, seed, paired)
     rows = []
     for figure, l in sorted(spread):
-        row = {"figure": figure, "lateral_mm": l, "a": values_a[figure, l], "b": values_b[figure, l]}
+        row = {"figure": figure, "lateral_mm": l, "a": paired.a[figure, l], "b": paired.b[figure, l]}
         row["spread"] = spread[figure, l]
-        if figure in THETA_FIGURES and (figure, l) in spread_in_plane:
-            row.update(in_a_plane=in_plane[figure, l], spread_in_a_plane=spread_in_plane[figure, l])
+        if (figure, l) in spread_in_plane:
+            row.update(in_a_plane=paired.b_in_a_plane[figure, l], spread_in_a_plane=spread_in_plane[figure, l])
         rows.append(row)
-    in_a_rows = [{**r, "b": r["in_a_plane"], "spread": r["spread_in_a_plane"]} for r in rows if "in_a_plane" in r]
+    in_a = None
+    if paired.plane_angle_deg is not None:
+        in_a = {"angle_deg": paired.plane_angle_deg}
+        for key, figure in zip(("pc23_deg_per_mm", "across_pc23_deg_per_mm"), THETA_FIGURES):
+            in_a[key] = {l: v for (f, l), v in paired.b_in_a_plane.items() if f == figure}
     return {
         "taps": sum(not s["labels"].get("no_contact") for s in a.samples),
         "resamples": resamples,
         "seed": seed,
         "rows": rows,
-        "b_in_a_plane": turn_in_reference_plane(a, b),
+        "b_in_a_plane": in_a,
         "pooled": pooled_differences(rows),
-        "pooled_in_a_plane": pooled_differences(in_a_rows),
+        "pooled_in_a_plane": pooled_differences([r for r in map(read_in_a_plane, rows) if r is not None]),
     }
+
+
+def read_in_a_plane(row: dict) -> dict | None:
+    """A θ_PC23 row of `figure_differences` as B read in A's plane gives it (that value and
+    its spread as B's); None for a row without that reading."""
+    if "in_a_plane" not in row:
+        return None
+    return {**row, "b": row["in_a_plane"], "spread": row["spread_in_a_plane"]}
 
 
 #: the sides of the edge a figure's bins are pooled over (l in mm): onto the object, off it

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+from twin.analysis.comparison import read_in_a_plane
 from twin.analysis.edge_imprint import rotating_pair
 
 WIDTH = 22
@@ -184,10 +185,7 @@ def format_figure_differences(differences: dict) -> str:
         if in_a:
             for figure, _ in IN_A_PLANE_COLUMNS:
                 row = rows.get((figure, l))
-                read = None
-                if row is not None and "in_a_plane" in row:
-                    read = {**row, "b": row["in_a_plane"], "spread": row["spread_in_a_plane"]}
-                line += _difference_cell(figure, read).rjust(WIDTH + 16)
+                line += _difference_cell(figure, None if row is None else read_in_a_plane(row)).rjust(WIDTH + 16)
         lines.append(line)
     pooled, pooled_in_a = differences.get("pooled", {}), differences.get("pooled_in_a_plane", {})
     for side, label in POOLED_LINES:

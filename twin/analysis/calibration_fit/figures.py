@@ -52,10 +52,12 @@ from twin.analysis.edge_imprint import (
     carried_pcs,
     drag_over_signal,
     is_sheared,
+    plane_angle_deg,
     sheared_fits,
     signal_profile,
     signal_shift_share,
     tap_pcs,
+    usable,
 )
 from twin.core.errors import UserError
 from twin.core.scenario import SHEARED_TAP_MOTION
@@ -74,22 +76,62 @@ MISSING_MISS = 10.0
 Figures = dict[tuple[str, float], float]
 
 
-def figure_values(run: Run, shift_apart: bool = False, pcs: TapPCs | None = None) -> Figures:
+#: the figures θ_PC23 is read for, in a run's own taps' PC2–PC3 plane or another run's
+THETA_FIGURES = ("theta_pc23", "theta_pc23_across")
+
+
+def figure_values(
+    run: Run, shift_apart: bool = False, pcs: TapPCs | None = None, fits: list[BinFit] | None = None
+) -> Figures:
     """{(figure, l): value} of a sheared-tap run (module docstring); l = 0's signal, 1 by
     definition, is left out. `shift_apart`: the signal without its rigid shift, and the
     shift's share as figures of their own. `pcs`: the PCs θ_PC23 is read in (the run's
-    own where None)."""
-    fits = sheared_fits(run)
+    own where None). `fits`: the run's `sheared_fits`, where the caller has them."""
+    fits = sheared_fits(run) if fits is None else fits
     values = _imprint_values(run, shift_apart, fits)
     values.update({("drag/signal", l): v["ratio"] for l, v in drag_over_signal(run, fits).items()})
-    if fits:
-        pcs = pcs or tap_pcs(run, fits)
-    for figure, turns in (
-        ("theta_pc23", along_edge_turn_sheared(run, pcs, fits)),
-        ("theta_pc23_across", across_edge_turn_sheared(run, pcs, fits)),
+    if fits and pcs is None:
+        pcs = tap_pcs(run, fits)
+    values.update(_theta_values(run, pcs, fits))
+    return _finite(values)
+
+
+def _theta_values(run: Run, pcs: TapPCs | None, fits: list[BinFit]) -> Figures:
+    """The θ_PC23 figures (THETA_FIGURES) of a sheared-tap run read in `pcs`."""
+    values: Figures = {}
+    for figure, turns in zip(
+        THETA_FIGURES, (along_edge_turn_sheared(run, pcs, fits), across_edge_turn_sheared(run, pcs, fits))
     ):
         values.update({(figure, l): v["pc23_deg_per_mm"] for l, v in turns.items()})
-    return _finite(values)
+    return values
+
+
+@dataclass
+class PairedFigures:
+    """Two runs of the same taps read for a comparison: A's figures, B's, B's θ_PC23 turns
+    read in A's taps' PC2–PC3 plane carried onto B's rest pins (edge_imprint.carried_pcs),
+    as a calibration reads a twin's against a recording's with `edge_theta_plane:
+    recorded`, and the angle between the two planes (deg; None where a run has no usable
+    tap to take a plane from)."""
+
+    a: Figures
+    b: Figures
+    b_in_a_plane: Figures
+    plane_angle_deg: float | None
+
+
+def paired_figures(a: Run, b: Run) -> PairedFigures:
+    """`PairedFigures` of runs `a` and `b`, each run's fits and PCs taken once."""
+    fits_a, fits_b = sheared_fits(a), sheared_fits(b)
+    pcs_a = tap_pcs(a, fits_a) if usable(a).any() else None
+    pcs_b = tap_pcs(b, fits_b) if usable(b).any() else None
+    in_a_plane, angle = {}, None
+    if pcs_a is not None and pcs_b is not None:
+        in_a_plane = _finite(_theta_values(b, carried_pcs(pcs_a, a, b), fits_b))
+        angle = plane_angle_deg(pcs_a, pcs_b)
+    return PairedFigures(
+        figure_values(a, pcs=pcs_a, fits=fits_a), figure_values(b, pcs=pcs_b, fits=fits_b), in_a_plane, angle
+    )
 
 
 def _finite(values: Figures) -> Figures:
@@ -153,45 +195,30 @@ def figure_spread(
     return {k: float(np.std(v)) if len(v) > 1 else 0.0 for k, v in drawn.items()}
 
 
-def figure_values_in_plane_of(reference: Run, run: Run) -> Figures:
-    """`figure_values` of `run` with its θ_PC23 turns read in `reference`'s taps' PC2–PC3
-    plane, carried onto `run`'s rest pins (edge_imprint.carried_pcs), as a calibration
-    reads a twin's against a recording's with `edge_theta_plane: recorded`. Without a
-    reference plane (no lateral bin of `reference` holds enough taps) it has no θ_PC23."""
-    fits = sheared_fits(reference)
-    if not fits:
-        return {k: v for k, v in figure_values(run).items() if k[0] not in ("theta_pc23", "theta_pc23_across")}
-    return figure_values(run, pcs=carried_pcs(tap_pcs(reference, fits), reference, run))
-
-
 def paired_figure_spread(
-    a: Run,
-    b: Run,
-    resamples: int,
-    seed: int,
-    values: tuple[Figures, Figures] | None = None,
-    in_a_plane: bool = False,
-) -> Figures:
+    a: Run, b: Run, resamples: int, seed: int, paired: PairedFigures | None = None
+) -> tuple[Figures, Figures]:
     """The standard deviation (in each figure's miss's units) of b's figure less a's over
     `resamples` bootstrap resamples of their taps, the same taps drawn for both: `a` and
     `b` hold the same taps in the same order (a recording and its replay on the taps they
     share, twin.runs.pairing.shared_taps), so what the draw of taps does to both figures
-    alike drops out of the difference. Only figures both runs have; 0 for each when
-    `resamples` is 0. `in_a_plane`: b's θ_PC23 turns read in each resample of a's plane
-    (`figure_values_in_plane_of`). `values`: the runs' figures (a's `figure_values`, b's
-    as `in_a_plane` reads them), where the caller has them."""
-    read_b = figure_values_in_plane_of if in_a_plane else lambda _, run: figure_values(run)
-    values_a, values_b = (figure_values(a), read_b(a, b)) if values is None else values
-    keys = set(values_a) & set(values_b)
+    alike drops out of the difference. Two dicts: b's own figures, and b's θ_PC23 turns
+    read in each resample's plane of a's (`PairedFigures.b_in_a_plane`). Only figures both
+    runs have; 0 for each when `resamples` is 0. `paired`: `paired_figures(a, b)`, where
+    the caller has it."""
+    paired = paired_figures(a, b) if paired is None else paired
+    keys = (set(paired.a) & set(paired.b), set(paired.a) & set(paired.b_in_a_plane))
     if resamples == 0:
-        return dict.fromkeys(keys, 0.0)
-    drawn: dict[tuple[str, float], list[float]] = {k: [] for k in keys}
+        return dict.fromkeys(keys[0], 0.0), dict.fromkeys(keys[1], 0.0)
+    drawn: tuple[dict, dict] = ({k: [] for k in keys[0]}, {k: [] for k in keys[1]})
     for ra, rb in _resampled([a, b], resamples, seed):
-        va, vb = figure_values(ra), read_b(ra, rb)
-        for k in keys:
-            if k in va and k in vb:
-                drawn[k].append(difference(k[0], va[k], vb[k]))
-    return {k: float(np.std(v)) if len(v) > 1 else 0.0 for k, v in drawn.items()}
+        p = paired_figures(ra, rb)
+        for read, draws in zip((p.b, p.b_in_a_plane), drawn):
+            for k, values in draws.items():
+                if k in p.a and k in read:
+                    values.append(difference(k[0], p.a[k], read[k]))
+    own, in_a_plane = ({k: float(np.std(v)) if len(v) > 1 else 0.0 for k, v in d.items()} for d in drawn)
+    return own, in_a_plane
 
 
 def _resampled(runs: list[Run], resamples: int, seed: int):
