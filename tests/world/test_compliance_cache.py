@@ -19,7 +19,9 @@ from twin.world.dome.compliant.compliance import (
     sealed_gel,
     self_compliance,
     skinned,
+    sway_block,
 )
+from twin.world.dome.compliant.contact import UNKNOWN_SIGNS, unknowns_matrix
 
 SURFACE = CapSurface(TacTipGeometry(), 0.0025, 65.0)  # the fast level's nodes: quick to compute
 
@@ -127,6 +129,17 @@ def test_the_compiled_products_are_the_matrix_products():
     block = dome.block(nodes, nodes).reshape(len(nodes), 3, len(nodes), 3)
     turned = np.einsum("iak,ikjl,jbl->iajb", frames, block, frames).reshape(3 * len(nodes), -1)
     assert np.allclose(dome.local_block(nodes, frames), turned, rtol=0.0, atol=1e-12 * np.abs(turned).max())
+    # the tip's sway and the solver's signs, as sway_block and unknowns_matrix state them
+    sway = 2e-4
+    signed = unknowns_matrix(turned + sway_block(frames, sway))
+    local = dome.local_block(nodes, frames, sway, UNKNOWN_SIGNS)
+    assert np.allclose(local, signed, rtol=0.0, atol=1e-12 * np.abs(signed).max())
+    # from an earlier block: other nodes (one gone, one new) and two of the kept ones turned
+    later = np.array([3, 18, 40, 41, 77, 90, 200])
+    later_frames = frames[[0, 2, 3, 4, 0, 5, 6]].copy()
+    later_frames[[1, 5]] = Rotation.random(2, random_state=4).as_matrix()
+    fresh = dome.local_block(later, later_frames, sway, UNKNOWN_SIGNS)
+    assert np.array_equal(dome.local_block(later, later_frames, sway, UNKNOWN_SIGNS, (nodes, frames, local)), fresh)
     forces = np.random.default_rng(3).normal(size=(len(nodes), 3))
     everywhere = np.arange(SURFACE.count)
     expected = (dome.block(everywhere, nodes) @ forces.ravel()).reshape(-1, 3)

@@ -42,13 +42,16 @@ def _slid(finite_sliding: bool, poses: list[Pose]) -> tuple[np.ndarray, Complian
 def test_on_a_face_finite_sliding_is_small_sliding():
     """Pressed 1.5 mm 15 mm onto the object, slid 3 mm along the edge and 3 mm away from
     it, the contact patch stays on the top face: the pins are those of small sliding to
-    1 nm, and no increment settles at a switch of the contact set."""
+    1 nm, and no increment settles at a switch of the contact set. Nor is any solved
+    twice: where the solve moved the nodes along the face, their gaps and frames are the
+    ones it was solved with, so each increment takes the one solve small sliding takes."""
     poses = [Pose(45, 0, -1, 0, 0, 0), Pose(45, 0, 1.5, 0, 0, 0), Pose(45, 3, 1.5, 0, 0, 0), Pose(42, 3, 1.5, 0, 0, 0)]
-    small, _ = _slid(False, poses)
+    small, plain = _slid(False, poses)
     finite, physics = _slid(True, poses)
     assert np.abs(small[1:] - small[0]).max() > 1e-4  # the pins did move
     assert np.abs(finite - small).max() < 1e-9
     assert physics.contact_switches == 0
+    assert physics.solves == plain.solves and physics.geometry_kept > 0
 
 
 def _loaded_points_mm(physics: CompliantPhysics) -> np.ndarray:
@@ -94,7 +97,9 @@ def test_the_face_planes_find_mujocos_closest_points():
     mj_geomDistance's, point by point, on the rectangle rounded 1 mm (a mesh of 268 faces)
     for 300 points scattered 1 mm about the dome's nodes pressed onto its edge: the same
     points and distances to 1 nm (mj_geomDistance's to the probe sphere's 1 µm radius more),
-    over points whose closest point lies within a face and points where it does not."""
+    and the direction into the piece (a face's normal where the point is over a face) the
+    one from the point to mj_geomDistance's closest point, over points whose closest point
+    lies within a face and points where it does not."""
     spec = {
         "name": "closest_case",
         "object": {"name": "rectangle", "edge_radius_mm": 1.0},
@@ -109,7 +114,7 @@ def test_the_face_planes_find_mujocos_closest_points():
     rng = np.random.default_rng(0)
     points = physics._rest_points[rng.choice(physics.surface.count, 300)] + rng.normal(0.0, 1e-3, (300, 3))
     reach = 0.01
-    distance, closest = closest_points(data, points, reach)
+    distance, closest, inward = closest_points(data, points, reach)
     (piece,) = closest_points.geoms
     planes = closest_points.planes[0]
     fromto, compared, by_planes = np.empty(6), 0, 0  # by_planes: within a face
@@ -120,6 +125,7 @@ def test_the_face_planes_find_mujocos_closest_points():
             compared += 1
             assert distance[k] == pytest.approx(expected, abs=1e-9)
             assert np.linalg.norm(closest[k] - fromto[:3]) < 1e-9
+            assert np.linalg.norm(inward[k] - (fromto[:3] - point) / np.linalg.norm(fromto[:3] - point)) < 1e-6
             local = (point - data.geom_xpos[piece]) @ data.geom_xmat[piece].reshape(3, 3)
             heights = local @ planes[:, :3].T + planes[:, 3]
             by_planes += bool(np.isclose(heights.max(), expected, atol=1e-9))  # a face's foot is the closest point

@@ -6,8 +6,11 @@ with the point.
 Where a point's closest point lies inside one of the piece's faces (the common case: a
 node over a face) it is found for every point at once from the piece's face planes: the
 plane the point is farthest outside of, if the point's projection onto it lies within the
-piece. The others (near an edge or corner) are measured one by one by MuJoCo's
-mj_geomDistance from a probe sphere (`add_probe`)."""
+piece; the direction into the object is then that face's normal, the same bits for every
+point over the face, so a contact frame there stays the same while the piece only
+translates. The others (near an edge or corner) are measured one by one by MuJoCo's
+mj_geomDistance from a probe sphere (`add_probe`), their direction from the point to its
+closest point."""
 
 from __future__ import annotations
 
@@ -54,10 +57,15 @@ class ClosestPoints:
         self.planes = [face_planes(model, int(g)) for g in self.geoms]
         self._fromto = np.empty(6)
 
-    def __call__(self, data: mujoco.MjData, points: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
+    def __call__(
+        self, data: mujoco.MjData, points: np.ndarray, reach: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """For `points` (k, 3) m: each one's distance (k,) m to the nearest piece (inf: none
-        within `reach` m; ≤ 0: inside one) and that piece's closest point (k, 3) m."""
+        within `reach` m; ≤ 0: inside one), that piece's closest point (k, 3) m and the unit
+        direction (k, 3) from the point into the piece there (undefined where the distance
+        is not positive)."""
         distance, closest = np.full(len(points), np.inf), np.zeros((len(points), 3))
+        inward = np.zeros((len(points), 3))
         for geom, planes in zip(self.geoms, self.planes):
             to_geom = data.geom_xmat[geom].reshape(3, 3)
             local = (points - data.geom_xpos[geom]) @ to_geom  # the points in the geom's frame
@@ -74,6 +82,7 @@ class ClosestPoints:
                 nearer = height < distance[found]
                 distance[found[nearer]] = height[nearer]
                 closest[found[nearer]] = foot[nearer] @ to_geom.T + data.geom_xpos[geom]
+                inward[found[nearer]] = -planes[face[within][nearer], :3] @ to_geom.T
                 todo = todo[~within]
             for k in todo:
                 data.geom_xpos[self.probe] = points[k]
@@ -83,5 +92,6 @@ class ClosestPoints:
                 dist += self.model.geom_size[self.probe, 0]
                 if dist < best:
                     distance[k], closest[k] = dist, self._fromto[:3]
+                    inward[k] = (closest[k] - points[k]) / max(dist, 1e-300)
         data.geom_xpos[self.probe] = (0.0, 0.0, PROBE_PARKED)
-        return distance, closest
+        return distance, closest, inward

@@ -992,13 +992,32 @@ class DomeCompliance:
         n = 3 * self.surface.count
         return np.ascontiguousarray(self._surface.reshape(n, n)[np.ix_(_dofs(cols), _dofs(rows))].T)
 
-    def local_block(self, nodes: np.ndarray, frames: np.ndarray, sway: float = 0.0) -> np.ndarray:
+    def local_block(
+        self,
+        nodes: np.ndarray,
+        frames: np.ndarray,
+        sway: float = 0.0,
+        signs: np.ndarray | None = None,
+        kept: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+    ) -> np.ndarray:
         """(3m, 3m) m/N: `block(nodes, nodes)` with each node's displacement and force in its
         own frame (frames (m, 3, 3), rows the frame's axes in the tool frame), plus the tip's
-        `sway` (m/N, `sway_block`)."""
+        `sway` (m/N, `sway_block`), each row and column times its axis' sign in `signs` (3,)
+        (None: all +1; the contact solve's unknowns, twin.world.dome.compliant.contact.UNKNOWN_SIGNS).
+        `kept`: an earlier result for the same sway and signs, its nodes (k,), frames
+        (k, 3, 3) and block (3k, 3k): the entries between nodes it holds in the same
+        frames are copied from it, bit for bit what they would be turned anew."""
         self.fill(nodes)
-        local = _rotated_block(self._surface, nodes, np.ascontiguousarray(frames, dtype=float))
-        return local + sway_block(frames, sway) if sway else local
+        frames = np.ascontiguousarray(frames, dtype=float)
+        signs = np.ones(3) if signs is None else np.asarray(signs, dtype=float)
+        source = np.full(len(nodes), -1, np.int64)
+        earlier = np.zeros((0, 0))
+        if kept is not None:
+            kept_nodes, kept_frames, earlier = kept
+            _, here, there = np.intersect1d(nodes, kept_nodes, assume_unique=True, return_indices=True)
+            same = np.all(kept_frames[there] == frames[here], axis=(1, 2))
+            source[here[same]] = there[same]
+        return _rotated_block(self._surface, nodes, frames, sway, signs, source, earlier)
 
     def surface_displacement(self, cols: np.ndarray, forces: np.ndarray, sway: float = 0.0) -> np.ndarray:
         """(N, 3) m: every node's displacement under forces (len(cols), 3) N at `cols`, the
@@ -1049,15 +1068,36 @@ def _row_combination(matrix: np.ndarray, rows: np.ndarray, weights: np.ndarray) 
 
 
 @compiled
-def _rotated_block(surface: np.ndarray, nodes: np.ndarray, frames: np.ndarray) -> np.ndarray:
+def _rotated_block(
+    surface: np.ndarray,
+    nodes: np.ndarray,
+    frames: np.ndarray,
+    sway: float,
+    signs: np.ndarray,
+    source: np.ndarray,
+    earlier: np.ndarray,
+) -> np.ndarray:
     """(3m, 3m): the compliance among `nodes` in their frames (m, 3, 3), from `surface`
-    (N, 3, N, 3) [source node, force axis, node, displacement axis]: entry (3i + a, 3j + b)
-    is Σ_kl frames[i, a, k] surface[j, l, i, k] frames[j, b, l]."""
+    (N, 3, N, 3) [source node, force axis, node, displacement axis], with the tip's `sway`:
+    entry (3i + a, 3j + b) is signs[a] signs[b] (Σ_kl frames[i, a, k] surface[j, l, i, k]
+    frames[j, b, l] + `sway_block`'s). Where both nodes have a `source` (m,) ≥ 0, their
+    position in `earlier` (the same product for other nodes), the entries are copied."""
     m = len(nodes)
     out = np.empty((3 * m, 3 * m))
+    for i in range(m):  # row by row, as both are laid out
+        if source[i] < 0:
+            continue
+        for a in range(3):
+            row, kept_row = out[3 * i + a], earlier[3 * source[i] + a]
+            for j in range(m):
+                if source[j] >= 0:
+                    for b in range(3):
+                        row[3 * j + b] = kept_row[3 * source[j] + b]
     turned = np.empty((3, 3))
     for j in range(m):
         for i in range(m):
+            if source[i] >= 0 and source[j] >= 0:
+                continue
             block = surface[nodes[j], :, nodes[i], :]  # [force axis l, displacement axis k]
             for a in range(3):
                 for l in range(3):
@@ -1067,6 +1107,13 @@ def _rotated_block(surface: np.ndarray, nodes: np.ndarray, frames: np.ndarray) -
             for a in range(3):
                 for b in range(3):
                     out[3 * i + a, 3 * j + b] = (
-                        turned[a, 0] * frames[j, b, 0] + turned[a, 1] * frames[j, b, 1] + turned[a, 2] * frames[j, b, 2]
+                        signs[a]
+                        * signs[b]
+                        * (
+                            turned[a, 0] * frames[j, b, 0]
+                            + turned[a, 1] * frames[j, b, 1]
+                            + turned[a, 2] * frames[j, b, 2]
+                            + sway * (frames[i, a, 0] * frames[j, b, 0] + frames[i, a, 1] * frames[j, b, 1])
+                        )
                     )
     return out

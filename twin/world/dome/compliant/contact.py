@@ -504,17 +504,19 @@ def _newton(
     return best_f, iteration, best_residual, best_contact
 
 
+#: S's diagonal per node (`unknowns_matrix`): the force on the dome of each unknown (p, q1, q2)
+UNKNOWN_SIGNS = np.array([-1.0, 1.0, 1.0])
+
+
 def unknowns_matrix(compliance: np.ndarray) -> np.ndarray:
-    """(3m, 3m) m/N: M = S D S, S = diag(−1, 1, 1) per node, from the candidates'
-    compliance D (3m, 3m) m/N in their local frames (normal, t1, t2): the matrix of
-    `solve_increment`'s unknowns f = (p, q1, q2), whose force on the dome is (−p, q1, q2).
-    So the gap after deformation and the slip are h = (M f)_n + gap, v = (M f)_t + rigid_t;
-    M is symmetric positive semi-definite as D is. Only the normal–tangential couplings
-    change sign: the normal block is D's."""
-    matrix = np.array(compliance, dtype=float)
-    matrix[0::3] *= -1.0
-    matrix[:, 0::3] *= -1.0
-    return matrix
+    """(3m, 3m) m/N: M = S D S, S = diag(−1, 1, 1) per node (UNKNOWN_SIGNS), from the
+    candidates' compliance D (3m, 3m) m/N in their local frames (normal, t1, t2): the
+    matrix of `solve_increment`'s unknowns f = (p, q1, q2), whose force on the dome is
+    (−p, q1, q2). So the gap after deformation and the slip are h = (M f)_n + gap,
+    v = (M f)_t + rigid_t; M is symmetric positive semi-definite as D is. Only the
+    normal–tangential couplings change sign: the normal block is D's."""
+    signs = np.tile(UNKNOWN_SIGNS, len(compliance) // 3)
+    return signs[:, None] * np.asarray(compliance, dtype=float) * signs[None, :]
 
 
 def solve_increment(

@@ -55,8 +55,8 @@ from twin.core.poses import invert_transform, make_transform
 from twin.core.sensor import TacTipGeometry
 from twin.world.dome.base import Frame, physics_error
 from twin.world.dome.compliant.closest import ClosestPoints
-from twin.world.dome.compliant.compliance import CapSurface, DomeCompliance, sway_block
-from twin.world.dome.compliant.contact import ContactNotConverged, solve_increment, unknowns_matrix
+from twin.world.dome.compliant.compliance import CapSurface, DomeCompliance
+from twin.world.dome.compliant.contact import UNKNOWN_SIGNS, ContactNotConverged, solve_increment
 from twin.world.dome.compliant.cut_nodes import (
     FACING_DEG,
     CutNodes,
@@ -263,6 +263,7 @@ class _LocalMatrix(NamedTuple):
     covered: np.ndarray  # (m,) each one's covered share of its disc
     matrix: np.ndarray  # (3m, 3m) m/N, `unknowns_matrix` of their compliance
     partial: np.ndarray  # (m, 3) m/N, each cut one's partial-disc term (0 where whole)
+    turned: np.ndarray  # (3m, 3m) m/N, `matrix` without the partial-disc terms (`local_block`)
 
 
 class CompliantPhysics:
@@ -350,6 +351,7 @@ class CompliantPhysics:
         #: the increment before: its forces (N, tool frame), candidates and object motion (4×4),
         #: from which a steady motion's next forces are extrapolated (`_warm_start`)
         self._before: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._displacement_before = np.zeros((n, 3))  # m, the displacement before the last increment
         self.displacement = np.zeros((n, 3))  # m, tool frame
         self._local: _LocalMatrix | None = None  # `_local_matrix`'s last
         self.rest_pins = self.geometry.pin_tip_points()
@@ -360,9 +362,12 @@ class CompliantPhysics:
         self.step_seconds = 0.0  # wall time in increments (s), for benchmarks
         self.solve_seconds = 0.0  # of which in the contact solver (s)
         self.iterations = 0  # solver iterations, all increments
+        self.solves = 0  # contact problems solved, all increments
         self.skipped = 0  # increments proven out of the object's reach, no rays cast
         #: with `finite_sliding`, increments settled where the contact set switches (FINITE_SLIDING_SWITCH)
         self.contact_switches = 0
+        #: with `finite_sliding`, increments settled as the last solve's displacement left the contact problem as it was
+        self.geometry_kept = 0
         self._commanded = np.asarray(start_tool2world, float)
         self._at = self._commanded  # the pose of the increment being solved (named in errors)
         self._object2tool = self._object_pose(self._commanded)
@@ -549,10 +554,9 @@ class CompliantPhysics:
         rest = self._rest_points[nodes]
         setback = rest + self._through[nodes] - CLOSEST_SETBACK * self.surface.normals[nodes]
         reach = self.params.candidate_margin + self.params.spacing + CAST_SLACK + CLOSEST_SETBACK
-        distance, closest = self._closest(self.data, setback, reach)
+        distance, closest, inward = self._closest(self.data, setback, reach)
         found = np.flatnonzero(np.isfinite(distance) & (distance > 0.0))  # not inside a piece
-        c = closest[found] - setback[found]
-        c /= np.linalg.norm(c, axis=1)[:, None]  # into the object
+        c = inward[found]
         node = nodes[found]
         t1 = frames[node, 1] - np.einsum("ij,ij->i", frames[node, 1], c)[:, None] * c
         t1 /= np.linalg.norm(t1, axis=1)[:, None]
@@ -689,22 +693,14 @@ class CompliantPhysics:
         self._since_frame += 1
         self._clear_centre = None
         p = self.params
-        r = self.geometry.dome_outer_radius
         shift = object2tool @ invert_transform(self._object2tool)  # the object's motion since the last increment
         self._object2tool = object2tool.copy()
         loaded = np.flatnonzero(np.any(self.forces != 0.0, axis=1))
         points = self.surface.points + self.displacement
         moved = points @ shift[:3, :3].T + shift[:3, 3] - points  # the object's displacement at each node (tool)
-        through, resolved = self.displacement, None
+        through, resolved = self._predicted_through(shift), None
+        gaps, frames, candidates = self._measured(object2tool, through, loaded)
         for sweep in range(FINITE_SLIDING_SWEEPS if p.finite_sliding else 1):
-            gaps, frames = self._contact_geometry(object2tool, through)
-            if np.min(gaps) < -0.5 * r:
-                self._fail(
-                    f"indentation {-np.min(gaps) * 1e3:.2f} mm: deeper than the dome model reaches "
-                    f"({0.5 * r * 1e3:.0f} mm)"
-                )
-            candidates = np.union1d(np.flatnonzero(gaps < p.candidate_margin), loaded)
-            candidates = candidates[np.isfinite(gaps[candidates])]  # a node the object left carries nothing
             if not len(candidates):
                 self.forces[:] = 0.0
                 self._before = None
@@ -731,18 +727,77 @@ class CompliantPhysics:
                 self.contact_switches += 1
                 break
             through = through + relax * (displacement - through)
+            measured = self._measured(object2tool, through, loaded)
+            if relax == 1.0 and self._same_contact(candidates, gaps, frames, *measured):
+                self.geometry_kept += 1
+                break
+            gaps, frames, candidates = measured
         else:
             self._fail(
                 f"finite sliding: the nodes' points still moved {drift * 1e6:.2f} µm after {FINITE_SLIDING_SWEEPS} "
                 f"solves (at most {FINITE_SLIDING_SWITCH * 1e6:.0f} µm where the contact set switches)"
             )
         self._before = (self.forces, candidates, shift)
+        self._displacement_before = self.displacement
         self.forces = np.zeros_like(self.forces)
         self.forces[candidates] = forces
         self.displacement = displacement
         self._pins = self.rest_pins + self.compliance.pin_displacement(*self._pin_loads(candidates, forces), p.tip_sway)
         self.step_seconds += time.perf_counter() - t0
         self._check(after)
+
+    def _measured(
+        self, object2tool: np.ndarray, through: np.ndarray, loaded: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The nodes' gaps (N,) m and contact frames (N, 3, 3) with the object at
+        `object2tool` (4×4) and the nodes displaced by `through` (N, 3) m
+        (`_contact_geometry`), and the contact problem's candidates: the nodes within
+        candidate_margin and the `loaded` ones, where the object is still in sight."""
+        gaps, frames = self._contact_geometry(object2tool, through)
+        r = self.geometry.dome_outer_radius
+        if np.min(gaps) < -0.5 * r:
+            self._fail(
+                f"indentation {-np.min(gaps) * 1e3:.2f} mm: deeper than the dome model reaches ({0.5 * r * 1e3:.0f} mm)"
+            )
+        candidates = np.union1d(np.flatnonzero(gaps < self.params.candidate_margin), loaded)
+        candidates = candidates[np.isfinite(gaps[candidates])]  # a node the object left carries nothing
+        return gaps, frames, candidates
+
+    def _same_contact(
+        self,
+        solved: np.ndarray,
+        gaps: np.ndarray,
+        frames: np.ndarray,
+        new_gaps: np.ndarray,
+        new_frames: np.ndarray,
+        candidates: np.ndarray,
+    ) -> bool:
+        """With finite sliding: whether the contact problem measured where the last solve
+        displaced the nodes (`new_gaps`, `new_frames`, its `candidates`) is the one solved
+        on `solved` (gaps, frames): no other candidate, every gap within the solver's
+        tolerance and every frame turned by less than it over the dome's radius. A solve
+        of it would then return the last one's forces, so the increment is settled without
+        it: where the nodes slide over one face of the object, only where they meet it
+        along the face changes (a press on the edge's top: 1 solve where 2 were taken)."""
+        if len(np.setdiff1d(candidates, solved, assume_unique=True)):
+            return False
+        moved_gap = np.abs(new_gaps[solved] - gaps[solved])
+        if not np.all(moved_gap <= self.params.tolerance):  # an infinite gap: the node left the object
+            return False
+        turned = np.abs(new_frames[solved] - frames[solved]).max(initial=0.0)
+        return bool(turned <= self.params.tolerance / self.geometry.dome_outer_radius)
+
+    def _predicted_through(self, shift: np.ndarray) -> np.ndarray:
+        """(N, 3) m: where finite sliding first measures the nodes' gaps in the increment
+        with the object's motion `shift` (4×4): where the last increment left them, or,
+        where the object moves as it did over the last increment (a straight move), that
+        displacement extrapolated linearly, which the increment's solve then confirms
+        without a second one more often."""
+        if not self.params.finite_sliding or self._before is None:
+            return self.displacement
+        if np.abs(self._before[2] - shift).max() > 1e-12:
+            return self.displacement
+        return 2.0 * self.displacement - self._displacement_before
 
     def _solve(
         self,
@@ -785,6 +840,7 @@ class CompliantPhysics:
                 self._fail(f"contact solve did not converge ({len(candidates)} nodes, μ = {self.friction:g}): {err}")
             self.solve_seconds += time.perf_counter() - t1
             self.iterations += solution.iterations
+            self.solves += 1
             forces = np.einsum("ni,nij->nj", solution.forces, f)  # tool frame
             displacement = self.compliance.surface_displacement(candidates, forces, p.tip_sway)
             self._add_partial_displacement(displacement, candidates, f, solution.forces)
@@ -862,8 +918,10 @@ class CompliantPhysics:
         raised as for the part of its disc on the face (`partial_disc_compliance`, kept in
         `_local` for `_add_partial_displacement`). Kept while the nodes, their frames and
         their covered shares stay the same, as on a slide over one face (on the sweep
-        probe's slides across and along the edge, 132 of 340 solves kept it); recomputed
-        bit for bit otherwise."""
+        probe's slides across and along the edge, 132 of 340 solves kept it). Otherwise
+        only the entries of nodes new to the set or in another frame are turned anew
+        (`local_block`'s `kept`): finite sliding moves the frames of a few nodes on the
+        edge's round each solve, a growing contact adds a ring of nodes."""
         kept = self._local
         covered = self._covered[nodes]
         if (
@@ -873,16 +931,19 @@ class CompliantPhysics:
             and np.array_equal(kept.covered, covered)
         ):
             return kept.matrix
-        block = self.compliance.local_block(nodes, frames)
-        extra = np.zeros((len(nodes), 3))
+        sway = self.params.tip_sway
+        earlier = None if kept is None else (kept.nodes, kept.frames, kept.turned)
+        turned = self.compliance.local_block(nodes, frames, sway, UNKNOWN_SIGNS, earlier)
+        local, extra = turned, np.zeros((len(nodes), 3))
         if (covered < 1.0).any():
-            own = np.diagonal(block).reshape(-1, 3)  # each node's self-compliance in its frame, m/N
+            # each node's self-compliance in its frame, m/N, without the tip's sway (a diagonal keeps its sign)
+            own = np.diagonal(turned).reshape(-1, 3) - sway * np.einsum(
+                "nak,nak->na", frames[:, :, :2], frames[:, :, :2]
+            )
             extra = partial_disc_compliance(covered, own)
-            block[np.diag_indices_from(block)] += extra.ravel()
-        if self.params.tip_sway:
-            block += sway_block(frames, self.params.tip_sway)
-        local = unknowns_matrix(block)
-        self._local = _LocalMatrix(nodes.copy(), frames.copy(), covered, local, extra)
+            local = turned.copy()
+            local[np.diag_indices_from(local)] += extra.ravel()
+        self._local = _LocalMatrix(nodes.copy(), frames.copy(), covered, local, extra, turned)
         return local
 
     def _check(self, gaps_after: np.ndarray) -> None:
