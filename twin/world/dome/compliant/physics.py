@@ -54,6 +54,7 @@ from twin.core.errors import PhysicsError
 from twin.core.poses import invert_transform, make_transform
 from twin.core.sensor import TacTipGeometry
 from twin.world.dome.base import Frame, physics_error
+from twin.world.dome.compiled import compiled
 from twin.world.dome.compliant.closest import ClosestPoints
 from twin.world.dome.compliant.compliance import CapSurface, DomeCompliance
 from twin.world.dome.compliant.contact import UNKNOWN_SIGNS, ContactNotConverged, solve_increment
@@ -515,9 +516,7 @@ class CompliantPhysics:
         normals, dirs = self.surface.normals[hit], self._dirs[hit]
         c = -normal.reshape(-1, 3)[seen]
         c *= np.sign(np.einsum("ij,ij->i", c, dirs))[:, None]  # into the object, whichever way the face was hit
-        t1 = frames[hit, 1] - np.einsum("ij,ij->i", frames[hit, 1], c)[:, None] * c
-        t1 /= np.linalg.norm(t1, axis=1)[:, None]
-        frames[hit] = np.stack([c, t1, np.cross(c, t1)], axis=1)
+        frames[hit] = contact_frames(c, frames[hit, 1])
         along_ray = dist[seen] - r
         # The distance to the face's plane is the gap only near the hit point: a ray that
         # grazes a face far away (an edge's side wall seen past the edge) is not a contact.
@@ -558,9 +557,7 @@ class CompliantPhysics:
         found = np.flatnonzero(np.isfinite(distance) & (distance > 0.0))  # not inside a piece
         c = inward[found]
         node = nodes[found]
-        t1 = frames[node, 1] - np.einsum("ij,ij->i", frames[node, 1], c)[:, None] * c
-        t1 /= np.linalg.norm(t1, axis=1)[:, None]
-        frames[node] = np.stack([c, t1, np.cross(c, t1)], axis=1)
+        frames[node] = contact_frames(c, frames[node, 1])
         gaps[node] = np.einsum("ij,ij->i", c, closest[found] - rest[found])
 
     def _uncast_reached(self, displacement: np.ndarray, gaps: np.ndarray, frames: np.ndarray) -> None:
@@ -640,10 +637,7 @@ class CompliantPhysics:
         if not len(cut.nodes):
             return
         gaps[cut.nodes] = cut.gaps
-        meridian = self.surface.frames[cut.nodes, 1]
-        t1 = meridian - np.einsum("ij,ij->i", meridian, cut.normals)[:, None] * cut.normals
-        t1 /= np.linalg.norm(t1, axis=1)[:, None]
-        frames[cut.nodes] = np.stack([cut.normals, t1, np.cross(cut.normals, t1)], axis=1)
+        frames[cut.nodes] = contact_frames(cut.normals, self.surface.frames[cut.nodes, 1])
         self._ray_geom[cut.nodes] = cut.geoms
         self._covered[cut.nodes] = cut.covered
         self._cut = cut
@@ -700,6 +694,7 @@ class CompliantPhysics:
         moved = points @ shift[:3, :3].T + shift[:3, 3] - points  # the object's displacement at each node (tool)
         through, resolved = self._predicted_through(shift), None
         gaps, frames, candidates = self._measured(object2tool, through, loaded)
+        halving_from, last_drift = None, math.inf
         for sweep in range(FINITE_SLIDING_SWEEPS if p.finite_sliding else 1):
             if not len(candidates):
                 self.forces[:] = 0.0
@@ -719,10 +714,14 @@ class CompliantPhysics:
             drift = float(np.max(np.linalg.norm(displacement[cast] - through[cast], axis=1), initial=0.0))
             if drift <= FINITE_SLIDING_TOLERANCE:
                 break
-            # the step taken towards the new points: whole, then halved each solve, so that
-            # where the points cycle (a node in and out of contact at an edge) they settle
-            # where the contact set switches
-            relax = 0.5 ** max(0, sweep + 1 - FINITE_SLIDING_FREE_SWEEPS)
+            # the step taken towards the new points: whole, then halved each solve once the
+            # drift stops shrinking (or after FINITE_SLIDING_FREE_SWEEPS), so that where the
+            # points cycle (a node in and out of contact at an edge) they settle where the
+            # contact set switches
+            if halving_from is None and (drift >= last_drift or sweep >= FINITE_SLIDING_FREE_SWEEPS):
+                halving_from = sweep
+            relax = 1.0 if halving_from is None else 0.5 ** (sweep + 1 - halving_from)
+            last_drift = drift
             if relax * drift <= FINITE_SLIDING_TOLERANCE and drift <= FINITE_SLIDING_SWITCH:
                 self.contact_switches += 1
                 break
@@ -964,6 +963,25 @@ class CompliantPhysics:
 
     def _fail(self, what: str) -> None:
         raise physics_error(self.scenario_name, f"increment {self._steps}", self.time, self.world2work, self._at, what)
+
+
+@compiled
+def contact_frames(normals: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """(k, 3, 3): contact frames with rows (c, t1, t2) from the unit normals c (k, 3) and
+    reference directions (k, 3): t1 the reference's part in the tangent plane, made unit,
+    t2 = c × t1."""
+    frames = np.empty((len(normals), 3, 3))
+    for k in range(len(normals)):
+        c, x = normals[k], reference[k]
+        along = x[0] * c[0] + x[1] * c[1] + x[2] * c[2]
+        t = x - along * c
+        t /= math.sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2])
+        frames[k, 0] = c
+        frames[k, 1] = t
+        frames[k, 2, 0] = c[1] * t[2] - c[2] * t[1]
+        frames[k, 2, 1] = c[2] * t[0] - c[0] * t[2]
+        frames[k, 2, 2] = c[0] * t[1] - c[1] * t[0]
+    return frames
 
 
 @lru_cache(maxsize=8)
