@@ -76,6 +76,33 @@ def test_a_node_dragged_over_an_edge_leaves_the_face():
     assert len(held) > 50 and held[:, 0].max() < EDGE_X_MM + 0.2
 
 
+def test_a_node_thrown_over_a_sharp_edge_settles_on_the_nearest_solve():
+    """Pressed 3.5 mm deep 6 mm onto the sharp rectangle, turned −100°, the dome swaying
+    0.2965 mm/N with 2.59 kPa of adhesion (the fit with finite sliding on the default's
+    stiffness scale), μ 0.3162: at one increment a node at the edge is held where its
+    point lies on one side of the corner and thrown about 0.1 mm clear where it lies on
+    the other. The points stop where the contact set switches with that node 105 µm from
+    where the solve puts it, more than FINITE_SLIDING_SWITCH allows; the increment takes
+    instead the solve that came nearest its points (21 µm) and counts as a switch, where
+    it raised PhysicsError. The pins stay continuous through the press."""
+    spec = {
+        "name": "sharp_switch_case",
+        "object": {"name": "rectangle", "friction": 0.3162},
+        "dome": "compliant",
+        "effects": ["contact", "friction"],
+        "physics": {"finite_sliding": True, "tip_sway_mm_per_n": 0.2965, "adhesion_kpa": 2.59},
+    }
+    env = SimEnvironment(scenario_from_dict(spec), start_pose=Pose(54, 0, -2, 0, 0, -100))
+    env.reset()
+    pins = []
+    for depth in (3.0, 3.25, 3.5, 3.75, 4.0):
+        env.move_to(Pose(54, 0, depth, 0, 0, -100), 20.0)
+        pins.append(env.observe_frame().pins_tool.copy())
+    assert env.physics.contact_switches >= 1
+    steps = np.linalg.norm(np.diff(pins, axis=0), axis=2).max(axis=1)  # m, the largest pin step per 0.25 mm
+    assert np.all(steps < 3 * np.median(steps))
+
+
 def test_finite_sliding_is_a_scenario_setting_that_needs_whole_nodes():
     """`physics: {finite_sliding: true}` turns it on and adds the probe it measures
     distances with to the scene; off (the default) the scene has no probe. With edges

@@ -695,6 +695,7 @@ class CompliantPhysics:
         through, resolved = self._predicted_through(shift), None
         gaps, frames, candidates = self._measured(object2tool, through, loaded)
         halving_from, last_drift = None, math.inf
+        closest: tuple = (math.inf,)  # the solve whose displacement came nearest the points it was measured at
         for sweep in range(FINITE_SLIDING_SWEEPS if p.finite_sliding else 1):
             if not len(candidates):
                 self.forces[:] = 0.0
@@ -714,6 +715,8 @@ class CompliantPhysics:
             drift = float(np.max(np.linalg.norm(displacement[cast] - through[cast], axis=1), initial=0.0))
             if drift <= FINITE_SLIDING_TOLERANCE:
                 break
+            if drift < closest[0]:
+                closest = (drift, candidates, forces, displacement, after)
             # the step taken towards the new points: whole, then halved each solve once the
             # drift stops shrinking (or after FINITE_SLIDING_FREE_SWEEPS), so that where the
             # points cycle (a node in and out of contact at an edge) they settle where the
@@ -722,7 +725,13 @@ class CompliantPhysics:
                 halving_from = sweep
             relax = 1.0 if halving_from is None else 0.5 ** (sweep + 1 - halving_from)
             last_drift = drift
-            if relax * drift <= FINITE_SLIDING_TOLERANCE and drift <= FINITE_SLIDING_SWITCH:
+            if relax * drift <= FINITE_SLIDING_TOLERANCE:  # the points have stopped: a switch
+                if drift > FINITE_SLIDING_SWITCH:
+                    # where they stopped, one node jumps farther than a switch may leave it
+                    # (over a sharp edge): the solve that came nearest its points, if near enough
+                    drift, candidates, forces, displacement, after = closest
+                if drift > FINITE_SLIDING_SWITCH:
+                    self._fail_unsettled(drift, sweep + 1)
                 self.contact_switches += 1
                 break
             through = through + relax * (displacement - through)
@@ -732,10 +741,7 @@ class CompliantPhysics:
                 break
             gaps, frames, candidates = measured
         else:
-            self._fail(
-                f"finite sliding: the nodes' points still moved {drift * 1e6:.2f} µm after {FINITE_SLIDING_SWEEPS} "
-                f"solves (at most {FINITE_SLIDING_SWITCH * 1e6:.0f} µm where the contact set switches)"
-            )
+            self._fail_unsettled(drift, FINITE_SLIDING_SWEEPS)
         self._before = (self.forces, candidates, shift)
         self._displacement_before = self.displacement
         self.forces = np.zeros_like(self.forces)
@@ -960,6 +966,13 @@ class CompliantPhysics:
         moved = np.linalg.norm(self._pins - self.rest_pins, axis=1).max()
         if moved > p.max_pin_excursion:
             self._fail(f"a pin moved {moved * 1e3:.3f} mm from rest (> {p.max_pin_excursion * 1e3:.3f} mm)")
+
+    def _fail_unsettled(self, drift: float, solves: int) -> None:
+        """Raise: finite sliding's points still `drift` (m) from where the last of `solves` put them."""
+        self._fail(
+            f"finite sliding: the nodes' points still moved {drift * 1e6:.2f} µm after {solves} "
+            f"solves (at most {FINITE_SLIDING_SWITCH * 1e6:.0f} µm where the contact set switches)"
+        )
 
     def _fail(self, what: str) -> None:
         raise physics_error(self.scenario_name, f"increment {self._steps}", self.time, self.world2work, self._at, what)
