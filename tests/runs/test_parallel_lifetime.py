@@ -226,6 +226,16 @@ def _die_once_the_other_runs(folder: str) -> None:
     os.kill(os.getpid(), signal.SIGKILL)
 
 
+def _fail_once_the_other_runs(folder: str) -> None:
+    """Wait until the other job has started, then raise."""
+    started = Path(folder) / "started"
+    for _ in range(6000):
+        if started.exists():
+            break
+        time.sleep(0.01)
+    raise RuntimeError("the job failed")
+
+
 def _run_until_released(folder: str) -> None:
     """A long job: mark it started, then wait for `released` (at most 120 s), then mark it
     finished."""
@@ -257,6 +267,27 @@ def test_a_worker_killed_outright_fails_the_map_at_once(tmp_path: Path, streamed
         assert not _alive(survivor), "the other worker was left running"
         assert list(pool.map_ordered(abs, [(-1,), (-2,)])) == [1, 2]  # the pool starts new workers
     (tmp_path / "released").touch()
+
+
+@pytest.mark.parametrize("streamed", [False, True], ids=["map_ordered", "map_streamed"])
+def test_a_failed_job_fails_the_map_at_once(tmp_path: Path, streamed: bool) -> None:
+    """A job raises while the other worker is in a long job: the map raises the job's
+    error without waiting for the other job, and the other worker is stopped, as where a
+    worker dies. (A shutdown that waited for it would wait for its job and, where that job
+    had sent more items than the pipe holds, for ever: a run that failed on the dome's
+    physics hung so.)"""
+    jobs = [(_fail_once_the_other_runs, str(tmp_path)), (_run_until_released, str(tmp_path))]
+    try:
+        with WorkerPool(workers=2) as pool:
+            map_ = pool.map_streamed if streamed else pool.map_ordered
+            with pytest.raises(RuntimeError, match="the job failed"):
+                list(map_(_call, jobs))
+            survivor = int((tmp_path / "pid").read_text())
+            assert not (tmp_path / "finished").exists(), "the map waited for the other worker's job"
+            _assert_all_end([survivor])
+            assert list(pool.map_ordered(abs, [(-1,), (-2,)])) == [1, 2]  # the pool starts new workers
+    finally:
+        (tmp_path / "released").touch()
 
 
 def test_a_map_that_keeps_nothing_running_stops_at_once_on_sigterm(tmp_path: Path) -> None:

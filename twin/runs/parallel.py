@@ -164,7 +164,9 @@ class WorkerPool:
         only while it waits for a worker (`_result`, `_next_item`), never while this
         process runs the first job, waits for the workers to start or the caller handles
         what it yields (records a chunk), so what was yielded is kept whole; a failure or
-        an interruption stops the local workers."""
+        an interruption kills the local workers. Not a shutdown that waits for them: a
+        job failed, so another's result has no use, and a worker whose job has sent more
+        than the pipe holds cannot end until someone reads it, which no one would."""
         with signals_held() as held:
             try:
                 yield held
@@ -172,7 +174,7 @@ class WorkerPool:
                 lost = self._stop_broken()
                 raise WorkerLostError(lost) from broken
             except BaseException:
-                self._stop_local()
+                self._kill_local()
                 raise
 
     def _result(self, future, held: HeldSignals):
