@@ -8,21 +8,35 @@
 # contours.txt. About 15 minutes on 2 cores.
 # usage: bash run.sh [path/to/twin]
 # With AS_SHIPPED=1 and OUT=DIR (../finding-2026-12-05-default-dome/run.sh) it adds no
-# `dome:` or `physics:` and writes runs/ and its tables into DIR instead.
+# `dome:` or `physics:` and writes runs/ and its tables into DIR instead. With FITTED=FILE
+# it appends that file's entries instead of fitted.yaml's; with FRICTION_SCALE=s every
+# object's friction is its material's times s (../finding-2026-12-05-finite-sliding-default/run.sh);
+# with TABLES_ONLY=1 it stops after table-i.txt and heldout.txt.
 set -e
 export MUJOCO_GL=${MUJOCO_GL:-egl} PYOPENGL_PLATFORM=${PYOPENGL_PLATFORM:-egl}
 twin=$(realpath "${1:-$(dirname "$0")/../../../.venv/bin/twin}")
 py=$(dirname "$twin")/python
 here=$(cd "$(dirname "$0")" && pwd)
 cd "${OUT:-$here}"
-S=../../../scenarios
+S="$here/../../../scenarios"
 mkdir -p runs
 fitted() {  # fitted SCENARIO NAME [OBJECT]: the shipped scenario on the fitted dome, runs/NAME.yaml
   sed -e "s/^name: .*/name: $2/" -e "s#^  controller: paper.*#  controller: paper\n  model: eval/model_pca.npz#" \
     ${3:+-e "s#^object: .*#object: {stl: $3}#"} "$S/$1.yaml" > "runs/$2.yaml"
   [ -n "$AS_SHIPPED" ] && return
-  sed "/^#/d" "$here/fitted.yaml" >> "runs/$2.yaml"
+  sed "/^#/d" "${FITTED:-$here/fitted.yaml}" >> "runs/$2.yaml"
   echo "  surface_spacing_mm: 1.8" >> "runs/$2.yaml"
+  [ -z "$FRICTION_SCALE" ] && return
+  "$py" - "runs/$2.yaml" "$FRICTION_SCALE" <<'PY'
+import sys
+import yaml
+from twin.core.scenario import load_scenario
+from twin.runs.spec import load_scenario_stimulus
+path, scale = sys.argv[1], float(sys.argv[2])
+entries = yaml.safe_load(open(path))
+entries["object"]["friction"] = round(load_scenario_stimulus(load_scenario(path)).friction * scale, 4)
+yaml.safe_dump(entries, open(path, "w"), sort_keys=False)
+PY
 }
 run() {  # run NAME WORKERS: twin run runs/NAME.yaml into runs/NAME, unless a completed run is there
   grep -qs '"status": "completed"' runs/$1/run.json && return
@@ -34,6 +48,7 @@ for s in taps_rectangle slides_rectangle taps_heldout; do
 done
 "$twin" evaluate --train runs/taps_rectangle --test runs/slides_rectangle --out runs/eval > table-i.txt
 "$twin" evaluate --train runs/taps_rectangle --test runs/taps_heldout --out runs/eval_heldout > heldout.txt
+[ -n "$TABLES_ONLY" ] && exit 0
 "$py" - <<'PY'
 from twin.world.stimuli.objects import builtin_stimulus
 for name in ("rectangle", "flower"):
@@ -47,4 +62,4 @@ for o in $contours; do
   fitted contour_$base contour_$o $([ "$o" != "$base" ] && echo $base.stl)
   run contour_$o 1
 done
-"$py" ../finding-2026-12-03-paper-runs/contours.py $(for o in $contours; do echo runs/contour_$o; done) > contours.txt
+"$py" "$here/../finding-2026-12-03-paper-runs/contours.py" $(for o in $contours; do echo runs/contour_$o; done) > contours.txt

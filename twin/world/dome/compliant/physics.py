@@ -80,9 +80,11 @@ FINITE_SLIDING_SWEEPS = 40
 FINITE_SLIDING_TOLERANCE = 5e-6
 #: solves taken whole towards the points the last one displaced, before each takes half the step before
 FINITE_SLIDING_FREE_SWEEPS = 5
-#: where the halved steps have settled the points where the contact set switches, how far (m)
-#: the last solve may still move them (a node pressed on one side of the switch, free on the other)
-FINITE_SLIDING_SWITCH = 1e-4
+#: where the halved steps have settled the points where the contact set switches, how far the
+#: solve taken may still move them, in node spacings (a node pressed on one side of the switch,
+#: free on the other): half a spacing, the resolution whole nodes place an edge to. On the
+#: paper's slides on the sharp rectangle (the fit with finite sliding) one increment needed 0.18
+FINITE_SLIDING_SWITCH = 0.5
 #: how far (m) a displaced point is drawn back along its outward normal before it is
 #: projected onto the object (`_closest_points`): more than an increment presses it in
 CLOSEST_SETBACK = 1e-3
@@ -367,6 +369,7 @@ class CompliantPhysics:
         self.skipped = 0  # increments proven out of the object's reach, no rays cast
         #: with `finite_sliding`, increments settled where the contact set switches (FINITE_SLIDING_SWITCH)
         self.contact_switches = 0
+        self.switch_drift = 0.0  # m, the farthest the solve taken at such a switch still moved the points
         #: with `finite_sliding`, increments settled as the last solve's displacement left the contact problem as it was
         self.geometry_kept = 0
         self._commanded = np.asarray(start_tool2world, float)
@@ -725,14 +728,15 @@ class CompliantPhysics:
                 halving_from = sweep
             relax = 1.0 if halving_from is None else 0.5 ** (sweep + 1 - halving_from)
             last_drift = drift
-            if relax * drift <= FINITE_SLIDING_TOLERANCE:  # the points have stopped: a switch
-                if drift > FINITE_SLIDING_SWITCH:
-                    # where they stopped, one node jumps farther than a switch may leave it
-                    # (over a sharp edge): the solve that came nearest its points, if near enough
-                    drift, candidates, forces, displacement, after = closest
-                if drift > FINITE_SLIDING_SWITCH:
+            if relax * drift <= FINITE_SLIDING_TOLERANCE:
+                # the points have stopped at a switch of the contact set: the increment takes
+                # the solve that came nearest its points, the last or (where a node is thrown
+                # to and fro over a sharp edge) an earlier one
+                drift, candidates, forces, displacement, after = closest
+                if drift > FINITE_SLIDING_SWITCH * p.spacing:
                     self._fail_unsettled(drift, sweep + 1)
                 self.contact_switches += 1
+                self.switch_drift = max(self.switch_drift, drift)
                 break
             through = through + relax * (displacement - through)
             measured = self._measured(object2tool, through, loaded)
@@ -971,7 +975,8 @@ class CompliantPhysics:
         """Raise: finite sliding's points still `drift` (m) from where the last of `solves` put them."""
         self._fail(
             f"finite sliding: the nodes' points still moved {drift * 1e6:.2f} µm after {solves} "
-            f"solves (at most {FINITE_SLIDING_SWITCH * 1e6:.0f} µm where the contact set switches)"
+            f"solves (at most {FINITE_SLIDING_SWITCH * self.params.spacing * 1e6:.0f} µm, half a node spacing, "
+            "where the contact set switches)"
         )
 
     def _fail(self, what: str) -> None:
