@@ -92,6 +92,9 @@ class ClosestPoints:
                 dist += self.model.geom_size[self.probe, 0]
                 if dist < best:
                     distance[k], closest[k] = dist, self._fromto[:3]
-                    inward[k] = (closest[k] - points[k]) / max(dist, 1e-300)
+                    towards = closest[k] - points[k]
+                    length = np.linalg.norm(towards)
+                    if length > 0.0:  # not on or inside the piece
+                        inward[k] = towards / length
         data.geom_xpos[self.probe] = (0.0, 0.0, PROBE_PARKED)
         return distance, closest, inward

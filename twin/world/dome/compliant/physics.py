@@ -269,6 +269,16 @@ class _LocalMatrix(NamedTuple):
     turned: np.ndarray  # (3m, 3m) m/N, `matrix` without the partial-disc terms (`local_block`)
 
 
+class _LastIncrement(NamedTuple):
+    """What `CompliantPhysics._increment` keeps of the increment before the last one, from
+    which a straight move's next one is extrapolated (`_warm_start`, `_predicted_through`)."""
+
+    forces: np.ndarray  # (N, 3) N, tool frame
+    candidates: np.ndarray  # (m,) the nodes solved
+    shift: np.ndarray  # 4×4, the object's motion over it
+    displacement: np.ndarray  # (N, 3) m, tool frame
+
+
 class CompliantPhysics:
     """Moves the sensor and solves the dome's frictional contact at every increment.
 
@@ -351,10 +361,8 @@ class CompliantPhysics:
         self._clear_centre: np.ndarray | None = None
         self._reach = 0.0
         self.forces = np.zeros((n, 3))  # N on the dome, tool frame
-        #: the increment before: its forces (N, tool frame), candidates and object motion (4×4),
-        #: from which a steady motion's next forces are extrapolated (`_warm_start`)
-        self._before: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-        self._displacement_before = np.zeros((n, 3))  # m, the displacement before the last increment
+        #: the increment before, from which a straight move's next one is extrapolated
+        self._before: _LastIncrement | None = None
         self.displacement = np.zeros((n, 3))  # m, tool frame
         self._local: _LocalMatrix | None = None  # `_local_matrix`'s last
         self.rest_pins = self.geometry.pin_tip_points()
@@ -746,8 +754,7 @@ class CompliantPhysics:
             gaps, frames, candidates = measured
         else:
             self._fail_unsettled(drift, FINITE_SLIDING_SWEEPS)
-        self._before = (self.forces, candidates, shift)
-        self._displacement_before = self.displacement
+        self._before = _LastIncrement(self.forces, candidates, shift, self.displacement)
         self.forces = np.zeros_like(self.forces)
         self.forces[candidates] = forces
         self.displacement = displacement
@@ -802,11 +809,14 @@ class CompliantPhysics:
         where the object moves as it did over the last increment (a straight move), that
         displacement extrapolated linearly, which the increment's solve then confirms
         without a second one more often."""
-        if not self.params.finite_sliding or self._before is None:
-            return self.displacement
-        if np.abs(self._before[2] - shift).max() > 1e-12:
-            return self.displacement
-        return 2.0 * self.displacement - self._displacement_before
+        if self.params.finite_sliding and self._straight_move(shift):
+            return 2.0 * self.displacement - self._before.displacement
+        return self.displacement
+
+    def _straight_move(self, shift: np.ndarray) -> bool:
+        """Whether the object's motion `shift` (4×4) over this increment is the one over the
+        increment before (a straight move)."""
+        return self._before is not None and np.abs(self._before.shift - shift).max() <= 1e-12
 
     def _solve(
         self,
@@ -889,10 +899,8 @@ class CompliantPhysics:
             _, here, there = np.intersect1d(candidates, nodes, assume_unique=True, return_indices=True)
             begin[here] = forces[there]
             return begin
-        if self._before is not None:
-            forces, nodes, motion = self._before
-            if np.array_equal(nodes, candidates) and np.abs(motion - shift).max() <= 1e-12:
-                return 2.0 * self.forces[candidates] - forces[candidates]
+        if self._straight_move(shift) and np.array_equal(self._before.candidates, candidates):
+            return 2.0 * self.forces[candidates] - self._before.forces[candidates]
         return self.forces[candidates]
 
     def _add_partial_displacement(
