@@ -124,3 +124,25 @@ def test_bins_that_disagree_widen_the_pooled_error() -> None:
     assert off["bins"] == 6 and off["difference"] == pytest.approx(0.0, abs=1e-12)
     unweighable = _rows(2.0 * np.exp(logs), spreads=(0.05,) * 10 + (0.0,))
     assert set(pooled_differences(unweighable)["theta_pc23"]) == {"onto"}
+
+
+def test_the_report_prints_every_figure_compared_by_difference_as_b_minus_a() -> None:
+    """The signal ratio and the shift's share (calibration_fit.figures.LINEAR) are compared
+    by their difference, so their spreads and pooled errors are in their own units: a bin
+    and its side pooled print as B − A ± spread, as the signal's do (a shift share of 0.30
+    against 0.36 read as B / A would be "1.20 ×÷ 1.02"); θ_PC23's, compared by the log of
+    B / A, as the factor ×÷ the factor of its spread."""
+    from twin.analysis.calibration_fit.figures import LINEAR
+    from twin.tools.edge_figures_report import _difference_cell, _pooled_cell
+
+    assert "shift" in LINEAR  # the case is exercised
+    for figure in LINEAR:
+        rows = [{"figure": figure, "lateral_mm": l, "a": 0.30, "b": 0.36, "spread": 0.02} for l in LATERAL_MM]
+        pooled = pooled_differences(rows)[figure]["onto"]
+        assert pooled["difference"] == pytest.approx(0.06) and pooled["error"] == pytest.approx(0.02 / math.sqrt(5))
+        assert _difference_cell(figure, rows[0]) == "+0.06 ± 0.02", figure
+        assert _pooled_cell(figure, pooled) == "+0.06 ± 0.01", figure
+    rows = _rows(np.full(len(LATERAL_MM), 2.5), spreads=(0.1,) * len(LATERAL_MM))
+    assert _difference_cell("theta_pc23", rows[0]) == f"1.25 ×÷ {math.exp(0.1):.2f}"
+    pooled = pooled_differences(rows)["theta_pc23"]["onto"]
+    assert _pooled_cell("theta_pc23", pooled) == f"1.25 ×÷ {math.exp(0.1 / math.sqrt(5)):.2f}"

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+from twin.analysis.calibration_fit.figures import LINEAR
 from twin.analysis.comparison import read_in_a_plane
 from twin.analysis.edge_imprint import rotating_pair
 
@@ -211,20 +212,21 @@ def format_figure_differences(differences: dict) -> str:
 
 
 def _difference_cell(figure: str, row: dict | None) -> str:
-    """One bin's B against A: the signal's B − A ± its spread, the others' B / A ×÷ the
-    factor of one spread (their spreads are in log units)."""
+    """One bin's B against A: a linear figure's (calibration_fit.figures.LINEAR: the signal
+    ratio, the shift's share) B − A ± its spread, the others' B / A ×÷ the factor of one
+    spread (their spreads are in log units)."""
     if row is None:
         return "—"
-    if figure == "signal":
+    if figure in LINEAR:
         return f"{row['b'] - row['a']:+.2f} ± {row['spread']:.2f}"
     return f"{row['b'] / row['a']:.2f} ×÷ {math.exp(row['spread']):.2f}" if row["a"] > 0 else "—"
 
 
 def _pooled_cell(figure: str, pooled: dict | None) -> str:
-    """A pooled difference as the per-bin cells show theirs: the signal's B − A ± its error,
-    the others' B / A ×÷ the factor of one error (their differences are logs)."""
+    """A pooled difference as the per-bin cells show theirs: a linear figure's B − A ± its
+    error, the others' B / A ×÷ the factor of one error (their differences are logs)."""
     if pooled is None:
         return "—"
-    if figure == "signal":
+    if figure in LINEAR:
         return f"{pooled['difference']:+.2f} ± {pooled['error']:.2f}"
     return f"{math.exp(pooled['difference']):.2f} ×÷ {math.exp(pooled['error']):.2f}"
