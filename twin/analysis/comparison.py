@@ -12,7 +12,7 @@ import cv2
 import numpy as np
 from skimage.metrics import structural_similarity
 
-from twin.analysis.calibration_fit.figures import THETA_FIGURES, difference, paired_figure_spread, paired_figures
+from twin.analysis.calibration_fit.figures import THETA_TURN_KEYS, difference, paired_figure_spread, paired_figures
 from twin.analysis.edge_imprint import REACH_AT_MM, edge_figures, is_sheared, usable
 from twin.analysis.evaluation import along_edge_drag_px, orientation_signal_px
 from twin.core.errors import UserError
@@ -118,7 +118,7 @@ def figure_differences(a: Run, b: Run, resamples: int, seed: int) -> dict:
     in_a = None
     if paired.plane_angle_deg is not None:
         in_a = {"angle_deg": paired.plane_angle_deg}
-        for key, figure in zip(("pc23_deg_per_mm", "across_pc23_deg_per_mm"), THETA_FIGURES):
+        for figure, key in THETA_TURN_KEYS.items():
             in_a[key] = {l: v for (f, l), v in paired.b_in_a_plane.items() if f == figure}
     return {
         "taps": sum(not s["labels"].get("no_contact") for s in a.samples),

@@ -533,15 +533,25 @@ def carried_pcs(pcs: TapPCs, of: Run, onto: Run) -> TapPCs:
     return replace(pcs, mean=pcs.mean + moved)
 
 
-def turn_in_reference_plane(reference: Run, run: Run) -> dict:
+def turn_in_reference_plane(
+    reference: Run,
+    run: Run,
+    reference_pcs: TapPCs | None = None,
+    pcs: TapPCs | None = None,
+    fits: list[BinFit] | None = None,
+) -> dict:
     """How far a 1 mm slide along the edge turns `run`'s taps read in `reference`'s PC2–PC3
     plane rather than its own: "angle_deg" (`plane_angle_deg`) and "pc23_deg_per_mm" {l:
     deg/mm} (`along_edge_turn_sheared` of the run's own fits, in the reference's PCs carried
     onto the run's rest pins, so that its frames project by their displacements); and
     "across_pc23_deg_per_mm", the same for a slide across the edge (`across_edge_turn_sheared`).
-    Beside the run's own turn it splits a miss of θ_PC23 into the drag's and the plane's."""
-    fits = sheared_fits(run)
-    ref, own = tap_pcs(reference), tap_pcs(run, fits)
+    Beside the run's own turn it splits a miss of θ_PC23 into the drag's and the plane's
+    (`twin compare`'s, through calibration_fit.figures.paired_figures). `reference_pcs`,
+    `pcs`: the reference's and the run's `tap_pcs`, and `fits`: the run's `sheared_fits`,
+    where the caller has them."""
+    fits = sheared_fits(run) if fits is None else fits
+    ref = tap_pcs(reference) if reference_pcs is None else reference_pcs
+    own = tap_pcs(run, fits) if pcs is None else pcs
     plane = carried_pcs(ref, reference, run)
     along, across = along_edge_turn_sheared(run, plane, fits), across_edge_turn_sheared(run, plane, fits)
     return {

@@ -52,11 +52,11 @@ from twin.analysis.edge_imprint import (
     carried_pcs,
     drag_over_signal,
     is_sheared,
-    plane_angle_deg,
     sheared_fits,
     signal_profile,
     signal_shift_share,
     tap_pcs,
+    turn_in_reference_plane,
     usable,
 )
 from twin.core.errors import UserError
@@ -78,6 +78,8 @@ Figures = dict[tuple[str, float], float]
 
 #: the figures θ_PC23 is read for, in a run's own taps' PC2–PC3 plane or another run's
 THETA_FIGURES = ("theta_pc23", "theta_pc23_across")
+#: each θ figure's turns {l: deg/mm} in edge_imprint.turn_in_reference_plane
+THETA_TURN_KEYS = dict(zip(THETA_FIGURES, ("pc23_deg_per_mm", "across_pc23_deg_per_mm")))
 
 
 def figure_values(
@@ -127,8 +129,9 @@ def paired_figures(a: Run, b: Run) -> PairedFigures:
     pcs_b = tap_pcs(b, fits_b) if usable(b).any() else None
     in_a_plane, angle = {}, None
     if pcs_a is not None and pcs_b is not None:
-        in_a_plane = _finite(_theta_values(b, carried_pcs(pcs_a, a, b), fits_b))
-        angle = plane_angle_deg(pcs_a, pcs_b)
+        read = turn_in_reference_plane(a, b, pcs_a, pcs_b, fits_b)
+        in_a_plane = _finite({(f, l): v for f, key in THETA_TURN_KEYS.items() for l, v in read[key].items()})
+        angle = read["angle_deg"]
     return PairedFigures(
         figure_values(a, pcs=pcs_a, fits=fits_a), figure_values(b, pcs=pcs_b, fits=fits_b), in_a_plane, angle
     )
