@@ -195,7 +195,7 @@ def test_no_contact_effect_solves_nothing():
 def test_a_calibrated_material_maps_only_onto_parameters_the_model_has():
     """Both models take the modulus in kPa and a skin membrane in MPa; the flex grid locks
     at ν = 0.5, refused by name; the compliant dome takes ν = 0.5 and where its skin is
-    held (deg), its tip's sway (mm/N), its pins' lever (mm) and its skin's adhesion (kPa), which the flex grid refuses
+    held (deg), its tip's sway (mm/N), its pins' lever (mm), its skin's adhesion (kPa) and its friction across an edge's round, which the flex grid refuses
     by name. The default dome's material is the fitted one (docs/dome/compliant.md)."""
     from twin.core.errors import UserError
     from twin.world.dome.flex import FIDELITY_LEVELS
@@ -215,6 +215,7 @@ def test_a_calibrated_material_maps_only_onto_parameters_the_model_has():
             "apex_radius_mm": 30.0,
             "tip_sway_mm_per_n": 0.1342,
             "adhesion_kpa": 0.0,
+            "edge_friction_ratio": 1.0,
         },
         rel=1e-12,
     )
@@ -227,6 +228,9 @@ def test_a_calibrated_material_maps_only_onto_parameters_the_model_has():
     assert apply_dome_material(compliant, {"pin_lever_mm": 3.0}).pin_lever == pytest.approx(3e-3)
     assert apply_dome_material(compliant, {"apex_radius_mm": 30.0}).apex_radius == pytest.approx(0.03)
     assert apply_dome_material(compliant, {"adhesion_kpa": 7.5}).adhesion == pytest.approx(7500.0)
+    assert apply_dome_material(compliant, {"edge_friction_ratio": 2.0}).edge_friction == 2.0
+    with pytest.raises(UserError, match="edge_friction_ratio"):  # the flex grid's friction is MuJoCo's own
+        apply_dome_material(FIDELITY_LEVELS["default"], {"edge_friction_ratio": 2.0})
     with pytest.raises(UserError, match="adhesion_kpa"):  # the flex grid's contact is MuJoCo's own
         apply_dome_material(FIDELITY_LEVELS["default"], {"adhesion_kpa": 7.5})
     with pytest.raises(UserError, match="apex_radius_mm"):  # the flex grid's skin is its own MuJoCo mesh

@@ -98,6 +98,13 @@ DOME_MATERIAL: dict[str, tuple[str, float, float, str]] = {
         "compliant dome: the skin's adhesive shear strength on the object: with friction a node slips at "
         "μ·pressure + this (0 = Coulomb's law alone)",
     ),
+    "edge_friction_ratio": (
+        "–",
+        1.0,
+        5.0,
+        "compliant dome: friction across an edge's round (where the object's surface turns from its top) "
+        "over friction along it (1 = the same every way)",
+    ),
 }
 
 

@@ -40,6 +40,7 @@ PHYSICS = (
     "material.apex_radius_mm",
     "material.tip_sway_mm_per_n",
     "material.adhesion_kpa",
+    "material.edge_friction_ratio",
     "friction",
     "tcp.x_mm",
     "tcp.y_mm",

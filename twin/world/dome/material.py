@@ -24,6 +24,7 @@ _TO_DOME: dict[str, tuple[str, float]] = {
     "apex_radius_mm": ("apex_radius", 1e-3),
     "tip_sway_mm_per_n": ("tip_sway", 1e-3),
     "adhesion_kpa": ("adhesion", 1e3),
+    "edge_friction_ratio": ("edge_friction", 1.0),
 }
 #: model fields unset (None) until given, and the field whose value they take meanwhile
 _FALLBACK = {"bending_young": "membrane_young"}

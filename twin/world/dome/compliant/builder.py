@@ -114,6 +114,13 @@ class CompliantSettings(PhysicsSettings):
         None,
     )
 
+    edge_friction_ratio: float | None = bounded(
+        *DOME_MATERIAL["edge_friction_ratio"][1:3],
+        "–",
+        DOME_MATERIAL["edge_friction_ratio"][3] + " (twin.world.dome.compliant.physics; default 1)",
+        None,
+    )
+
     apex_radius_mm: float | None = bounded(
         *DOME_MATERIAL["apex_radius_mm"][1:3],
         "mm",
@@ -153,6 +160,7 @@ class CompliantSettings(PhysicsSettings):
             "pins_in_gel": self.pins_in_gel,
             "tip_sway": None if self.tip_sway_mm_per_n is None else self.tip_sway_mm_per_n * 1e-3,
             "adhesion": None if self.adhesion_kpa is None else self.adhesion_kpa * 1e3,
+            "edge_friction": self.edge_friction_ratio,
             "apex_radius": None if self.apex_radius_mm is None else self.apex_radius_mm * 1e-3,
             "edge_within_node": self.edge_within_node,
             "finite_sliding": self.finite_sliding,

@@ -530,6 +530,7 @@ def solve_increment(
     tolerance: float,
     max_iterations: int,
     adhesion: np.ndarray | None = None,
+    anisotropy: np.ndarray | None = None,
 ) -> ContactIncrement:
     """Solve one increment for m candidate nodes, everything in the nodes' local frames
     (normal, t1, t2).
@@ -541,7 +542,11 @@ def solve_increment(
     each node since then; friction μ and adhesion (m, 2) N, each node's adhesive strength
     and ramp (`friction_bound`; None = none; with μ = 0 and none, frictionless: only the
     normal problem is solved); pressure0 (m,), traction0 (m, 2): warm start. tolerance:
-    residual in m.
+    residual in m. anisotropy (m, 2, 2), symmetric positive definite, or None: each node's
+    friction disc stretched into the ellipse {S q : |q| ≤ bound}, S its matrix in (t1, t2).
+    Solved as the disc problem in q = S⁻¹ traction, whose work-conjugate slip is S times the
+    slip: the compliance becomes T W T and the offset T o, T = diag(1, S) per node, so the
+    slip stays normal to the ellipse (maximal dissipation).
     """
     m = len(gap)
     n_idx = np.arange(m) * 3
@@ -556,10 +561,20 @@ def solve_increment(
         return ContactIncrement(p, np.zeros((m, 2)), np.column_stack([-p, np.zeros((m, 2))]), solves, residual)
     offset = np.column_stack([gap, -(np.asarray(previous_tangential, float) + np.asarray(object_shift, float))])
     start = np.column_stack([np.maximum(np.asarray(pressure0, float), 0.0), np.asarray(traction0, float)])
+    if anisotropy is not None:
+        stretch = np.zeros((m, 3, 3))
+        stretch[:, 0, 0] = 1.0
+        stretch[:, 1:, 1:] = anisotropy
+        blocks = np.asarray(matrix).reshape(m, 3, m, 3)
+        matrix = np.einsum("iab,ibjc,jcd->iajd", stretch, blocks, stretch).reshape(3 * m, 3 * m)
+        offset = np.einsum("iab,ib->ia", stretch, offset)
+        start = np.linalg.solve(stretch, start[:, :, None])[:, :, 0]
     forces, iterations, residual = solve_coulomb(
         matrix, offset.ravel(), friction, start.ravel(), tolerance, max_iterations, adhesion
     )
     f = forces.reshape(m, 3)
+    if anisotropy is not None:
+        f = np.einsum("iab,ib->ia", stretch, f)
     return ContactIncrement(f[:, 0], f[:, 1:], np.column_stack([-f[:, 0], f[:, 1:]]), iterations, residual)
 
 

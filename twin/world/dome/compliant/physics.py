@@ -93,6 +93,9 @@ CLOSEST_SETBACK = 1e-3
 #: ramps cost Newton iterations for little: on 12 sheared taps onto the object at 10 kPa, 2 kPa
 #: took 1.77× the iterations without adhesion, 5 kPa 1.08×, and moved the friction force 4 %
 ADHESION_RAMP = 5e3
+#: deg: where the object's inward normal turns from its top's by more than this, a node is on
+#: an edge's round (or a wall) and `edge_friction` stretches its friction across the turn
+EDGE_TILT_DEG = 10.0
 
 
 @dataclass(frozen=True)
@@ -157,6 +160,12 @@ class CompliantParams:
       (twin.world.dome.compliant.contact.friction_bound), so the friction force grows with
       the contact's area as well as its load, as a rubber's does. 0 (the default) =
       Coulomb's μ·pressure alone.
+    edge_friction (–): friction across an edge's round over friction along it: where the
+      object's surface turns from its top by more than EDGE_TILT_DEG, a node slips once its
+      traction reaches an ellipse, edge_friction times μ·pressure across the round and
+      μ·pressure along the edge (twin.world.dome.compliant.contact.solve_increment's
+      `anisotropy`), as a rubber ploughs over an edge more than it slides along one. 1 (the
+      default) = the same disc every way, nothing computed.
     apex_radius (m): the radius of curvature of the outer profile the object meets, a
       sphere through the apex (`apex_lift`); the compliance stays the geometry's dome's, as
       Hertz theory pairs a curved profile with a half-space's compliance. At or below the
@@ -205,6 +214,7 @@ class CompliantParams:
     skin_thickening: float = 1.0
     tip_sway: float = 1.342e-4
     adhesion: float = 0.0
+    edge_friction: float = 1.0
     apex_radius: float = 0.030
     edge_within_node: bool = False
     finite_sliding: bool = False
@@ -854,6 +864,7 @@ class CompliantPhysics:
                     p.tolerance,
                     p.max_iterations,
                     self._adhesion(candidates),
+                    self._edge_friction(f),
                 )
             except ContactNotConverged as err:
                 self._fail(f"contact solve did not converge ({len(candidates)} nodes, μ = {self.friction:g}): {err}")
@@ -872,6 +883,16 @@ class CompliantPhysics:
                 return candidates, forces, displacement, after
             candidates = np.union1d(candidates, outside)
         self._fail("the contact set did not settle within 10 re-solves")
+
+    def _edge_friction(self, frames: np.ndarray) -> np.ndarray | None:
+        """(m, 2, 2): each node's friction ellipse in its (t1, t2) (`solve_increment`'s
+        `anisotropy`), `edge_friction` across the edge's round where the object's inward
+        normal turns from its top's by more than EDGE_TILT_DEG, the identity elsewhere; None
+        at `edge_friction` 1 or without friction (`edge_friction_ellipses`)."""
+        ratio = self.params.edge_friction
+        if ratio == 1.0 or not self.friction:
+            return None
+        return edge_friction_ellipses(frames, self._object_pose(self._at)[:3, 2], ratio)
 
     def _adhesion(self, nodes: np.ndarray) -> np.ndarray | None:
         """(m, 2) N: the adhesive strength and ramp of `nodes` (`friction_bound`), over the
@@ -1008,6 +1029,19 @@ def contact_frames(normals: np.ndarray, reference: np.ndarray) -> np.ndarray:
         frames[k, 2, 1] = c[2] * t[0] - c[0] * t[2]
         frames[k, 2, 2] = c[0] * t[1] - c[1] * t[0]
     return frames
+
+
+def edge_friction_ellipses(frames: np.ndarray, top: np.ndarray, ratio: float) -> np.ndarray:
+    """(k, 2, 2): the friction ellipses of nodes in contact frames (k, 3, 3) (rows c, t1, t2;
+    c the object's inward normal) on an object whose top faces along `top` (3,), the object's
+    z axis in the same frame. Where c turns from the top's normal by more than EDGE_TILT_DEG
+    (an edge's round, a wall), `ratio` along the top's normal as the tangent plane holds it
+    (up the slope: across the round, up a wall) and 1 along the edge; the identity elsewhere."""
+    up_slope = np.einsum("kij,j->ki", frames[:, 1:], top)  # |.| = the sine of the turn
+    size = np.linalg.norm(up_slope, axis=1)
+    tilted = size > math.sin(math.radians(EDGE_TILT_DEG))
+    up_slope = up_slope / np.where(tilted, size, 1.0)[:, None]
+    return np.eye(2) + (ratio - 1.0) * tilted[:, None, None] * np.einsum("ki,kj->kij", up_slope, up_slope)
 
 
 @lru_cache(maxsize=8)
