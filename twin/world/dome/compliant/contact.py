@@ -561,20 +561,22 @@ def solve_increment(
         return ContactIncrement(p, np.zeros((m, 2)), np.column_stack([-p, np.zeros((m, 2))]), solves, residual)
     offset = np.column_stack([gap, -(np.asarray(previous_tangential, float) + np.asarray(object_shift, float))])
     start = np.column_stack([np.maximum(np.asarray(pressure0, float), 0.0), np.asarray(traction0, float)])
-    if anisotropy is not None:
-        stretch = np.zeros((m, 3, 3))
-        stretch[:, 0, 0] = 1.0
-        stretch[:, 1:, 1:] = anisotropy
-        blocks = np.asarray(matrix).reshape(m, 3, m, 3)
-        matrix = np.einsum("iab,ibjc,jcd->iajd", stretch, blocks, stretch).reshape(3 * m, 3 * m)
-        offset = np.einsum("iab,ib->ia", stretch, offset)
-        start = np.linalg.solve(stretch, start[:, :, None])[:, :, 0]
+    # only the nodes whose ellipse is not the disc (those on an edge's round) are stretched
+    stretched = [] if anisotropy is None else np.flatnonzero(np.any(anisotropy != np.eye(2), axis=(1, 2)))
+    if len(stretched):
+        matrix = np.array(matrix)  # the caller keeps its own
+        for k in stretched:
+            matrix[3 * k + 1 : 3 * k + 3] = anisotropy[k] @ matrix[3 * k + 1 : 3 * k + 3]
+        for k in stretched:
+            matrix[:, 3 * k + 1 : 3 * k + 3] = matrix[:, 3 * k + 1 : 3 * k + 3] @ anisotropy[k]
+        offset[stretched, 1:] = np.einsum("kab,kb->ka", anisotropy[stretched], offset[stretched, 1:])
+        start[stretched, 1:] = np.linalg.solve(anisotropy[stretched], start[stretched, 1:, None])[:, :, 0]
     forces, iterations, residual = solve_coulomb(
         matrix, offset.ravel(), friction, start.ravel(), tolerance, max_iterations, adhesion
     )
     f = forces.reshape(m, 3)
-    if anisotropy is not None:
-        f = np.einsum("iab,ib->ia", stretch, f)
+    if len(stretched):
+        f[stretched, 1:] = np.einsum("kab,kb->ka", anisotropy[stretched], f[stretched, 1:])
     return ContactIncrement(f[:, 0], f[:, 1:], np.column_stack([-f[:, 0], f[:, 1:]]), iterations, residual)
 
 
