@@ -36,38 +36,44 @@ def rms(x):
     return float(np.sqrt(np.mean(np.square(x)))) if len(x) else float("nan")
 
 
-for given in sys.argv[1:]:
-    label, _, folder = given.rpartition("=")
-    model = PerceptionModel.load(f"{folder}/runs/eval/model_pca.npz")
-    by_theta = {}
-    for s in samples(f"{folder}/runs/taps3"):
-        lab = s["labels"]
-        by_theta.setdefault(round(lab["theta_deg"] % 360, 3), []).append((lab["lateral_mm"], np.array(s["pins_px"])))
+if __name__ == "__main__":
+    for given in sys.argv[1:]:
+        label, _, folder = given.rpartition("=")
+        model = PerceptionModel.load(f"{folder}/runs/eval/model_pca.npz")
+        by_theta = {}
+        for s in samples(f"{folder}/runs/taps3"):
+            lab = s["labels"]
+            by_theta.setdefault(round(lab["theta_deg"] % 360, 3), []).append(
+                (lab["lateral_mm"], np.array(s["pins_px"]))
+            )
 
-    rows = {}
-    for s in samples(f"{folder}/runs/slides_rectangle"):
-        lab = s["labels"]
-        if lab.get("no_contact") or lab["lateral_mm"] > 6.0:
-            continue
-        pins, still = np.array(s["pins_px"]), still_at(by_theta, round(lab["theta_deg"] % 360, 3), lab["lateral_mm"])
-        shift = pins - still
-        rigid = still + shift.mean(axis=0)
-        q, q0, qr = (model.pc23_px(p[None])[0] for p in (pins, still, rigid))
-        e = q0 / np.linalg.norm(q0)
-        e_round = np.array([-e[1], e[0]])
-        d, dr = q - q0, qr - q0
-        turn = np.degrees(np.arctan2(q0[0] * q[1] - q0[1] * q[0], q0 @ q))
-        on = "On" if lab["lateral_mm"] <= 0 else "Off"
-        rows.setdefault((lab["direction_deg"], on), []).append(
-            (np.linalg.norm(q0), d @ e, d @ e_round, dr @ e, dr @ e_round, turn, np.linalg.norm(shift.mean(axis=0)))
-        )
-    print(label or folder)
-    print(
-        "  direction  on/off   n  |q0| px   drag radial / round px   rigid part radial / round px   theta turn deg  mean shift px"
-    )
-    for (direction, on), r in sorted(rows.items()):
-        r = np.array(r)
+        rows = {}
+        for s in samples(f"{folder}/runs/slides_rectangle"):
+            lab = s["labels"]
+            if lab.get("no_contact") or lab["lateral_mm"] > 6.0:
+                continue
+            pins, still = (
+                np.array(s["pins_px"]),
+                still_at(by_theta, round(lab["theta_deg"] % 360, 3), lab["lateral_mm"]),
+            )
+            shift = pins - still
+            rigid = still + shift.mean(axis=0)
+            q, q0, qr = (model.pc23_px(p[None])[0] for p in (pins, still, rigid))
+            e = q0 / np.linalg.norm(q0)
+            e_round = np.array([-e[1], e[0]])
+            d, dr = q - q0, qr - q0
+            turn = np.degrees(np.arctan2(q0[0] * q[1] - q0[1] * q[0], q0 @ q))
+            on = "On" if lab["lateral_mm"] <= 0 else "Off"
+            rows.setdefault((lab["direction_deg"], on), []).append(
+                (np.linalg.norm(q0), d @ e, d @ e_round, dr @ e, dr @ e_round, turn, np.linalg.norm(shift.mean(axis=0)))
+            )
+        print(label or folder)
         print(
-            f"  {direction:5.0f}°   {on:>3} {len(r):4d}  {rms(r[:, 0]):6.2f}   {rms(r[:, 1]):8.2f} / {rms(r[:, 2]):6.2f}"
-            f"          {rms(r[:, 3]):8.2f} / {rms(r[:, 4]):6.2f}              {rms(r[:, 5]):6.1f}   {rms(r[:, 6]):6.2f}"
+            "  direction  on/off   n  |q0| px   drag radial / round px   rigid part radial / round px   theta turn deg  mean shift px"
         )
+        for (direction, on), r in sorted(rows.items()):
+            r = np.array(r)
+            print(
+                f"  {direction:5.0f}°   {on:>3} {len(r):4d}  {rms(r[:, 0]):6.2f}   {rms(r[:, 1]):8.2f} / {rms(r[:, 2]):6.2f}"
+                f"          {rms(r[:, 3]):8.2f} / {rms(r[:, 4]):6.2f}              {rms(r[:, 5]):6.1f}   {rms(r[:, 6]):6.2f}"
+            )

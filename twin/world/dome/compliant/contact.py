@@ -562,21 +562,23 @@ def solve_increment(
     offset = np.column_stack([gap, -(np.asarray(previous_tangential, float) + np.asarray(object_shift, float))])
     start = np.column_stack([np.maximum(np.asarray(pressure0, float), 0.0), np.asarray(traction0, float)])
     # only the nodes whose ellipse is not the disc (those on an edge's round) are stretched
-    stretched = [] if anisotropy is None else np.flatnonzero(np.any(anisotropy != np.eye(2), axis=(1, 2)))
+    stretched = np.zeros(0, int) if anisotropy is None else np.flatnonzero(np.any(anisotropy != np.eye(2), axis=(1, 2)))
     if len(stretched):
+        ellipse = anisotropy[stretched]
+        dofs = (3 * stretched[:, None] + np.array([1, 2])).ravel()  # their tangential unknowns
         matrix = np.array(matrix)  # the caller keeps its own
-        for k in stretched:
-            matrix[3 * k + 1 : 3 * k + 3] = anisotropy[k] @ matrix[3 * k + 1 : 3 * k + 3]
-        for k in stretched:
-            matrix[:, 3 * k + 1 : 3 * k + 3] = matrix[:, 3 * k + 1 : 3 * k + 3] @ anisotropy[k]
-        offset[stretched, 1:] = np.einsum("kab,kb->ka", anisotropy[stretched], offset[stretched, 1:])
-        start[stretched, 1:] = np.linalg.solve(anisotropy[stretched], start[stretched, 1:, None])[:, :, 0]
+        rows = matrix[dofs].reshape(len(stretched), 2, -1)
+        matrix[dofs] = np.einsum("kab,kbn->kan", ellipse, rows).reshape(len(dofs), -1)
+        columns = matrix[:, dofs].reshape(-1, len(stretched), 2)
+        matrix[:, dofs] = np.einsum("nkb,kba->nka", columns, ellipse).reshape(-1, len(dofs))
+        offset[stretched, 1:] = np.einsum("kab,kb->ka", ellipse, offset[stretched, 1:])
+        start[stretched, 1:] = np.linalg.solve(ellipse, start[stretched, 1:, None])[:, :, 0]
     forces, iterations, residual = solve_coulomb(
         matrix, offset.ravel(), friction, start.ravel(), tolerance, max_iterations, adhesion
     )
     f = forces.reshape(m, 3)
     if len(stretched):
-        f[stretched, 1:] = np.einsum("kab,kb->ka", anisotropy[stretched], f[stretched, 1:])
+        f[stretched, 1:] = np.einsum("kab,kb->ka", ellipse, f[stretched, 1:])
     return ContactIncrement(f[:, 0], f[:, 1:], np.column_stack([-f[:, 0], f[:, 1:]]), iterations, residual)
 
 
