@@ -15,10 +15,17 @@ from twin.sensing.perception import pins_to_vectors
 ALONG, ACROSS = SHEARED_TERMS.index("slide_along_mm"), SHEARED_TERMS.index("slide_lateral_mm")
 
 
-def parts(z, x):
-    """(rigid px, rest px) of the along and across gradients, noise taken out of their squares."""
+def bin_fit(z, x):
+    """The least-squares fit of one bin's frames z (n, 254) px on its centred terms x (n, 6),
+    as edge_imprint.sheared_fits makes it: (design (n, 7), coefficients (7, 254))."""
     design = np.column_stack([np.ones(len(x)), x - x.mean(axis=0)])
     coef, *_ = np.linalg.lstsq(design, z, rcond=None)
+    return design, coef
+
+
+def parts(z, x):
+    """(rigid px, rest px) of the along and across gradients, noise taken out of their squares."""
+    design, coef = bin_fit(z, x)
     res = z - design @ coef
     dof = len(z) - design.shape[1]
     var = np.sum(res**2, axis=0) / dof  # (254,) per coordinate

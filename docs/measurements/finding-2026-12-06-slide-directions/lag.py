@@ -9,7 +9,7 @@ moves the imprint nowhere: a control).
 import sys
 
 import numpy as np
-from along_across import sheared_design
+from along_across import bin_fit, sheared_design
 
 from twin.analysis.edge_imprint import SHEARED_TERMS
 
@@ -17,8 +17,7 @@ T = {t: k for k, t in enumerate(SHEARED_TERMS)}
 
 
 def lags(z, x, rigid_out):
-    design = np.column_stack([np.ones(len(x)), x - x.mean(axis=0)])
-    coef, *_ = np.linalg.lstsq(design, z, rcond=None)
+    _, coef = bin_fit(z, x)
     g = {t: coef[1 + k].reshape(-1, 2) for t, k in T.items()}
     if rigid_out:
         g = {t: v - v.mean(axis=0) for t, v in g.items()}

@@ -11,17 +11,12 @@ shift) and the rest. Printed per direction and On/Off (the sensor's middle on th
 l <= 0): RMS over samples of |q0| and of each part (px), and the RMS theta_PC23 change (deg).
 """
 
-import json
 import sys
 
 import numpy as np
 
+from twin.runs.record import load_run
 from twin.sensing.perception import PerceptionModel
-
-
-def samples(run):
-    with open(f"{run}/samples.jsonl") as lines:
-        return [json.loads(line) for line in lines]
 
 
 def still_at(by_theta, theta, lateral):
@@ -41,14 +36,14 @@ if __name__ == "__main__":
         label, _, folder = given.rpartition("=")
         model = PerceptionModel.load(f"{folder}/runs/eval/model_pca.npz")
         by_theta = {}
-        for s in samples(f"{folder}/runs/taps3"):
+        for s in load_run(f"{folder}/runs/taps3").samples:
             lab = s["labels"]
             by_theta.setdefault(round(lab["theta_deg"] % 360, 3), []).append(
                 (lab["lateral_mm"], np.array(s["pins_px"]))
             )
 
         rows = {}
-        for s in samples(f"{folder}/runs/slides_rectangle"):
+        for s in load_run(f"{folder}/runs/slides_rectangle").samples:
             lab = s["labels"]
             if lab.get("no_contact") or lab["lateral_mm"] > 6.0:
                 continue
