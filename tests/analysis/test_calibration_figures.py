@@ -254,3 +254,84 @@ def test_the_still_signal_is_the_replay_without_slides(recorded) -> None:
     assert {k: v for k, v in apart.items() if k[0] not in ("signal", "shift")} == pytest.approx(
         {k: v for k, v in tables[True].items() if k[0] != "signal"}
     )
+
+
+def test_pooled_misses_weigh_each_bin_by_its_recorded_spread() -> None:
+    """settings edge_figure_bins: pooled: one miss per figure and side of the edge. Three bins
+    onto the object, recorded to ±0.05, ±0.10 and ±0.10 in the ratio, the twin 0.2, 0.0 and
+    −0.2 above them: weights 400, 100, 100, so the pooled difference is (80 − 20) / 600 =
+    0.1, its error 1 / √600, and the miss 0.1 / √(0.1² + 1 / 600). The bins scatter more
+    than their spreads allow, and the miss is not widened for it (that would reward a twin
+    that scatters). Off the object the twin lacks one of two bins: the other alone is
+    pooled; a side the twin lacks entirely misses by MISSING_MISS."""
+    from twin.analysis.calibration_fit.figures import pooled_rows
+
+    def row(figure: str, l: float, recorded: float, spread: float, twin: float | None) -> dict:
+        return {"run": 0, "figure": figure, "lateral_mm": l, "recorded": recorded, "spread": spread, "twin": twin}
+
+    rows = [
+        row("signal", -3.0, 0.60, 0.05, 0.80),
+        row("signal", -2.0, 0.70, 0.10, 0.70),
+        row("signal", -1.0, 0.90, 0.10, 0.70),
+        row("signal", 1.0, 1.10, 0.05, 1.00),
+        row("signal", 2.0, 1.20, 0.05, None),
+        row("theta_pc23", -2.0, 4.0, 0.2, None),
+        row("theta_pc23", 1.0, 0.5, 0.1, 0.5 * 1.5),
+    ]
+    pooled = {(r["figure"], r["side"]): r for r in pooled_rows(rows)}
+    assert set(pooled) == {("signal", "onto"), ("signal", "off"), ("theta_pc23", "onto"), ("theta_pc23", "off")}
+    onto = pooled["signal", "onto"]
+    assert onto["bins"] == 3 and onto["recorded"] == pytest.approx((240 + 70 + 90) / 600)
+    assert onto["twin"] - onto["recorded"] == pytest.approx(0.1)
+    assert onto["spread"] == pytest.approx(600**-0.5)
+    assert onto["miss"] == pytest.approx(0.1 / math.hypot(SIGNAL_TOLERANCE, 600**-0.5))
+    assert onto["miss_tolerance"] == pytest.approx(1.0)
+    off = pooled["signal", "off"]
+    assert off["bins"] == 1 and off["miss"] == pytest.approx(miss("signal", 1.00, 1.10, 0.05))
+    assert pooled["theta_pc23", "onto"]["miss"] == MISSING_MISS and pooled["theta_pc23", "onto"]["twin"] is None
+    assert pooled["theta_pc23", "off"]["miss"] == pytest.approx(miss("theta_pc23", 0.75, 0.5, 0.1))
+
+
+def test_pooled_figures_in_a_calibration(recorded, tmp_path, capsys) -> None:
+    """The target pooled: a miss per figure and side, as many residuals as the evaluator
+    counts for the uncertainty's clusters; a side of one bin misses as that bin does, and a
+    side of two by their spread-weighted mean. Pooling without resamples (no spreads to
+    weigh by) is refused by name, exit 2."""
+    from twin.analysis.calibration_fit.data import load_data
+    from twin.analysis.calibration_fit.evaluator import Evaluator
+    from twin.analysis.calibration_fit.figures import difference
+    from twin.analysis.calibration_fit.space import Space
+    from twin.runs.parallel import WorkerPool
+
+    base = load_settings(None)
+    weights = base.weights.model_copy(update={"edge_figures": 1.0})
+    data = load_data([recorded["real"]], recorded["scenario"], weights)
+    tables, lengths = {}, {}
+    with WorkerPool(1) as pool:
+        for bins in ("each", "pooled"):
+            settings = base.model_copy(update={"weights": weights, "edge_figure_bins": bins})
+            ev = Evaluator(Space(recorded["scenario"], settings), data, pool)
+            values = dict(ev.space.defaults)
+            tips = ev.simulate_one(values, "the twin as the scenario has it")
+            tables[bins] = ev.figure_table(tips, values)
+            lengths[bins] = (len(ev.residuals(tips, values, priors=False)), len(ev.row_sample))
+    assert lengths["pooled"][0] == lengths["pooled"][1] and lengths["each"][0] == lengths["each"][1]
+    each = {(r["figure"], r["lateral_mm"]): r for r in tables["each"]}
+    pooled = {(r["figure"], r["side"]): r for r in tables["pooled"]}
+    assert lengths["each"][0] - lengths["pooled"][0] == len(each) - len(pooled) > 0
+    assert pooled["signal", "onto"]["miss"] == pytest.approx(each["signal", -1.0]["miss"])
+    two = [each["drag/signal", 0.0], each["drag/signal", 1.0]]
+    assert pooled["drag/signal", "off"]["bins"] == 2
+    w = np.array([r["spread"] for r in two]) ** -2
+    d = np.sum(w * [difference("drag/signal", r["recorded"], r["twin"]) for r in two]) / w.sum()
+    assert pooled["drag/signal", "off"]["miss"] == pytest.approx(
+        d / math.hypot(math.log(FACTOR_TOLERANCE), w.sum() ** -0.5)
+    )
+
+    (tmp_path / "settings.yaml").write_text(
+        yaml.safe_dump({**FIGURES_ONLY, "edge_figure_bins": "pooled", "edge_figure_resamples": 0})
+    )
+    args = ["calibrate", str(recorded["real"]), "--scenario", str(recorded["root"] / "twin.yaml")]
+    assert main([*args, "--out", str(tmp_path / "cal"), "--settings", str(tmp_path / "settings.yaml")]) == 2
+    err = capsys.readouterr().err
+    assert "edge_figure_resamples must be 2 or more" in err and "settings.yaml" in err

@@ -12,7 +12,13 @@ import cv2
 import numpy as np
 from skimage.metrics import structural_similarity
 
-from twin.analysis.calibration_fit.figures import THETA_TURN_KEYS, difference, paired_figure_spread, paired_figures
+from twin.analysis.calibration_fit.figures import (
+    SIDES,
+    THETA_TURN_KEYS,
+    paired_figure_spread,
+    paired_figures,
+    pooled_difference,
+)
 from twin.analysis.edge_imprint import REACH_AT_MM, edge_figures, is_sheared, usable
 from twin.analysis.evaluation import along_edge_drag_px, orientation_signal_px
 from twin.core.errors import UserError
@@ -139,37 +145,23 @@ def read_in_a_plane(row: dict) -> dict | None:
     return {**row, "b": row["in_a_plane"], "spread": row["spread_in_a_plane"]}
 
 
-#: the sides of the edge a figure's bins are pooled over (l in mm): onto the object, off it
-SIDES = {"onto": lambda l: l < 0, "off": lambda l: l >= 0}
-
-
 def pooled_differences(rows: list[dict]) -> dict[str, dict[str, dict]]:
-    """{figure: {side: pooled}} of `figure_differences`'s rows: B's figure less A's (in its
-    miss's units: calibration_fit.figures.difference) over the lateral bins on each side of
-    the edge (SIDES), each bin weighted by the inverse of its paired variance. A bin's
-    figure may be known to a factor of 4 where its neighbour's is known to 20 %, so a plain
-    mean over the bins says what the worst-measured bin says. pooled: "difference" (the
-    weighted mean), "error" (its standard error, 1 / √Σw, times Birge's ratio √(χ² / dof)
-    where the bins scatter about the mean more than their spreads allow), "chi2_per_dof"
-    and "bins". The bins' taps are disjoint, so their differences are independent. A side
-    with a bin whose spread is 0 (no resamples) is left out: it cannot be weighted."""
+    """{figure: {side: pooled}} of `figure_differences`'s rows: B's figure less A's over the
+    lateral bins on each side of the edge (calibration_fit.figures.SIDES), each bin weighted
+    by the inverse of its paired variance (calibration_fit.figures.pooled_difference: a
+    bin's figure may be known to a factor of 4 where its neighbour's is known to 20 %, so a
+    plain mean over the bins says what the worst-measured bin says). The bins' taps are
+    disjoint, so their differences are independent. A side with a bin whose spread is 0 (no
+    resamples) is left out: it cannot be weighted."""
     pooled: dict[str, dict[str, dict]] = {}
     for figure in sorted({r["figure"] for r in rows}):
         for side, on_side in SIDES.items():
             bins = [r for r in rows if r["figure"] == figure and on_side(r["lateral_mm"])]
             if not bins or any(r["spread"] <= 0 for r in bins):
                 continue
-            d = np.array([difference(figure, r["a"], r["b"]) for r in bins])
-            w = np.array([r["spread"] ** -2 for r in bins])
-            mean = float(np.sum(w * d) / np.sum(w))
-            chi2_per_dof = float(np.sum(w * (d - mean) ** 2) / (len(d) - 1)) if len(d) > 1 else 0.0
-            error = float(np.sqrt(max(chi2_per_dof, 1.0) / np.sum(w)))
-            pooled.setdefault(figure, {})[side] = {
-                "difference": mean,
-                "error": error,
-                "chi2_per_dof": chi2_per_dof,
-                "bins": len(d),
-            }
+            pooled.setdefault(figure, {})[side] = pooled_difference(
+                figure, [r["a"] for r in bins], [r["b"] for r in bins], [r["spread"] for r in bins]
+            )
     return pooled
 
 

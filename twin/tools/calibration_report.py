@@ -25,6 +25,13 @@ def _fmt(v: float | None, digits: int = 3) -> str:
     return "–" if v is None else f"{v:.{digits}f}"
 
 
+def _where(row: dict) -> str:
+    """A figure row's lateral bin (mm), or the side of the edge it is pooled over and its bins."""
+    if row["lateral_mm"] is not None:
+        return f"{row['lateral_mm']:+g}"
+    return f"{row['side']} ({row['bins']} bins)"
+
+
 def _edge_figure_lines(figures: dict | None) -> list[str]:
     """The edge figures' table, recorded beside the twin before and after (misses in tolerances)."""
     if not figures:
@@ -39,6 +46,12 @@ def _edge_figure_lines(figures: dict | None) -> list[str]:
             else ""
         )
         + ("; its θ_PC23 turn read in the recorded taps' PC2–PC3" if figures.get("theta_plane") == "recorded" else "")
+        + (
+            "; each figure pooled over either side of the edge, its bins weighted by their recorded spread, "
+            "the spread the pooled mean's"
+            if figures.get("bins") == "pooled"
+            else ""
+        )
         + "). Miss: over the tolerance (0.1 for the signal ratio and the shift, a "
         "factor 4/3 for the others) and, fitted, over √(tolerance² + spread²), the spread the recorded figure's "
         "over bootstrap resamples of its frames (the signal's and the shift's in their units, the others' in log units; "
@@ -49,7 +62,7 @@ def _edge_figure_lines(figures: dict | None) -> list[str]:
     ]
     for b, a in zip(figures["before"], figures["after"]):
         lines.append(
-            f"| {a['run']} | {a['figure']} | {a['lateral_mm']:+g} | {a['recorded']:.3g} | {a['spread']:.2f} | "
+            f"| {a['run']} | {a['figure']} | {_where(a)} | {a['recorded']:.3g} | {a['spread']:.2f} | "
             f"{_fmt(b['twin'], 3)} | {b['miss_tolerance']:+.1f} | {_fmt(a['twin'], 3)} | {a['miss_tolerance']:+.1f} | "
             f"{a['miss']:+.1f} |"
         )

@@ -75,6 +75,7 @@ class Evaluator:
                 [data.still_rows(r) for r in range(len(data.records))],
                 settings.edge_signal_shift == "apart",
                 settings.edge_theta_plane == "recorded",
+                settings.edge_figure_bins == "pooled",
             )
             if weight > 0
             else None
@@ -83,8 +84,7 @@ class Evaluator:
         #: then one of its own for each edge figure
         self.row_sample = np.repeat(np.nonzero(self.weighed)[0], 2)
         if self.figures is not None:
-            n_figures = sum(len(f) for f in self.figures.recorded)
-            self.row_sample = np.concatenate([self.row_sample, len(data.pins) + np.arange(n_figures)])
+            self.row_sample = np.concatenate([self.row_sample, len(data.pins) + np.arange(self.figures.n_residuals)])
         self.rest = data.group == GROUPS.index("rest")
         self.fit_rest = space.settings.rest_pins and bool(self.rest.any())
         #: rest offsets (127, 2) px to use instead of the closed form (held-out runs: the fit's layout)

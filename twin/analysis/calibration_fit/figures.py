@@ -180,6 +180,77 @@ def miss(figure: str, twin: float | None, recorded: float, spread: float = 0.0) 
     return difference(figure, recorded, twin) / math.hypot(_tolerance(figure), spread)
 
 
+#: the sides of the edge a figure's bins are pooled over (l in mm): onto the object, off it
+SIDES = {"onto": lambda l: l < 0, "off": lambda l: l >= 0}
+
+
+def pooled_difference(figure: str, a: list[float], b: list[float], spread: list[float]) -> dict:
+    """B's figure less A's (in its miss's units: `difference`) over several lateral bins,
+    each weighted by the inverse square of its `spread` (> 0, the miss's units): "difference"
+    (the weighted mean), "statistical_error" (1 / √Σw), "error" (that times Birge's ratio
+    √(χ² / dof) where the bins scatter about the mean more than their spreads allow),
+    "chi2_per_dof" and "bins"."""
+    d = np.array([difference(figure, x, y) for x, y in zip(a, b)])
+    w = np.asarray(spread, dtype=float) ** -2
+    mean = float(np.sum(w * d) / np.sum(w))
+    chi2_per_dof = float(np.sum(w * (d - mean) ** 2) / (len(d) - 1)) if len(d) > 1 else 0.0
+    statistical = float(1.0 / np.sqrt(np.sum(w)))
+    return {
+        "difference": mean,
+        "statistical_error": statistical,
+        "error": statistical * math.sqrt(max(chi2_per_dof, 1.0)),
+        "chi2_per_dof": chi2_per_dof,
+        "bins": len(d),
+    }
+
+
+def _unscale(figure: str, value: float) -> float:
+    """A figure's value from its miss's units (`_scale`'s inverse above the floor)."""
+    return value if figure in LINEAR else math.exp(value)
+
+
+def pooled_rows(rows: list[dict]) -> list[dict]:
+    """`EdgeFigureTarget.table`'s rows pooled per run, figure and side of the edge (SIDES):
+    the twin's miss of the recorded figure's weighted mean over the side's bins, each bin
+    weighted by the inverse square of its recorded spread. The miss is the pooled
+    difference over √(tolerance² + its statistical error²), without Birge's ratio: that
+    would grow as the twin's bins scatter and shrink the miss of a twin that scatters. A
+    bin the twin lacks is left out of its side; a side it lacks entirely misses by
+    MISSING_MISS. Rows: run, figure, side, lateral_mm (None), recorded and twin (the
+    weighted means, in the figure's unit), spread (the statistical error), bins, miss and
+    miss_tolerance (over the tolerance alone)."""
+    out = []
+    for run in sorted({r["run"] for r in rows}):
+        for figure in sorted({r["figure"] for r in rows if r["run"] == run}):
+            for side, on_side in SIDES.items():
+                bins = [r for r in rows if r["run"] == run and r["figure"] == figure and on_side(r["lateral_mm"])]
+                if not bins:
+                    continue
+                both = [r for r in bins if r["twin"] is not None and math.isfinite(r["twin"])]
+                weighed = both or bins
+                w = np.array([r["spread"] for r in weighed]) ** -2
+                mean = float(np.sum(w * [_scale(figure, r["recorded"]) for r in weighed]) / w.sum())
+                row = {
+                    "run": run,
+                    "figure": figure,
+                    "side": side,
+                    "lateral_mm": None,
+                    "recorded": _unscale(figure, mean),
+                }
+                if not both:
+                    row.update(spread=float(w.sum() ** -0.5), bins=0, twin=None)
+                    out.append(row | {"miss": MISSING_MISS, "miss_tolerance": MISSING_MISS})
+                    continue
+                pooled = pooled_difference(
+                    figure, [r["recorded"] for r in both], [r["twin"] for r in both], [r["spread"] for r in both]
+                )
+                error, d = pooled["statistical_error"], pooled["difference"]
+                row.update(spread=error, bins=len(both), twin=_unscale(figure, mean + d))
+                row.update(miss=d / math.hypot(_tolerance(figure), error), miss_tolerance=d / _tolerance(figure))
+                out.append(row)
+    return out
+
+
 def figure_spread(
     run: Run, resamples: int, seed: int, values: Figures | None = None, shift_apart: bool = False
 ) -> Figures:
@@ -257,6 +328,9 @@ class EdgeFigureTarget:
     #: per run, its taps' PCs, which the twin's θ_PC23 turn is read in (settings edge_theta_plane:
     #: recorded), or None: the twin's own
     recorded_pcs: list[TapPCs] | None = None
+    #: the misses of each figure pooled over either side of the edge (`pooled_rows`; settings
+    #: edge_figure_bins: pooled) rather than one per lateral bin
+    pooled: bool = False
 
     @classmethod
     def of(
@@ -269,12 +343,14 @@ class EdgeFigureTarget:
         still_rows: list[np.ndarray | None] | None = None,
         shift_apart: bool = False,
         theta_in_recorded_plane: bool = False,
+        pooled: bool = False,
     ) -> EdgeFigureTarget:
         """The recorded figures and their spread over `resamples` bootstrap resamples (seeded);
         UserError naming a run that is not sheared taps or has no lateral bin to compare.
         `still_rows`: per run, where its still replay's pins are (the twin's signal then
         comes from them). `shift_apart`: settings edge_signal_shift is apart;
-        `theta_in_recorded_plane`: settings edge_theta_plane is recorded."""
+        `theta_in_recorded_plane`: settings edge_theta_plane is recorded; `pooled`: settings
+        edge_figure_bins is pooled (each recorded figure's spread must then be above 0)."""
         recorded = []
         for run in records:
             if not is_sheared(run):
@@ -297,7 +373,23 @@ class EdgeFigureTarget:
         ]
         still = still_rows or [None] * len(records)
         pcs = [tap_pcs(run) for run in records] if theta_in_recorded_plane else None
-        return cls(records, rows, recorded, spread, weight, still, shift_apart, pcs)
+        if pooled and any(v <= 0 for figures in spread for v in figures.values()):
+            raise UserError(
+                "calibration settings field 'edge_figure_bins: pooled' weighs each lateral bin by its recorded "
+                "figure's bootstrap spread, and some spread is 0; set edge_figure_resamples to 2 or more"
+            )
+        return cls(records, rows, recorded, spread, weight, still, shift_apart, pcs, pooled)
+
+    @property
+    def n_residuals(self) -> int:
+        """How many misses `residuals` returns: one per recorded figure and lateral bin, or
+        (pooled) one per recorded figure and side of the edge."""
+        if not self.pooled:
+            return sum(len(f) for f in self.recorded)
+        return sum(
+            len({(figure, side) for figure, l in f for side, on_side in SIDES.items() if on_side(l)})
+            for f in self.recorded
+        )
 
     def simulated_runs(self, pins_px: np.ndarray, still: bool = False) -> list[Run | None]:
         """Each recorded run with its pins replaced by those of `pins_px` (px) at its rows,
@@ -324,7 +416,8 @@ class EdgeFigureTarget:
 
     def table(self, pins_px: np.ndarray) -> list[dict]:
         """One row per recorded figure: run, figure, l (mm), recorded, its spread (the miss's
-        units), twin, miss (over √(tolerance² + spread²)), miss_tolerance (over the tolerance alone)."""
+        units), twin, miss (over √(tolerance² + spread²)), miss_tolerance (over the tolerance
+        alone); where `pooled`, those rows pooled per figure and side (`pooled_rows`)."""
         out = []
         runs, stills = self.simulated_runs(pins_px), self.simulated_runs(pins_px, still=True)
         for r, (run, still, recorded, spread) in enumerate(zip(runs, stills, self.recorded, self.spread)):
@@ -347,7 +440,7 @@ class EdgeFigureTarget:
                         "miss_tolerance": miss(figure, simulated, value),
                     }
                 )
-        return out
+        return pooled_rows(out) if self.pooled else out
 
     def residuals(self, pins_px: np.ndarray) -> np.ndarray:
         """√weight × each recorded figure's miss (tolerances), in `table`'s order."""

@@ -31,7 +31,8 @@ twin's predicted pins against the recorded ones, each over its tolerance and the
 figure's spread (twin.analysis.calibration_fit.figures; a frame of zero weight still
 counts there), taken at the camera the pins solve; with settings edge_signal: still the
 twin's signal ratios onto the object come from its replay of the same taps without their
-slides. A
+slides, and with edge_figure_bins: pooled there is one miss per figure and side of the
+edge, its bins weighted by their recorded spread. A
 pin-level misfit shared by every frame (the camera's, or the model's) can outweigh what
 the physics parameters do to the edge; with the contact weights at 0 the camera is fitted
 to the no-contact frames and the physics to the figures alone. The
@@ -250,6 +251,7 @@ def _calibrate(
             "signal_from": settings.edge_signal,
             "signal_shift": settings.edge_signal_shift,
             "theta_plane": settings.edge_theta_plane,
+            "bins": settings.edge_figure_bins,
             "before": figures_before,
             "after": figures_after,
         },

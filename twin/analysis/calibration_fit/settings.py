@@ -133,6 +133,11 @@ class CalibrationSettings(_Strict):
         "own taps' PC2–PC3 ('own'), or the recorded run's ('recorded': a twin whose first PCs are "
         "nearly equal has a plane that jumps between candidates) (twin.analysis.calibration_fit.figures)"
     )
+    edge_figure_bins: Literal["each", "pooled"] = Field(
+        description="a miss per edge figure and lateral bin ('each'), or per figure and side of the edge, "
+        "its bins weighted by the inverse square of their recorded spread ('pooled', as `twin compare` "
+        "pools them; needs edge_figure_resamples of 2 or more) (twin.analysis.calibration_fit.figures)"
+    )
     noise_px: float = Field(gt=0, le=50)
     identifiable_fraction: float = Field(gt=0, le=10)
     max_variance_inflation: float = Field(ge=1)
@@ -143,6 +148,15 @@ class CalibrationSettings(_Strict):
         unknown = sorted(set(self.parameters) - set(PARAMETERS))
         if unknown:
             raise ValueError(f"unknown parameters {unknown}; known: {', '.join(PARAMETERS)}")
+        return self
+
+    @model_validator(mode="after")
+    def _pooled_weighable(self) -> CalibrationSettings:
+        if self.edge_figure_bins == "pooled" and self.edge_figure_resamples < 2:
+            raise ValueError(
+                "edge_figure_bins: pooled weighs each lateral bin by its recorded figure's bootstrap spread; "
+                f"edge_figure_resamples must be 2 or more (it is {self.edge_figure_resamples})"
+            )
         return self
 
     @field_validator("camera_from_rest")
