@@ -158,3 +158,59 @@ def test_the_face_planes_find_mujocos_closest_points():
             heights = local @ planes[:, :3].T + planes[:, 3]
             by_planes += bool(np.isclose(heights.max(), expected, atol=1e-9))  # a face's foot is the closest point
     assert compared > 150 and 0 < by_planes < compared
+
+
+def test_a_pressed_node_sits_on_the_face_at_its_displaced_point():
+    """Pressed 1.5 mm onto the top face and slid 3 mm along it: finite sliding measures a
+    node's gap from its rest point (g = c · (closest point − rest point)), so the pressed
+    nodes' gaps are −0.7 to −1.5 mm, how far they were pushed in. At their displaced points,
+    g − c · u, they lie on the plane to 1 nm, as contact requires; that is the depth the
+    check against indentation past the dome's reach reads."""
+    from twin.world.dome.compliant.physics import gaps_at_displaced_points
+
+    poses = [Pose(45, 0, -1, 0, 0, 0), Pose(45, 0, 1.5, 0, 0, 0), Pose(45, 3, 1.5, 0, 0, 0)]
+    _, physics = _slid(True, poses)
+    gaps, frames = physics._contact_geometry(physics._object2tool, physics.displacement)
+    pressed = np.any(physics.forces != 0.0, axis=1)
+    assert pressed.sum() > 30 and gaps[pressed].max() < -0.5e-3 and gaps[pressed].min() < -1.4e-3
+    assert np.abs(gaps_at_displaced_points(gaps, frames, physics.displacement)[pressed]).max() < 1e-9
+
+
+def test_a_node_caught_at_a_sharp_wall_is_named():
+    """Pressed 3 mm at l = +9.9 mm, turned −160°, and slid across the sharp rectangle's
+    edge onto it, a dome with friction 0.2562 three times as high across the wall
+    (edge_friction_ratio 2.928, sway 0.2288 mm/N, adhesion 2.89 kPa: a fit to the DigiTac
+    taps on the default's stiffness scale) catches a skin node on the wall: friction holds
+    it and the wall carries it. PhysicsError names it once it is carried past the model's
+    10 mm reach (it reads 10.29 mm at x = 55.5 mm); the same node's gap at its displaced
+    point is about 0, so it is not reported as an indentation. With the ratio at 2 the
+    node slips, and no node is carried more than 4 mm over the same slide."""
+    from twin.core.errors import PhysicsError
+
+    def slide(ratio: float) -> float:
+        """The farthest any node was carried at the slide's stops (m)."""
+        spec = {
+            "name": "caught_node_case",
+            "object": {"name": "rectangle", "friction": 0.2562},
+            "dome": "compliant",
+            "effects": ["contact", "friction"],
+            "physics": {
+                "finite_sliding": True,
+                "tip_sway_mm_per_n": 0.2288,
+                "adhesion_kpa": 2.89,
+                "edge_friction_ratio": ratio,
+                "surface_spacing_mm": 1.8,
+            },
+        }
+        env = SimEnvironment(scenario_from_dict(spec), start_pose=Pose(69.9, 0, -2, 0, 0, -160))
+        env.reset()
+        carried = 0.0
+        for x in (69.9, 66, 62, 58, 54):
+            env.move_to(Pose(x, 0, 3, 0, 0, -160), 20.0)
+            carried = max(carried, np.linalg.norm(env.physics.displacement, axis=1).max())
+        return carried
+
+    with pytest.raises(PhysicsError, match=r"a skin node carried 10\.\d\d mm by the object") as caught:
+        slide(2.928)
+    assert "indentation" not in str(caught.value)
+    assert slide(2.0) < 4e-3

@@ -780,10 +780,20 @@ class CompliantPhysics:
         (`_contact_geometry`), and the contact problem's candidates: the nodes within
         candidate_margin and the `loaded` ones, where the object is still in sight."""
         gaps, frames = self._contact_geometry(object2tool, through)
-        r = self.geometry.dome_outer_radius
-        if np.min(gaps) < -0.5 * r:
+        reach = 0.5 * self.geometry.dome_outer_radius
+        depth = gaps
+        if self.params.finite_sliding:
+            carried = np.linalg.norm(through, axis=1)
+            node = int(np.argmax(carried))
+            if carried[node] > reach:
+                self._fail(
+                    f"a skin node carried {carried[node] * 1e3:.2f} mm by the object (friction holds it where "
+                    f"the object drags it): farther than the dome model reaches ({reach * 1e3:.0f} mm)"
+                )
+            depth = gaps_at_displaced_points(gaps, frames, through)
+        if np.min(depth) < -reach:
             self._fail(
-                f"indentation {-np.min(gaps) * 1e3:.2f} mm: deeper than the dome model reaches ({0.5 * r * 1e3:.0f} mm)"
+                f"indentation {-np.min(depth) * 1e3:.2f} mm: deeper than the dome model reaches ({reach * 1e3:.0f} mm)"
             )
         candidates = np.union1d(np.flatnonzero(gaps < self.params.candidate_margin), loaded)
         candidates = candidates[np.isfinite(gaps[candidates])]  # a node the object left carries nothing
@@ -1010,6 +1020,15 @@ class CompliantPhysics:
 
     def _fail(self, what: str) -> None:
         raise physics_error(self.scenario_name, f"increment {self._steps}", self.time, self.world2work, self._at, what)
+
+
+def gaps_at_displaced_points(gaps: np.ndarray, frames: np.ndarray, through: np.ndarray) -> np.ndarray:
+    """(N,) m: each node's gap where `through` (N, 3) m has displaced it, from its gap
+    measured from its rest point along its contact normal (`gaps`, (N,) m; frames (N, 3, 3)
+    with rows (c, t1, t2)), as finite sliding measures it: g − c · u. A node carried along
+    the object by friction has a rest-point gap as large as how far it was carried and a
+    displaced one of about 0."""
+    return gaps - np.einsum("ij,ij->i", frames[:, 0], through)
 
 
 @compiled
