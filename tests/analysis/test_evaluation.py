@@ -281,3 +281,59 @@ def test_the_along_edge_cells_weigh_the_drag_against_the_taps_orientation_signal
     partial = Run(slid.path, slid.meta, [s for s in slid.samples if s is not lost])
     kept = along_edge_reading(model, load_run(taps), partial)[90]["drag_in_plane"]
     assert all(np.isfinite(v) and v > 1.0 for v in kept.values()), kept
+
+
+def test_the_shift_free_row_ignores_a_uniform_shift_of_the_pins(tmp_path, capsys) -> None:
+    """`twin evaluate --shift-free`: Table I's PCA + GP row also with every frame's uniform
+    shift taken out before training and reading. Every frame of the taps and slides moved
+    by a shift of its own (up to ±3 px, seeded) leaves that row as it was, to 1e-6 deg,
+    while the row as recorded moves; the row is printed under the table, and asked of a
+    held-out tap run it is refused by name (exit 2)."""
+    from twin.analysis.evaluation import shift_free_table_i, table_i
+    from twin.core.resources import scenario_path
+    from twin.core.scenario import load_scenario
+    from twin.runs.record import load_run
+    from twin.runs.run import run_scenario
+    from twin.runs.training import train_from_run
+    from twin.tools.cli import main
+
+    def record(name: str, **protocol) -> Path:
+        scenario = load_scenario(scenario_path(name))
+        scenario = scenario.with_changes(
+            fidelity="fast", effects=["contact", "friction"], protocol=scenario.protocol.model_dump() | protocol
+        )
+        return run_scenario(scenario, tmp_path / name, workers=1, progress=False)
+
+    orientations = [-120, -60, 0, 60, 120, 180]
+    taps = record("taps_rectangle", orientations_deg=orientations, lateral_mm=[9.9, 4, 0, -6])
+    slides = record("slides_rectangle", orientations_deg=orientations, directions_deg=[0, 90, 270])
+    train, test = load_run(taps), load_run(slides)
+    rng = np.random.default_rng(3)
+
+    def shifted(run: Run) -> Run:
+        moved = [s | {"pins_px": (np.asarray(s["pins_px"]) + rng.uniform(-3, 3, 2)).tolist()} for s in run.samples]
+        return Run(run.path, run.meta, moved)
+
+    free = shift_free_table_i(train, test)["PCA + GP"]
+    free_moved = shift_free_table_i(shifted(train), shifted(test))["PCA + GP"]
+    cells = [(d, g) for d in (0, 90, 270) for g in ("on", "off") if free[d][g] is not None]
+    assert len(cells) >= 3
+    assert all(free_moved[d][g] == pytest.approx(free[d][g], abs=1e-6) for d, g in cells)
+
+    def recorded_row(a: Run, b: Run) -> dict:
+        theta = train_from_run(a, "pca", 0).predict(b.pins_px, resolution=b.resolution).theta_deg
+        return table_i(b, {"PCA + GP": theta})["PCA + GP"]
+
+    as_recorded, moved = recorded_row(train, test), recorded_row(shifted(train), shifted(test))
+    assert max(abs(moved[d][g] - as_recorded[d][g]) for d, g in cells) > 1.0
+
+    assert (
+        main(["evaluate", "--train", str(taps), "--test", str(slides), "--out", str(tmp_path / "ev"), "--shift-free"])
+        == 0
+    )
+    printed = capsys.readouterr().out
+    row = next(line for line in printed.splitlines() if line.startswith("twin PCA + GP, shift out"))
+    assert f"{free[90]['on']:.2f}/—" in row
+    args = ["evaluate", "--train", str(taps), "--test", str(taps), "--out", str(tmp_path / "ho"), "--shift-free"]
+    assert main(args) == 2
+    assert "--shift-free reads Table I" in capsys.readouterr().err

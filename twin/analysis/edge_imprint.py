@@ -56,7 +56,7 @@ from twin.core.poses import wrap_deg
 from twin.core.scenario import SHEARED_TAP_MOTION
 from twin.core.sensor import N_PINS
 from twin.runs.record import Run
-from twin.sensing.perception import pca_fit, pins_to_vectors
+from twin.sensing.perception import pca_fit, pins_to_vectors, without_uniform_shift
 
 #: the linear model's terms for sheared taps (after the constant), per lateral bin
 SHEARED_TERMS = ("theta_deg", "slide_along_mm", "slide_lateral_mm", "twist_deg", "depth_offset_mm", "lateral_in_bin_mm")
@@ -354,12 +354,6 @@ def grid_turn(rest_px: np.ndarray, turns: int = 1) -> tuple[np.ndarray, np.ndarr
             f"({off:.1f} px off, pin spacing {spacing:.1f} px)"
         )
     return perm, rot, centre
-
-
-def without_uniform_shift(pins_px: np.ndarray, rest_px: np.ndarray) -> np.ndarray:
-    """(N, 127, 2) px: the frames with each one's uniform shift (its mean pin displacement
-    from the rest pins) taken out."""
-    return pins_px - (pins_px.mean(axis=1, keepdims=True) - rest_px.mean(axis=0))
 
 
 def turned_frames(pins_px: np.ndarray, rest_px: np.ndarray) -> np.ndarray:

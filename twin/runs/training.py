@@ -32,9 +32,10 @@ from twin.runs.spec import dome_params
 from twin.sensing.perception import PerceptionModel
 
 
-def train_from_run(run: Run, method: str = "pca", seed: int = 0) -> PerceptionModel:
-    """Fit the paper's model (or the baseline) on a recorded tap run."""
-    pins = run.pins_px
+def train_from_run(run: Run, method: str = "pca", seed: int = 0, pins_px: np.ndarray | None = None) -> PerceptionModel:
+    """Fit the paper's model (or the baseline) on a recorded tap run; `pins_px` (N, 127, 2)
+    px: its frames' pins as given instead of as recorded (e.g. without their uniform shift)."""
+    pins = run.pins_px if pins_px is None else pins_px
     theta, lateral, depth = run.label("theta_deg"), run.label("lateral_mm"), run.label("depth_mm")
     if not np.all(np.isfinite(theta)) or not np.all(np.isfinite(lateral)):
         raise UserError(f"{run.path}: not a tap run (samples need theta_deg and lateral_mm labels)")

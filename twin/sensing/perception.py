@@ -175,6 +175,12 @@ def pins_to_vectors(pins_px: np.ndarray) -> np.ndarray:
     return pins_px.reshape(len(pins_px), N_DIMS)
 
 
+def without_uniform_shift(pins_px: np.ndarray, rest_px: np.ndarray) -> np.ndarray:
+    """(N, 127, 2) px: the frames with each one's uniform shift (its mean pin displacement
+    from the rest pins `rest_px`, (127, 2) px) taken out."""
+    return pins_px - (pins_px.mean(axis=1, keepdims=True) - rest_px.mean(axis=0))
+
+
 def angle_error_deg(predicted_deg: np.ndarray, true_deg: np.ndarray) -> np.ndarray:
     """Signed wrapped difference predicted − true (deg), in [−180, 180)."""
     return wrap_deg(np.asarray(predicted_deg, float) - np.asarray(true_deg, float))

@@ -19,20 +19,23 @@ def _fmt(v) -> str:
     return "—" if v is None else f"{v:.2f}"
 
 
+def _table_row(label: str, cells: dict) -> str:
+    """One row of Table I as text: `cells` {direction: (on, off)} (deg or None)."""
+    return label.ljust(24) + "".join(f"{_fmt(cells[d][0])}/{_fmt(cells[d][1])}".rjust(16) for d in DIRECTIONS)
+
+
+def _on_off(rows: dict) -> dict:
+    return {d: (rows[d]["on"], rows[d]["off"]) for d in DIRECTIONS}
+
+
 def format_table(table: dict, paper: bool = True) -> str:
     """Table I as text, the paper's figures beside the twin's."""
     head = "model".ljust(24) + "".join(f"{d}° on/off".rjust(16) for d in DIRECTIONS)
     lines = [head]
     for name, rows in table.items():
-        lines.append(
-            f"twin {name}".ljust(24)
-            + "".join(f"{_fmt(rows[d]['on'])}/{_fmt(rows[d]['off'])}".rjust(16) for d in DIRECTIONS)
-        )
+        lines.append(_table_row(f"twin {name}", _on_off(rows)))
         if paper and name in PAPER_TABLE_I:
-            p = PAPER_TABLE_I[name]
-            lines.append(
-                f"paper {name}".ljust(24) + "".join(f"{_fmt(p[d][0])}/{_fmt(p[d][1])}".rjust(16) for d in DIRECTIONS)
-            )
+            lines.append(_table_row(f"paper {name}", PAPER_TABLE_I[name]))
     return "\n".join(lines)
 
 
@@ -131,15 +134,26 @@ def write_pca_figures(train_dir: Path, test_dir: Path, out: Path) -> list[Path]:
     return paths
 
 
+def format_shift_free(table: dict) -> str:
+    """Table I's PCA + GP row without the frames' uniform shift, as a row under the table's."""
+    return _table_row("twin PCA + GP, shift out", _on_off(table["PCA + GP"]))
+
+
 def evaluate_and_report(
-    train_dir: Path, test_dir: Path, out: Path, seed: int = 0, reach_at: tuple[float, ...] = REACH_AT_MM
+    train_dir: Path,
+    test_dir: Path,
+    out: Path,
+    seed: int = 0,
+    reach_at: tuple[float, ...] = REACH_AT_MM,
+    shift_free: bool = False,
 ) -> dict:
     """`twin evaluate`: the evaluation's results and models in `out`
     (twin.analysis.evaluation.evaluate), and for a slides run the PCA figures. A sheared-tap
     training run (an imported lab recording, or the twin's) also gets its edge figures
     (twin.analysis.edge_imprint: the drag separated from the orientation) in
-    out/edge_figures.json and the result's "edge_figures" (its reach profiles at `reach_at`, mm)."""
-    result = evaluate(train_dir, test_dir, out, seed=seed)
+    out/edge_figures.json and the result's "edge_figures" (its reach profiles at `reach_at`, mm).
+    `shift_free`: Table I's PCA + GP row also without the frames' uniform shift."""
+    result = evaluate(train_dir, test_dir, out, seed=seed, shift_free=shift_free)
     if "table_i_rms_orientation_deg" in result:
         write_pca_figures(train_dir, test_dir, out)
     train = load_run(train_dir)
