@@ -13,11 +13,11 @@ import numpy as np
 from skimage.metrics import structural_similarity
 
 from twin.analysis.calibration_fit.figures import (
-    SIDES,
     THETA_TURN_KEYS,
     paired_figure_spread,
     paired_figures,
     pooled_difference,
+    side_groups,
 )
 from twin.analysis.edge_imprint import REACH_AT_MM, edge_figures, is_sheared, usable
 from twin.analysis.evaluation import along_edge_drag_px, orientation_signal_px
@@ -154,14 +154,12 @@ def pooled_differences(rows: list[dict]) -> dict[str, dict[str, dict]]:
     disjoint, so their differences are independent. A side with a bin whose spread is 0 (no
     resamples) is left out: it cannot be weighted."""
     pooled: dict[str, dict[str, dict]] = {}
-    for figure in sorted({r["figure"] for r in rows}):
-        for side, on_side in SIDES.items():
-            bins = [r for r in rows if r["figure"] == figure and on_side(r["lateral_mm"])]
-            if not bins or any(r["spread"] <= 0 for r in bins):
-                continue
-            pooled.setdefault(figure, {})[side] = pooled_difference(
-                figure, [r["a"] for r in bins], [r["b"] for r in bins], [r["spread"] for r in bins]
-            )
+    for (figure, side), bins in side_groups(rows, "figure").items():
+        if any(r["spread"] <= 0 for r in bins):
+            continue
+        pooled.setdefault(figure, {})[side] = pooled_difference(
+            figure, [r["a"] for r in bins], [r["b"] for r in bins], [r["spread"] for r in bins]
+        )
     return pooled
 
 

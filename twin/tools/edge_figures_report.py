@@ -158,7 +158,7 @@ IN_A_PLANE_COLUMNS = (
     ("theta_pc23", "θ_PC23 per mm in A's plane, B / A"),
     ("theta_pc23_across", "the same across"),
 )
-#: the pooled lines below the bins: side (twin.analysis.comparison.SIDES), label
+#: the pooled lines below the bins: side (twin.analysis.calibration_fit.figures.SIDES), label
 POOLED_LINES = (("onto", "pooled onto the object (l < 0)"), ("off", "pooled off it (l ≥ 0)"))
 
 

@@ -7,29 +7,17 @@ usage: python shift_free_table.py "LABEL=FOLDER" ...  (each FOLDER holding the p
 import sys
 from pathlib import Path
 
-import numpy as np
-
-from twin.analysis.edge_imprint import without_uniform_shift
-from twin.analysis.evaluation import table_i
+from twin.analysis.evaluation import shift_free_table_i, table_i
 from twin.runs.record import load_run
-from twin.sensing.perception import PerceptionModel
+from twin.runs.training import train_from_run
 
 
 def pca_gp_row(taps, slides, shift_free: bool) -> dict:
-    """Table I's PCA + GP cells (direction → {"on", "off"}, deg RMS)."""
-    tap_pins, slide_pins = taps.pins_px, slides.pins_px
+    """Table I's PCA + GP cells (direction → {"on", "off"}, deg RMS), as `twin evaluate`
+    prints them, or (shift_free) as `twin evaluate --shift-free` adds them."""
     if shift_free:
-        tap_pins = without_uniform_shift(tap_pins, taps.rest_pins_px)
-        slide_pins = without_uniform_shift(slide_pins, taps.rest_pins_px)
-    model = PerceptionModel(method="pca").fit(
-        tap_pins,
-        taps.label("theta_deg"),
-        taps.label("lateral_mm"),
-        taps.label("depth_mm"),
-        np.random.default_rng(0),
-        resolution=taps.resolution,
-    )
-    theta = model.predict(slide_pins, resolution=slides.resolution).theta_deg
+        return shift_free_table_i(taps, slides)["PCA + GP"]
+    theta = train_from_run(taps, "pca", 0).predict(slides.pins_px, resolution=slides.resolution).theta_deg
     return table_i(slides, {"PCA + GP": theta})["PCA + GP"]
 
 

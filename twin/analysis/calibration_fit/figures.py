@@ -184,6 +184,18 @@ def miss(figure: str, twin: float | None, recorded: float, spread: float = 0.0) 
 SIDES = {"onto": lambda l: l < 0, "off": lambda l: l >= 0}
 
 
+def side_groups(rows: list[dict], *keys: str) -> dict[tuple, list[dict]]:
+    """`rows` (each with "lateral_mm") grouped by their values of `keys` and the side of the
+    edge (SIDES) their bin lies on: {(values…, side): rows in their order}, sorted by the
+    values, the sides in SIDES' order."""
+    groups: dict[tuple, list[dict]] = {}
+    for row in rows:
+        side = next(name for name, on_side in SIDES.items() if on_side(row["lateral_mm"]))
+        groups.setdefault((*(row[k] for k in keys), side), []).append(row)
+    sides = list(SIDES)
+    return dict(sorted(groups.items(), key=lambda item: (item[0][:-1], sides.index(item[0][-1]))))
+
+
 def pooled_difference(figure: str, a: list[float], b: list[float], spread: list[float]) -> dict:
     """B's figure less A's (in its miss's units: `difference`) over several lateral bins,
     each weighted by the inverse square of its `spread` (> 0, the miss's units): "difference"
@@ -220,34 +232,23 @@ def pooled_rows(rows: list[dict]) -> list[dict]:
     weighted means, in the figure's unit), spread (the statistical error), bins, miss and
     miss_tolerance (over the tolerance alone)."""
     out = []
-    for run in sorted({r["run"] for r in rows}):
-        for figure in sorted({r["figure"] for r in rows if r["run"] == run}):
-            for side, on_side in SIDES.items():
-                bins = [r for r in rows if r["run"] == run and r["figure"] == figure and on_side(r["lateral_mm"])]
-                if not bins:
-                    continue
-                both = [r for r in bins if r["twin"] is not None and math.isfinite(r["twin"])]
-                weighed = both or bins
-                w = np.array([r["spread"] for r in weighed]) ** -2
-                mean = float(np.sum(w * [_scale(figure, r["recorded"]) for r in weighed]) / w.sum())
-                row = {
-                    "run": run,
-                    "figure": figure,
-                    "side": side,
-                    "lateral_mm": None,
-                    "recorded": _unscale(figure, mean),
-                }
-                if not both:
-                    row.update(spread=float(w.sum() ** -0.5), bins=0, twin=None)
-                    out.append(row | {"miss": MISSING_MISS, "miss_tolerance": MISSING_MISS})
-                    continue
-                pooled = pooled_difference(
-                    figure, [r["recorded"] for r in both], [r["twin"] for r in both], [r["spread"] for r in both]
-                )
-                error, d = pooled["statistical_error"], pooled["difference"]
-                row.update(spread=error, bins=len(both), twin=_unscale(figure, mean + d))
-                row.update(miss=d / math.hypot(_tolerance(figure), error), miss_tolerance=d / _tolerance(figure))
-                out.append(row)
+    for (run, figure, side), bins in side_groups(rows, "run", "figure").items():
+        both = [r for r in bins if r["twin"] is not None and math.isfinite(r["twin"])]
+        weighed = both or bins
+        w = np.array([r["spread"] for r in weighed]) ** -2
+        mean = float(np.sum(w * [_scale(figure, r["recorded"]) for r in weighed]) / w.sum())
+        row = {"run": run, "figure": figure, "side": side, "lateral_mm": None, "recorded": _unscale(figure, mean)}
+        if not both:
+            row.update(spread=float(w.sum() ** -0.5), bins=0, twin=None)
+            out.append(row | {"miss": MISSING_MISS, "miss_tolerance": MISSING_MISS})
+            continue
+        pooled = pooled_difference(
+            figure, [r["recorded"] for r in both], [r["twin"] for r in both], [r["spread"] for r in both]
+        )
+        error, d = pooled["statistical_error"], pooled["difference"]
+        row.update(spread=error, bins=len(both), twin=_unscale(figure, mean + d))
+        row.update(miss=d / math.hypot(_tolerance(figure), error), miss_tolerance=d / _tolerance(figure))
+        out.append(row)
     return out
 
 

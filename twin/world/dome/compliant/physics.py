@@ -885,7 +885,7 @@ class CompliantPhysics:
             displacement = self.compliance.surface_displacement(candidates, forces, p.tip_sway)
             self._add_partial_displacement(displacement, candidates, f, solution.forces)
             self._uncast_reached(displacement, gaps, frames)
-            after = gaps - np.einsum("nj,nj->n", frames[:, 0], displacement)
+            after = gaps_at_displaced_points(gaps, frames, displacement)
             penetrating = after < -p.max_penetration
             penetrating[candidates] = False
             outside = np.flatnonzero(penetrating)
@@ -1025,9 +1025,9 @@ class CompliantPhysics:
 def gaps_at_displaced_points(gaps: np.ndarray, frames: np.ndarray, through: np.ndarray) -> np.ndarray:
     """(N,) m: each node's gap where `through` (N, 3) m has displaced it, from its gap
     measured from its rest point along its contact normal (`gaps`, (N,) m; frames (N, 3, 3)
-    with rows (c, t1, t2)), as finite sliding measures it: g − c · u. A node carried along
-    the object by friction has a rest-point gap as large as how far it was carried and a
-    displaced one of about 0."""
+    with rows (c, t1, t2)): g − c · u, the contact problem's gap after deformation. With
+    finite sliding a node carried along the object by friction has a rest-point gap as
+    large as how far it was carried and a displaced one of about 0."""
     return gaps - np.einsum("ij,ij->i", frames[:, 0], through)
 
 
