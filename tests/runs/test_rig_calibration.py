@@ -136,13 +136,10 @@ def test_a_tilted_mount_presses_as_the_straight_one_tilted_by_the_arm():
     assert tilted.pose.gamma == pytest.approx(10.0, abs=1e-9)
 
 
-def test_a_yield_whose_force_is_path_dependent_still_settles(tmp_path) -> None:
-    """A sheared tap of the DigiTac replay (posts, friction 0.42, sway 0.3 mm/N, the arm
-    yielding 0.05 mm/N): after its in-contact slide the yield's second and third moves
-    leave force × yield about a micron from the pose and differ by hundredths of one (the
-    sticking skin's hysteresis); a secant through them leapt a tenth of a millimetre and
-    the tap failed to settle (0.06 mm off after four moves). It settles, within a micron of
-    force × yield along the edge normal."""
+def _one_tap(tmp_path, name: str, edge_radius_mm: float, calibration: dict, physics: dict, tap: dict) -> dict:
+    """The one sample `twin run` records of a sheared tap `tap` (ShearedTap's fields) on the
+    rectangle (its top edge rounded by `edge_radius_mm`), the compliant dome with `physics`
+    and the sensor's `calibration`, 4 mm deep at the work line x = 60 mm."""
     import json
 
     import yaml
@@ -150,48 +147,106 @@ def test_a_yield_whose_force_is_path_dependent_still_settles(tmp_path) -> None:
     from twin.tools.cli import main
 
     scenario = {
-        "name": "path_dependent_yield",
-        "object": {"name": "rectangle"},
+        "name": name,
+        "object": {"name": "rectangle", "edge_radius_mm": edge_radius_mm},
         "placement": {"position_mm": [400, 0], "yaw_deg": 0},
         "dome": "compliant",
         "effects": ["contact", "friction"],
-        "sensor": {
-            "calibration": {
-                "dome_material": {
-                    "young_kpa": 40.0,
-                    "poisson": 0.5,
-                    "membrane_young_mpa": 0.1664,
-                    "skin_held_deg": 90.0,
-                    "skin_bending_mpa": 0.2888,
-                    "tip_sway_mm_per_n": 0.3,
-                },
-                "friction": 0.42,
-                "tcp_offset_mm": [0, 0, -0.87],
-                "tcp_roll_deg": 133.0,
-                "arm_yield_mm_per_n": [0.05, 0.0, 0.0],
-            }
-        },
-        "physics": {"gel_young_kpa": 13.3, "skin_bending": True, "skin_held_deg": 90},
+        "sensor": {"calibration": calibration},
+        "physics": physics,
         "protocol": {
             "kind": "sheared_taps",
             "depth_mm": 4,
             "edge_point_mm": [60.0, 0.0],
             "rest_frame": False,
-            "given": [
-                {
-                    "lateral_mm": -0.0764,
-                    "theta_deg": 24.4103,
-                    "depth_offset_mm": 0.7477,
-                    "slide_along_mm": 0.3586,
-                    "slide_lateral_mm": 2.9674,
-                    "twist_deg": 1.5931,
-                }
-            ],
+            "given": [tap],
         },
     }
-    path = tmp_path / "yield.yaml"
+    path = tmp_path / "scenario.yaml"
     path.write_text(yaml.safe_dump(scenario))
     assert main(["run", str(path), "--out", str(tmp_path / "run"), "--workers", "1", "--quiet"]) == 0
     (sample,) = [json.loads(line) for line in (tmp_path / "run" / "samples.jsonl").read_text().splitlines()]
+    return sample
+
+
+def test_a_yield_whose_force_is_path_dependent_still_settles(tmp_path) -> None:
+    """A sheared tap of the DigiTac replay (posts, friction 0.42, sway 0.3 mm/N, the arm
+    yielding 0.05 mm/N): after its in-contact slide the yield's second and third moves
+    leave force × yield about a micron from the pose and differ by hundredths of one (the
+    sticking skin's hysteresis); a secant through them leapt a tenth of a millimetre and
+    the tap failed to settle (0.06 mm off after four moves). It settles, within a micron of
+    force × yield along the edge normal."""
+    calibration = {
+        "dome_material": {
+            "young_kpa": 40.0,
+            "poisson": 0.5,
+            "membrane_young_mpa": 0.1664,
+            "skin_held_deg": 90.0,
+            "skin_bending_mpa": 0.2888,
+            "tip_sway_mm_per_n": 0.3,
+        },
+        "friction": 0.42,
+        "tcp_offset_mm": [0, 0, -0.87],
+        "tcp_roll_deg": 133.0,
+        "arm_yield_mm_per_n": [0.05, 0.0, 0.0],
+    }
+    physics = {"gel_young_kpa": 13.3, "skin_bending": True, "skin_held_deg": 90}
+    tap = {
+        "lateral_mm": -0.0764,
+        "theta_deg": 24.4103,
+        "depth_offset_mm": 0.7477,
+        "slide_along_mm": 0.3586,
+        "slide_lateral_mm": 2.9674,
+        "twist_deg": 1.5931,
+    }
+    sample = _one_tap(tmp_path, "path_dependent_yield", 0.0, calibration, physics, tap)
     yielded_mm = sample["pose"][0] - sample["target"][0]  # along the work x, the edge normal
     assert yielded_mm == pytest.approx(0.05 * sample["truth"]["contact_force_n"], abs=1e-3)
+
+
+def test_a_yield_whose_skin_slips_between_its_moves_settles_after_the_slip(tmp_path) -> None:
+    """A sheared tap of the DigiTac replay on a candidate of the pooled fit (the edge
+    rounded 1 mm, finite sliding, friction 0.384, 2.677 times that across the edge's round,
+    adhesion 2.134 kPa, sway 0.1458 mm/N; the arm yielding 0.05 mm/N along the edge normal
+    and 0.2 up its axis). The yield's fourth move lands 0.025 mm short of force × yield
+    and its fifth, 0.02 mm on, lets the skin slip: the force falls from 3.32 to 2.77 N. The
+    bracket then closed on that jump, 0.08 mm off on the slipped side, until the twelfth
+    move failed the tap. Dropping the end measured before the slip, the secant goes on
+    from the slipped contact: it settles at 2.91 N, the pose force × yield from the
+    target to a micron."""
+    skin = {"membrane_young_mpa": 0.5, "skin_held_deg": 75, "tip_sway_mm_per_n": 0.1458}
+    grip = {"adhesion_kpa": 2.134, "edge_friction_ratio": 2.677}
+    calibration = {
+        "dome_material": {**skin, **grip, "young_kpa": 40.0, "poisson": 0.5, "skin_bending_mpa": 0.8664},
+        "friction": 0.384,
+        "tcp_offset_mm": [0, 0, -0.51],
+        "tcp_roll_deg": 133.0,
+        "tcp_tilt_deg": [-1.0, -1.0],
+        "arm_yield_mm_per_n": [0.05, 0.0, -0.2],
+    }
+    physics = {
+        **skin,
+        **grip,
+        "gel_young_kpa": 13.3,
+        "skin_bending": True,
+        "skin_bending_mpa": 0.05,
+        "pins_in_gel": False,
+        "pin_lever_mm": 1.55,
+        "apex_radius_mm": 30,
+        "edge_within_node": False,
+        "surface_spacing_mm": 1.8,
+        "finite_sliding": True,
+    }
+    tap = {
+        "lateral_mm": -0.9415,
+        "theta_deg": 12.5687,
+        "depth_offset_mm": -0.6647,
+        "slide_along_mm": 0.1609,
+        "slide_lateral_mm": -4.7384,
+        "twist_deg": 1.8343,
+    }
+    sample = _one_tap(tmp_path, "slip_within_the_yield", 1.0, calibration, physics, tap)
+    force = sample["truth"]["contact_force_n"]
+    assert 2.8 < force < 3.0  # N: past the slip (3.32 N before it)
+    yielded = np.subtract(sample["pose"][:3], sample["target"][:3])
+    np.testing.assert_allclose(yielded, np.multiply([0.05, 0.0, -0.2], force), atol=1e-3)

@@ -148,7 +148,11 @@ class SimEnvironment(Environment):
         with s and is ≥ 0 at the target, s = 0): a step that would leave the bracket
         bisects it, as a stiff skin's first yield from the target lands far past the root;
         where it backs the tip off the object and lands past the YIELD_LIMIT_MM, the moves
-        start at that limit. PhysicsError when it does not settle (an arm that yields into
+        start at that limit. Where the skin slips between two moves the force
+        jumps, and the bracket can close on the jump with both ends missing by more than
+        the tolerance: the end the secant's step crosses was measured before the slip and is
+        dropped (back to the target, s = 0, or to no bound), and the moves go on from the
+        contact after it. PhysicsError when it does not settle (an arm that yields into
         the press faster than the contact pushes back, or one whose yield is past the limit)."""
         per_newton = self.scene.work2world[:3, :3] @ self.spec.arm_yield
         compliance = float(np.linalg.norm(per_newton))  # m/N
@@ -195,6 +199,11 @@ class SimEnvironment(Environment):
             # step would leap: take the fixed-point step s = yield × force instead
             step = -miss / slope if slope < -SECANT_SLOPE_FLOOR else miss
             following = s + step
+            if not below <= following < above and above - below < YIELD_TOLERANCE_MM * 1e-3:
+                # a bracket narrower than the tolerance whose ends miss by more: the force
+                # jumped inside it (the skin slipped), so the end the step crosses was
+                # measured on a contact that is gone; its other bound holds on any contact
+                below, above = (0.0, above) if following < below else (below, math.inf)
             if not below <= following < above:
                 following = (below + above) / 2 if math.isfinite(above) else s + miss
             s, s_last, miss_last = following, s, miss
