@@ -176,22 +176,23 @@ def test_a_pressed_node_sits_on_the_face_at_its_displaced_point():
     assert np.abs(gaps_at_displaced_points(gaps, frames, physics.displacement)[pressed]).max() < 1e-9
 
 
-def test_a_node_caught_at_a_sharp_wall_is_named():
+def test_a_node_hooked_on_a_sharp_edge_is_named():
     """Pressed 3 mm at l = +9.9 mm, turned −160°, and slid across the sharp rectangle's
-    edge onto it, a dome with friction 0.2562 three times as high across the wall
+    edge onto it, a dome with friction 0.2562 three times as high across the edge
     (edge_friction_ratio 2.928, sway 0.2288 mm/N, adhesion 2.89 kPa: a fit to the DigiTac
-    taps on the default's stiffness scale) catches a skin node on the wall: friction holds
-    it and the wall carries it. PhysicsError names it once it is carried past the model's
-    10 mm reach (it reads 10.29 mm at x = 55.5 mm); the same node's gap at its displaced
-    point is about 0, so it is not reported as an indentation. With the ratio at 2 the
-    node slips, and no node is carried more than 4 mm over the same slide."""
+    taps on the default's stiffness scale) hooks a skin node on the edge's corner line:
+    friction across it holds the node and the edge carries it. PhysicsError names it once
+    it is carried past the model's 10 mm reach (it reads 10.29 mm at x = 55.5 mm); the same
+    node's gap at its displaced point is about 0, so it is not reported as an indentation.
+    With the ratio at 2 the node slips, and no node is carried more than 4 mm over the same
+    slide; with the edge rounded by a quarter millimetre it slips at 2.928 too (5.08 mm)."""
     from twin.core.errors import PhysicsError
 
-    def slide(ratio: float) -> float:
+    def slide(ratio: float, edge_radius_mm: float = 0.0) -> float:
         """The farthest any node was carried at the slide's stops (m)."""
         spec = {
             "name": "caught_node_case",
-            "object": {"name": "rectangle", "friction": 0.2562},
+            "object": {"name": "rectangle", "friction": 0.2562, "edge_radius_mm": edge_radius_mm},
             "dome": "compliant",
             "effects": ["contact", "friction"],
             "physics": {
@@ -212,5 +213,6 @@ def test_a_node_caught_at_a_sharp_wall_is_named():
 
     with pytest.raises(PhysicsError, match=r"a skin node carried 10\.\d\d mm by the object") as caught:
         slide(2.928)
-    assert "indentation" not in str(caught.value)
+    assert "indentation" not in str(caught.value) and "edge_radius_mm" in str(caught.value)
     assert slide(2.0) < 4e-3
+    assert slide(2.928, edge_radius_mm=0.25) < 6e-3

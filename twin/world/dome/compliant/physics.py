@@ -788,7 +788,8 @@ class CompliantPhysics:
             if carried[node] > reach:
                 self._fail(
                     f"a skin node carried {carried[node] * 1e3:.2f} mm by the object (friction holds it where "
-                    f"the object drags it): farther than the dome model reaches ({reach * 1e3:.0f} mm)"
+                    f"the object drags it): farther than the dome model reaches ({reach * 1e3:.0f} mm); a sharp "
+                    "edge can hook the skin so where a rounded one lets it slip (object edge_radius_mm)"
                 )
             depth = gaps_at_displaced_points(gaps, frames, through)
         if np.min(depth) < -reach:
