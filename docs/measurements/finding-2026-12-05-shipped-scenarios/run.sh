@@ -11,7 +11,9 @@
 # `dome:` or `physics:` and writes runs/ and its tables into DIR instead. With FITTED=FILE
 # it appends that file's entries instead of fitted.yaml's; with FRICTION_SCALE=s every
 # object's friction is its material's times s (../finding-2026-12-05-finite-sliding-default/run.sh);
-# with TABLES_ONLY=1 it stops after table-i.txt and heldout.txt.
+# with TABLES_ONLY=1 it stops after table-i.txt and heldout.txt; with EDGE_RADIUS_MM=r the
+# rectangle of the taps, slides and held-out taps has its top edges rounded by r mm, as
+# shipped or on a fitted dome (../finding-2026-12-06-rounded-paper-edge/).
 set -e
 export MUJOCO_GL=${MUJOCO_GL:-egl} PYOPENGL_PLATFORM=${PYOPENGL_PLATFORM:-egl}
 twin=$(realpath "${1:-$(dirname "$0")/../../../.venv/bin/twin}")
@@ -20,21 +22,24 @@ here=$(cd "$(dirname "$0")" && pwd)
 cd "${OUT:-$here}"
 S="$here/../../../scenarios"
 mkdir -p runs
-fitted() {  # fitted SCENARIO NAME [OBJECT]: the shipped scenario on the fitted dome, runs/NAME.yaml
+fitted() {  # fitted SCENARIO NAME [OBJECT [EDGE_RADIUS_MM]]: the shipped scenario on the fitted dome, runs/NAME.yaml
   sed -e "s/^name: .*/name: $2/" -e "s#^  controller: paper.*#  controller: paper\n  model: eval/model_pca.npz#" \
     ${3:+-e "s#^object: .*#object: {stl: $3}#"} "$S/$1.yaml" > "runs/$2.yaml"
-  [ -n "$AS_SHIPPED" ] && return
-  sed "/^#/d" "${FITTED:-$here/fitted.yaml}" >> "runs/$2.yaml"
-  echo "  surface_spacing_mm: 1.8" >> "runs/$2.yaml"
-  [ -z "$FRICTION_SCALE" ] && return
-  "$py" - "runs/$2.yaml" "$FRICTION_SCALE" <<'PY'
+  if [ -z "$AS_SHIPPED" ]; then
+    sed "/^#/d" "${FITTED:-$here/fitted.yaml}" >> "runs/$2.yaml"
+    echo "  surface_spacing_mm: 1.8" >> "runs/$2.yaml"
+  fi
+  [ -z "$FRICTION_SCALE$4" ] && return
+  "$py" - "runs/$2.yaml" "${FRICTION_SCALE:-1}" "${4:-0}" <<'PY'
 import sys
 import yaml
 from twin.core.scenario import load_scenario
 from twin.runs.spec import load_scenario_stimulus
-path, scale = sys.argv[1], float(sys.argv[2])
+path, scale, radius = sys.argv[1], float(sys.argv[2]), float(sys.argv[3])
 entries = yaml.safe_load(open(path))
 entries["object"]["friction"] = round(load_scenario_stimulus(load_scenario(path)).friction * scale, 4)
+if radius:
+    entries["object"]["edge_radius_mm"] = radius
 yaml.safe_dump(entries, open(path, "w"), sort_keys=False)
 PY
 }
@@ -43,7 +48,7 @@ run() {  # run NAME WORKERS: twin run runs/NAME.yaml into runs/NAME, unless a co
   rm -rf runs/$1 && "$twin" run runs/$1.yaml --workers $2 --quiet --out runs/$1
 }
 for s in taps_rectangle slides_rectangle taps_heldout; do
-  fitted $s $s
+  fitted $s $s "" $EDGE_RADIUS_MM
   run $s 2
 done
 "$twin" evaluate --train runs/taps_rectangle --test runs/slides_rectangle --out runs/eval > table-i.txt
