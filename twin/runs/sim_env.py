@@ -202,7 +202,8 @@ class SimEnvironment(Environment):
             if not below <= following < above and above - below < YIELD_TOLERANCE_MM * 1e-3:
                 # a bracket narrower than the tolerance whose ends miss by more: the force
                 # jumped inside it (the skin slipped), so the end the step crosses was
-                # measured on a contact that is gone; its other bound holds on any contact
+                # measured on a contact that is gone; it goes back to the target (where the
+                # miss is force × yield, never negative) or to no bound
                 below, above = (0.0, above) if following < below else (below, math.inf)
             if not below <= following < above:
                 following = (below + above) / 2 if math.isfinite(above) else s + miss
