@@ -80,8 +80,8 @@ def test_an_unknown_material_names_the_file_and_the_field(tmp_path: Path) -> Non
 
 def test_an_edge_radius_the_object_cannot_take_names_the_file_and_the_field(tmp_path: Path) -> None:
     path = tmp_path / "round.yaml"
-    path.write_text("name: round\nobject: {name: spiral, edge_radius_mm: 1}\nprotocol: {kind: taps}\n")
-    with pytest.raises(UserError, match=rf"^{path}: field 'object.edge_radius_mm': object spiral: edge radius 1 mm"):
+    path.write_text("name: round\nobject: {name: spiral, edge_radius_mm: 4}\nprotocol: {kind: taps}\n")
+    with pytest.raises(UserError, match=rf"^{path}: field 'object.edge_radius_mm': object spiral: edge radius 4 mm"):
         load_scenario_stimulus(load_scenario(path))
 
 

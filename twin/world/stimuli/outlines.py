@@ -314,20 +314,33 @@ def extrude_mesh(poly: Polygon, thickness_mm: float) -> trimesh.Trimesh:
 ROUNDED_EDGE_FACETS = 32
 
 
-def rounded_top_mesh(poly: Polygon, thickness_mm: float, radius_mm: float) -> trimesh.Trimesh:
-    """Convex prism of a convex `poly` over z ∈ [−thickness, 0], in metres, its top edge
-    rounded all round with `radius_mm` (a quarter circle in every section across the
-    outline's sides; its corners seen from above stay as the outline has them). Built as
-    the hull of the outline inset by r(1 − sin φ) at z = −r(1 − cos φ), φ over a quarter
-    turn in `ROUNDED_EDGE_FACETS` steps, and of the outline at the bottom."""
+def rounded_piece_mesh(piece: Polygon, outline: Polygon, thickness_mm: float, radius_mm: float) -> trimesh.Trimesh:
+    """Convex solid in metres of the convex `piece` of `outline` (mm) over z ∈ [−thickness, 0],
+    the outline's top edge rounded where it bounds the piece with `radius_mm` (a quarter
+    circle in every section across the outline's sides; its corners seen from above stay as
+    the outline has them), the piece's cuts through the outline left upright. Built as the
+    hull of the piece within the outline inset by r(1 − sin φ) at z = −r(1 − cos φ), φ over
+    a quarter turn in `ROUNDED_EDGE_FACETS` steps, and of the piece at the bottom; the pieces
+    of a partition then meet along their cuts at every height. Where an inset leaves nothing
+    of the piece (a radius beyond half the outline's width there): ValueError."""
 
     def layer(inset_mm: float, z_mm: float) -> np.ndarray:
-        ring = np.asarray(poly.buffer(-inset_mm, join_style="mitre").exterior.coords)[:-1]
+        inset = piece.intersection(outline.buffer(-inset_mm, join_style="mitre"))
+        rings = [
+            np.asarray(part.exterior.coords)[:-1]
+            for part in getattr(inset, "geoms", [inset])
+            if isinstance(part, Polygon) and not part.is_empty
+        ]
+        if not rings:
+            raise ValueError(f"an inset of {inset_mm:g} mm leaves nothing of a piece")
+        ring = np.vstack(rings)
         return np.column_stack([ring, np.full(len(ring), z_mm)])
 
     phis = np.linspace(0.0, 0.5 * np.pi, ROUNDED_EDGE_FACETS + 1)
     layers = [layer(radius_mm * (1.0 - np.sin(p)), -radius_mm * (1.0 - np.cos(p))) for p in phis]
-    return trimesh.convex.convex_hull(np.vstack([*layers, layer(0.0, -thickness_mm)]) * MM)
+    bottom = np.asarray(piece.exterior.coords)[:-1]
+    layers.append(np.column_stack([bottom, np.full(len(bottom), -thickness_mm)]))
+    return trimesh.convex.convex_hull(np.vstack(layers) * MM)
 
 
 def open_edge_count(mesh: trimesh.Trimesh) -> int:
