@@ -297,24 +297,28 @@ def test_a_rounded_top_edge_is_a_quarter_circle_across_the_side(stims, name, rad
 FILLET_CENTROID = (10.0 - 3.0 * np.pi) / (3.0 * (4.0 - np.pi))
 
 
-def test_a_rounded_non_convex_outline_loses_the_fillet_pappus_gives_and_is_round_across_its_sides(stims):
-    """The flower rounded by 1.5 mm: its pieces meet along their cuts without overlaps, and
-    the solid loses what Pappus gives a fillet swept along a closed outline,
-    r²(1 − π/4)(P − 2π x̄), x̄ the fillet's centroid from the side (within 1 %). Across the
-    side, along each vertex's bisector, the top of the pieces there falls as the quarter
-    circle: within 5 µm at the petals' (convex) vertices; in the hollows never below it, and
-    above it by at most 0.1 mm, where a piece's hull spans the kink of the inset outline."""
+def test_a_rounded_non_convex_outline_loses_the_fillet_pappus_gives_and_is_round_across_its_sides(stims, tmp_path):
+    """The flower rounded by 1.5 mm loses what Pappus gives a fillet swept along a closed
+    outline, r²(1 − π/4)(P − 2π x̄), x̄ the fillet's centroid from the side (within 0.5 %:
+    the polygon's facets), and its mesh reads back from STL closed. Its collision pieces
+    hold the same volume to 0.01 %: they neither overlap nor leave gaps along their cuts. Across the
+    side, along each vertex's bisector, their top falls as the quarter circle: within
+    5 µm at the petals' (convex) vertices; in the hollows never below it, and above it by
+    at most 0.1 mm, where a piece's hull spans the kink of the inset outline."""
     from twin.world.stimuli.objects import with_edge_radius
 
     r = 1.5
     sharp = stims["flower"]
     rounded = with_edge_radius(sharp, r)
-    pieces = [trimesh.convex.convex_hull(v) for v in rounded.collision_pieces()]
-    assert len(pieces) > 1 and rounded.mesh.is_watertight
-    assert sum(p.volume for p in pieces) == pytest.approx(rounded.mesh.volume, rel=1e-6)  # no overlaps
     lost_mm3 = (sharp.mesh.volume - rounded.mesh.volume) / MM**3
     fillet = r**2 * (1.0 - np.pi / 4.0) * (sharp.outline.exterior.length - 2.0 * np.pi * FILLET_CENTROID * r)
-    assert lost_mm3 == pytest.approx(fillet, rel=0.01)
+    assert lost_mm3 == pytest.approx(fillet, rel=5e-3)
+    path = tmp_path / "rounded.stl"
+    rounded.mesh.export(path)
+    assert trimesh.load_mesh(path).is_watertight
+    pieces = [trimesh.convex.convex_hull(v) for v in rounded.collision_pieces()]
+    assert len(pieces) > 1
+    assert sum(p.volume for p in pieces) == pytest.approx(rounded.mesh.volume, rel=1e-4)
 
     footprints = [shapely.MultiPoint(p.vertices[:, :2] / MM).convex_hull.buffer(1e-6) for p in pieces]
     ring = np.asarray(sharp.outline.exterior.coords)[:-1]

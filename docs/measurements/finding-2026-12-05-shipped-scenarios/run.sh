@@ -14,8 +14,8 @@
 # with TABLES_ONLY=1 it stops after table-i.txt and heldout.txt; with EDGE_RADIUS_MM=r the
 # rectangle of the taps, slides and held-out taps has its top edges rounded by r mm, as
 # shipped or on a fitted dome (../finding-2026-12-06-rounded-paper-edge/); with
-# CONTOUR_EDGE_RADIUS_MM=r so are the six contours' objects, and the two STL objects are
-# exported rounded (../finding-2026-12-06-rounded-contours/).
+# CONTOUR_EDGE_RADIUS_MM=r so are the six contours' objects and the two STL objects
+# (../finding-2026-12-06-rounded-contours/).
 set -e
 export MUJOCO_GL=${MUJOCO_GL:-egl} PYOPENGL_PLATFORM=${PYOPENGL_PLATFORM:-egl}
 twin=$(realpath "${1:-$(dirname "$0")/../../../.venv/bin/twin}")
@@ -57,19 +57,16 @@ done
 "$twin" evaluate --train runs/taps_rectangle --test runs/taps_heldout --out runs/eval_heldout > heldout.txt
 [ -n "$TABLES_ONLY" ] && exit 0
 "$py" - <<'PY'
-import os
-from twin.world.stimuli.objects import builtin_stimulus, with_edge_radius
+from twin.world.stimuli.objects import builtin_stimulus
 for name in ("rectangle", "flower"):
-    radius = float(os.environ.get("CONTOUR_EDGE_RADIUS_MM") or 0)
-    mesh = with_edge_radius(builtin_stimulus(name), radius).mesh.copy()
+    mesh = builtin_stimulus(name).mesh.copy()
     mesh.apply_scale(1000.0)  # the object's mesh is in metres
     mesh.export(f"runs/{name}.stl")
 PY
 contours="rectangle large_circle small_circle flower spiral tape_measure rectangle_stl flower_stl"
 for o in $contours; do
   base=${o%_stl}
-  if [ "$o" != "$base" ]; then fitted contour_$base contour_$o $base.stl
-  else fitted contour_$base contour_$o "" $CONTOUR_EDGE_RADIUS_MM; fi
+  fitted contour_$base contour_$o "$([ "$o" != "$base" ] && echo $base.stl)" $CONTOUR_EDGE_RADIUS_MM
   run contour_$o 1
 done
 "$py" "$here/../finding-2026-12-03-paper-runs/contours.py" $(for o in $contours; do echo runs/contour_$o; done) > contours.txt

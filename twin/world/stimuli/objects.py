@@ -51,6 +51,7 @@ from twin.world.stimuli.outlines import (
     open_edge_count,
     rectangle_outline,
     rounded_piece_mesh,
+    rounded_top_mesh,
     spiral_outline,
     spiral_start_end,
     tape_measure_outline,
@@ -580,8 +581,9 @@ def with_edge_radius(stim: Stimulus, radius_mm: float) -> Stimulus:
     the mesh is not convex), convex or not: each piece of the outline's convex partition is
     rounded where the outline bounds it, and the pieces meet along their cuts at every
     height (beside a concave corner within a hull's chord of the true fillet, under 0.1 mm
-    at 1.5 mm). UserError for a radius beyond the thickness or half the outline's narrowest
-    width."""
+    at 1.5 mm). Its mesh is the solid itself (`rounded_top_mesh`; the one piece's hull for
+    a convex outline). UserError for a radius beyond the thickness or half the outline's
+    narrowest width."""
     if radius_mm == 0.0:
         return stim
     what = f"object {stim.name}: edge radius {radius_mm:g} mm"
@@ -592,9 +594,9 @@ def with_edge_radius(stim: Stimulus, radius_mm: float) -> Stimulus:
     rounded = replace(stim, collision="prism", edge_radius_mm=radius_mm)
     try:
         pieces = rounded._rounded_pieces
+        mesh = pieces[0] if len(pieces) == 1 else rounded_top_mesh(stim.outline, stim.thickness_mm, radius_mm)
     except ValueError:
         raise UserError(too_wide) from None
-    mesh = pieces[0] if len(pieces) == 1 else trimesh.boolean.union(pieces, engine="manifold")
     return replace(rounded, mesh=mesh)
 
 

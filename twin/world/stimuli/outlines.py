@@ -314,32 +314,80 @@ def extrude_mesh(poly: Polygon, thickness_mm: float) -> trimesh.Trimesh:
 ROUNDED_EDGE_FACETS = 32
 
 
+def _rounded_layers(outline: Polygon, radius_mm: float) -> list[tuple[Polygon, float]]:
+    """The sections of `outline`'s rounded top edge, from the flat top down: the outline
+    inset by r(1 − sin φ) at z = −r(1 − cos φ) (mm), φ over a quarter turn in
+    `ROUNDED_EDGE_FACETS` steps; mitred, so corners seen from above stay as they are."""
+    phis = np.linspace(0.0, 0.5 * np.pi, ROUNDED_EDGE_FACETS + 1)
+    return [
+        (outline.buffer(-radius_mm * (1.0 - np.sin(p)), join_style="mitre"), -radius_mm * (1.0 - np.cos(p)))
+        for p in phis
+    ]
+
+
+def rounded_top_mesh(outline: Polygon, thickness_mm: float, radius_mm: float) -> trimesh.Trimesh:
+    """Watertight solid in metres of `outline` (mm, convex or not) over z ∈ [−thickness, 0],
+    its top edge rounded all round with `radius_mm` (`_rounded_layers`): the flat top, each
+    band between two sections and the bottom triangulated by earcut on the sections' own
+    vertices, so every band shares its edges with the next. ValueError where a section is
+    not one polygon (a radius beyond half the outline's width somewhere)."""
+    layers = _rounded_layers(orient(outline, 1.0), radius_mm) + [(orient(outline, 1.0), -thickness_mm)]
+    if any(section.geom_type != "Polygon" or section.is_empty for section, _ in layers):
+        raise ValueError(f"an inset of up to {radius_mm:g} mm splits or empties the outline")
+    vertices: list[np.ndarray] = []
+    index: list[dict[tuple[float, float], int]] = []
+    for section, z in layers:
+        ring_xy = np.vstack(_rings(section))
+        index.append({(float(x), float(y)): len(vertices) + i for i, (x, y) in enumerate(ring_xy)})
+        vertices.extend(np.column_stack([ring_xy, np.full(len(ring_xy), z)]))
+
+    def faces(region: Polygon, *levels: int) -> np.ndarray:
+        xy, tris = _triangulate(region)
+        lookup = {k: v for level in levels for k, v in index[level].items()}
+        return np.array([lookup[(float(x), float(y))] for x, y in xy])[tris]
+
+    top, outer = layers[0][0], layers[-2][0]
+    parts = [faces(top, 0)]
+    for k in range(len(layers) - 2):  # the bands of the round; its last section is the outline itself
+        inner, wider = layers[k][0], layers[k + 1][0]
+        parts.append(faces(Polygon(wider.exterior, [inner.exterior]), k, k + 1))
+        for hole in wider.interiors:
+            around = next(h for h in inner.interiors if Polygon(h).contains(Polygon(hole).representative_point()))
+            parts.append(faces(Polygon(around, [hole]), k, k + 1))
+    bottom = len(layers) - 1
+    for ring_top, ring_bottom in zip(_rings(outer), _rings(layers[-1][0]), strict=True):
+        i = np.array([index[bottom - 1][(float(x), float(y))] for x, y in ring_top])
+        j = np.array([index[bottom][(float(x), float(y))] for x, y in ring_bottom])
+        parts.append(np.column_stack([i, np.roll(i, -1), j]))
+        parts.append(np.column_stack([np.roll(i, -1), np.roll(j, -1), j]))
+    parts.append(faces(layers[-1][0], bottom))
+    mesh = trimesh.Trimesh(np.asarray(vertices) * MM, np.vstack(parts), process=False)
+    trimesh.repair.fix_normals(mesh)
+    return mesh
+
+
 def rounded_piece_mesh(piece: Polygon, outline: Polygon, thickness_mm: float, radius_mm: float) -> trimesh.Trimesh:
     """Convex solid in metres of the convex `piece` of `outline` (mm) over z ∈ [−thickness, 0],
-    the outline's top edge rounded where it bounds the piece with `radius_mm` (a quarter
-    circle in every section across the outline's sides; its corners seen from above stay as
-    the outline has them), the piece's cuts through the outline left upright. Built as the
-    hull of the piece within the outline inset by r(1 − sin φ) at z = −r(1 − cos φ), φ over
-    a quarter turn in `ROUNDED_EDGE_FACETS` steps, and of the piece at the bottom; the pieces
-    of a partition then meet along their cuts at every height. Where an inset leaves nothing
-    of the piece (a radius beyond half the outline's width there): ValueError."""
+    the outline's top edge rounded where it bounds the piece with `radius_mm`, the piece's
+    cuts through the outline left upright: the hull of the piece within each of
+    `_rounded_layers`' sections and of the piece at the bottom. The pieces of a partition
+    then meet along their cuts at every height. ValueError where a section leaves nothing
+    of the piece (a radius beyond half the outline's width there)."""
 
-    def layer(inset_mm: float, z_mm: float) -> np.ndarray:
-        inset = piece.intersection(outline.buffer(-inset_mm, join_style="mitre"))
+    def layer(section: Polygon, z_mm: float) -> np.ndarray:
+        within = piece.intersection(section)
         rings = [
             np.asarray(part.exterior.coords)[:-1]
-            for part in getattr(inset, "geoms", [inset])
+            for part in getattr(within, "geoms", [within])
             if isinstance(part, Polygon) and not part.is_empty
         ]
         if not rings:
-            raise ValueError(f"an inset of {inset_mm:g} mm leaves nothing of a piece")
+            raise ValueError("a section of the round leaves nothing of a piece")
         ring = np.vstack(rings)
         return np.column_stack([ring, np.full(len(ring), z_mm)])
 
-    phis = np.linspace(0.0, 0.5 * np.pi, ROUNDED_EDGE_FACETS + 1)
-    layers = [layer(radius_mm * (1.0 - np.sin(p)), -radius_mm * (1.0 - np.cos(p))) for p in phis]
-    bottom = np.asarray(piece.exterior.coords)[:-1]
-    layers.append(np.column_stack([bottom, np.full(len(bottom), -thickness_mm)]))
+    layers = [layer(section, z) for section, z in _rounded_layers(outline, radius_mm)]
+    layers.append(layer(piece, -thickness_mm))
     return trimesh.convex.convex_hull(np.vstack(layers) * MM)
 
 
