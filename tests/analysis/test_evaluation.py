@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twin.analysis.evaluation import DIRECTIONS, PAPER_TABLE_I, table_i
+from twin.analysis.evaluation import DIRECTIONS, PAPER_TABLE_I, paper_finding, table_i
 from twin.runs.record import Run
 from twin.tools.evaluation_report import format_table
 
@@ -38,6 +38,21 @@ def test_text_table_puts_the_papers_row_under_the_twins() -> None:
     lines = text.splitlines()
     assert lines[1].startswith("twin PCA + GP") and "5.00/—" in lines[1]
     assert lines[2].startswith("paper PCA + GP") and f"{PAPER_TABLE_I['PCA + GP'][90][0]:.2f}/—" in lines[2]
+
+
+def test_the_papers_finding_read_off_its_own_table_i_is_what_its_text_states() -> None:
+    """On the paper's own Table I the finding reads as its text puts it: along the edge the
+    PCA is 7–15 times better than the raw pins (50.68 / 3.27 = 15.5 at 90°, 90.32 / 12.66
+    = 7.1 at 270°), and its Off errors lie below its On errors in all six columns that have
+    both; a column where they do not is counted out."""
+    finding = paper_finding(PAPER_TABLE_I)
+    assert finding["along_deg"] == {90: 3.27, 270: 12.66}
+    assert finding["raw_over_pca"][90] == pytest.approx(15.50, abs=0.01)
+    assert finding["raw_over_pca"][270] == pytest.approx(7.13, abs=0.01)
+    assert (finding["off_below_on"], finding["columns"]) == (6, 6)
+    swapped = {model: dict(rows) for model, rows in PAPER_TABLE_I.items()}
+    swapped["PCA + GP"][45] = (8.24, 24.17)
+    assert paper_finding(swapped)["off_below_on"] == 5
 
 
 def test_heldout_taps_per_lateral_position_with_wrap() -> None:
@@ -208,6 +223,7 @@ def test_the_along_edge_cells_weigh_the_drag_against_the_taps_orientation_signal
     assert main(["evaluate", "--train", str(taps), "--test", str(slides), "--out", str(tmp_path / "eval")]) == 0
     printed = capsys.readouterr().out
     assert "the taps' orientation signal" in printed and "the along-edge slides' drag" in printed
+    assert "the paper's finding, PCA + GP: along the edge (90° / 270°)" in printed
     result = json.loads((tmp_path / "eval" / "table_i.json").read_text())
     assert result["orientation_signal_px"]["2.0"]["0.0"] == pytest.approx(signal[2.0][0.0])
     assert all(v > 1.0 for v in result["along_edge_drag_px"].values()), result["along_edge_drag_px"]

@@ -46,10 +46,27 @@ PAPER_TABLE_I = {
 }
 PAPER_VARIANCE_3PC = 0.883
 PAPER_LATERAL_RMS_MM = 2.15
+#: the slides along the edge, the contour's own direction (deg; Table I's On-only columns)
+ALONG_EDGE_DEG = (90, 270)
 
 
 def _rms(x: np.ndarray) -> float | None:
     return float(np.sqrt(np.mean(x**2))) if len(x) else None
+
+
+def paper_finding(table: dict[str, dict[int, tuple[float | None, float | None]]]) -> dict:
+    """The paper's finding read off Table I, {model: {direction: (On, Off)}} RMS deg: the
+    PCA + GP errors along the edge ("along_deg", {90, 270: deg}), how many times as large the
+    raw-pin GP baseline's are there ("raw_over_pca"), and in how many of the columns with an
+    Off group the PCA + GP's Off error is below its On error ("off_below_on" of "columns")."""
+    pca, raw = table["PCA + GP"], table["GP baseline"]
+    crossing = [d for d in DIRECTIONS if pca[d][1] is not None]
+    return {
+        "along_deg": {d: pca[d][0] for d in ALONG_EDGE_DEG},
+        "raw_over_pca": {d: raw[d][0] / pca[d][0] for d in ALONG_EDGE_DEG},
+        "off_below_on": sum(pca[d][1] < pca[d][0] for d in crossing),
+        "columns": len(crossing),
+    }
 
 
 def table_i(test: Run, predictions: dict[str, np.ndarray]) -> dict:
@@ -267,6 +284,9 @@ def evaluate(train_dir: Path, test_dir: Path, out: Path, seed: int = 0, shift_fr
     result = {
         **summary,
         "table_i_rms_orientation_deg": table,
+        "paper_finding": paper_finding(
+            {n: {d: (r[d]["on"], r[d]["off"]) for d in DIRECTIONS} for n, r in table.items()}
+        ),
         "variance_explained_3pc": float(np.sum(pca.variance_explained[:3])),
         "orientation_signal_px": orientation_signal_px(train),
         "along_edge_drag_px": along_edge_drag_px(test),
@@ -274,6 +294,7 @@ def evaluate(train_dir: Path, test_dir: Path, out: Path, seed: int = 0, shift_fr
         **({"table_i_shift_free": shift_free_table_i(train, test, seed)} if shift_free else {}),
         "paper": {
             "table_i": PAPER_TABLE_I,
+            "finding": paper_finding(PAPER_TABLE_I),
             "variance_explained_3pc": PAPER_VARIANCE_3PC,
             "lateral_rms_mm": PAPER_LATERAL_RMS_MM,
         },

@@ -220,6 +220,11 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     print(_command_module("twin.tools.evaluation_report").format_table(result["table_i_rms_orientation_deg"]))
     if "table_i_shift_free" in result:
         print(_command_module("twin.tools.evaluation_report").format_shift_free(result["table_i_shift_free"]))
+    print(
+        _command_module("twin.tools.evaluation_report").format_paper_finding(
+            result["paper_finding"], result["paper"]["finding"]
+        )
+    )
     for name, v in result["lateral_rms_mm"].items():
         print(f"lateral RMS error, {name}: {v:.2f} mm (paper: 2.15 mm)")
     print(f"variance explained by 3 PCs: {100 * result['variance_explained_3pc']:.1f} % (paper: 88.3 %)")

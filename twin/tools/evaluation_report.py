@@ -11,7 +11,7 @@ import matplotlib
 import matplotlib.pyplot as plt
 
 from twin.analysis.edge_imprint import REACH_AT_MM, edge_figures
-from twin.analysis.evaluation import DIRECTIONS, PAPER_TABLE_I, evaluate, pca_projections
+from twin.analysis.evaluation import ALONG_EDGE_DEG, DIRECTIONS, PAPER_TABLE_I, evaluate, pca_projections
 from twin.runs.record import jsonable, load_run
 
 
@@ -37,6 +37,18 @@ def format_table(table: dict, paper: bool = True) -> str:
         if paper and name in PAPER_TABLE_I:
             lines.append(_table_row(f"paper {name}", PAPER_TABLE_I[name]))
     return "\n".join(lines)
+
+
+def format_paper_finding(twin: dict, paper: dict) -> str:
+    """The paper's finding (twin.analysis.evaluation.paper_finding) as a line, the paper's beside."""
+    along = " / ".join(f"{twin['along_deg'][d]:.2f}°" for d in ALONG_EDGE_DEG)
+    raw = " / ".join(f"{twin['raw_over_pca'][d]:.1f}×" for d in ALONG_EDGE_DEG)
+    paper_raw = " / ".join(f"{paper['raw_over_pca'][d]:.1f}×" for d in ALONG_EDGE_DEG)
+    return (
+        f"the paper's finding, PCA + GP: along the edge ({' / '.join(f'{d}°' for d in ALONG_EDGE_DEG)}) {along}, "
+        f"the raw pins {raw} worse (paper {paper_raw}); Off < On in {twin['off_below_on']} of "
+        f"{twin['columns']} columns (paper {paper['off_below_on']} of {paper['columns']})"
+    )
 
 
 def format_heldout(table: dict) -> str:
