@@ -341,6 +341,27 @@ def test_a_rounded_non_convex_outline_loses_the_fillet_pappus_gives_and_is_round
     assert -5e-3 < np.min(misses["concave"]) and np.max(misses["concave"]) < 0.1
 
 
+def test_a_rounded_l_shaped_outline_loses_what_pappus_gives_along_its_mitred_path(tmp_path):
+    """An L-shaped outline from a CSV file (five convex corners, one concave, a vertex
+    midway along a side), rounded by 1.5 mm: the sections are mitred, so the fillet sweeps
+    along the outline inset by its centroid x̄, whose length is P − 2x̄ Σ tan(turn / 2)
+    = P − 8x̄ (each 90° corner ±1), and the solid loses r²(1 − π/4)(P − 8x̄) (within
+    0.5 %: the quarter circle's 32 facets). Its mesh reads back from STL closed."""
+    from twin.world.stimuli.objects import with_edge_radius
+
+    path = tmp_path / "ell.csv"
+    path.write_text("x,y\n0,0\n20,0\n40,0\n40,15\n15,15\n15,35\n0,35\n")
+    sharp = load_stimulus(path, thickness_mm=8.0)
+    r = 1.5
+    rounded = with_edge_radius(sharp, r)
+    assert len(rounded.collision_pieces()) > 1
+    lost_mm3 = (sharp.mesh.volume - rounded.mesh.volume) / MM**3
+    path_mm = sharp.outline.exterior.length - 8.0 * FILLET_CENTROID * r
+    assert lost_mm3 == pytest.approx(r**2 * (1.0 - np.pi / 4.0) * path_mm, rel=5e-3)
+    rounded.mesh.export(tmp_path / "ell.stl")
+    assert trimesh.load_mesh(tmp_path / "ell.stl").is_watertight
+
+
 def test_an_stl_object_is_rounded_as_the_prism_of_its_outline(stims, tmp_path):
     """A user STL of the flower, rounded by 1 mm, is the built-in flower rounded by 1 mm:
     the same volume (to 0.1 %), in rounded pieces."""

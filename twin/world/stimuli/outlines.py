@@ -317,12 +317,13 @@ ROUNDED_EDGE_FACETS = 32
 def _rounded_layers(outline: Polygon, radius_mm: float) -> list[tuple[Polygon, float]]:
     """The sections of `outline`'s rounded top edge, from the flat top down: the outline
     inset by r(1 − sin φ) at z = −r(1 − cos φ) (mm), φ over a quarter turn in
-    `ROUNDED_EDGE_FACETS` steps; mitred, so corners seen from above stay as they are."""
-    phis = np.linspace(0.0, 0.5 * np.pi, ROUNDED_EDGE_FACETS + 1)
+    `ROUNDED_EDGE_FACETS` steps; mitred, so corners seen from above stay as they are. The
+    last is `outline` itself, its vertices as they are, where the side meets the round."""
+    phis = np.linspace(0.0, 0.5 * np.pi, ROUNDED_EDGE_FACETS + 1)[:-1]
     return [
         (outline.buffer(-radius_mm * (1.0 - np.sin(p)), join_style="mitre"), -radius_mm * (1.0 - np.cos(p)))
         for p in phis
-    ]
+    ] + [(outline, -radius_mm)]
 
 
 def rounded_top_mesh(outline: Polygon, thickness_mm: float, radius_mm: float) -> trimesh.Trimesh:
@@ -331,7 +332,8 @@ def rounded_top_mesh(outline: Polygon, thickness_mm: float, radius_mm: float) ->
     band between two sections and the bottom triangulated by earcut on the sections' own
     vertices, so every band shares its edges with the next. ValueError where a section is
     not one polygon (a radius beyond half the outline's width somewhere)."""
-    layers = _rounded_layers(orient(outline, 1.0), radius_mm) + [(orient(outline, 1.0), -thickness_mm)]
+    outline = orient(outline.simplify(0.0), 1.0)  # earcut drops a vertex midway along a side; so do the sides
+    layers = _rounded_layers(outline, radius_mm) + [(outline, -thickness_mm)]
     if any(section.geom_type != "Polygon" or section.is_empty for section, _ in layers):
         raise ValueError(f"an inset of up to {radius_mm:g} mm splits or empties the outline")
     vertices: list[np.ndarray] = []
