@@ -54,6 +54,12 @@ def _rms(x: np.ndarray) -> float | None:
     return float(np.sqrt(np.mean(x**2))) if len(x) else None
 
 
+def on_off(rows: dict[int, dict[str, float | None]]) -> dict[int, tuple[float | None, float | None]]:
+    """One model's Table I rows, {direction: {"on", "off"}}, as the paper's table holds them:
+    {direction: (On, Off)} (deg)."""
+    return {d: (rows[d]["on"], rows[d]["off"]) for d in DIRECTIONS}
+
+
 def paper_finding(table: dict[str, dict[int, tuple[float | None, float | None]]]) -> dict:
     """The paper's finding read off Table I, {model: {direction: (On, Off)}} RMS deg: the
     PCA + GP errors along the edge ("along_deg", {90, 270: deg}), how many times as large the
@@ -284,9 +290,7 @@ def evaluate(train_dir: Path, test_dir: Path, out: Path, seed: int = 0, shift_fr
     result = {
         **summary,
         "table_i_rms_orientation_deg": table,
-        "paper_finding": paper_finding(
-            {n: {d: (r[d]["on"], r[d]["off"]) for d in DIRECTIONS} for n, r in table.items()}
-        ),
+        "paper_finding": paper_finding({name: on_off(rows) for name, rows in table.items()}),
         "variance_explained_3pc": float(np.sum(pca.variance_explained[:3])),
         "orientation_signal_px": orientation_signal_px(train),
         "along_edge_drag_px": along_edge_drag_px(test),

@@ -11,7 +11,7 @@ import matplotlib
 import matplotlib.pyplot as plt
 
 from twin.analysis.edge_imprint import REACH_AT_MM, edge_figures
-from twin.analysis.evaluation import ALONG_EDGE_DEG, DIRECTIONS, PAPER_TABLE_I, evaluate, pca_projections
+from twin.analysis.evaluation import ALONG_EDGE_DEG, DIRECTIONS, PAPER_TABLE_I, evaluate, on_off, pca_projections
 from twin.runs.record import jsonable, load_run
 
 
@@ -24,16 +24,12 @@ def _table_row(label: str, cells: dict) -> str:
     return label.ljust(24) + "".join(f"{_fmt(cells[d][0])}/{_fmt(cells[d][1])}".rjust(16) for d in DIRECTIONS)
 
 
-def _on_off(rows: dict) -> dict:
-    return {d: (rows[d]["on"], rows[d]["off"]) for d in DIRECTIONS}
-
-
 def format_table(table: dict, paper: bool = True) -> str:
     """Table I as text, the paper's figures beside the twin's."""
     head = "model".ljust(24) + "".join(f"{d}° on/off".rjust(16) for d in DIRECTIONS)
     lines = [head]
     for name, rows in table.items():
-        lines.append(_table_row(f"twin {name}", _on_off(rows)))
+        lines.append(_table_row(f"twin {name}", on_off(rows)))
         if paper and name in PAPER_TABLE_I:
             lines.append(_table_row(f"paper {name}", PAPER_TABLE_I[name]))
     return "\n".join(lines)
@@ -148,7 +144,7 @@ def write_pca_figures(train_dir: Path, test_dir: Path, out: Path) -> list[Path]:
 
 def format_shift_free(table: dict) -> str:
     """Table I's PCA + GP row without the frames' uniform shift, as a row under the table's."""
-    return _table_row("twin PCA + GP, shift out", _on_off(table["PCA + GP"]))
+    return _table_row("twin PCA + GP, shift out", on_off(table["PCA + GP"]))
 
 
 def evaluate_and_report(

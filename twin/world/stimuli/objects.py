@@ -51,6 +51,7 @@ from twin.world.stimuli.outlines import (
     open_edge_count,
     rectangle_outline,
     rounded_piece_mesh,
+    rounded_sections,
     rounded_top_mesh,
     spiral_outline,
     spiral_start_end,
@@ -158,13 +159,16 @@ class Stimulus:
         return out
 
     @cached_property
+    def _rounded_sections(self) -> list[tuple[Polygon, float]]:
+        """The sections of the top edge rounded by `edge_radius_mm` (`rounded_sections`), once
+        for every piece and the mesh."""
+        return rounded_sections(self.outline, self.edge_radius_mm)
+
+    @cached_property
     def _rounded_pieces(self) -> list[trimesh.Trimesh]:
         """The convex pieces (m) of the outline's partition, each its solid with the top edge
         rounded by `edge_radius_mm` where the outline bounds it (`rounded_piece_mesh`)."""
-        return [
-            rounded_piece_mesh(Polygon(p), self.outline, self.thickness_mm, self.edge_radius_mm)
-            for p in self.convex_outlines
-        ]
+        return [rounded_piece_mesh(Polygon(p), self._rounded_sections, self.thickness_mm) for p in self.convex_outlines]
 
     def add_to_spec(self, spec, body=None, prefix: str | None = None) -> list:
         """Add one mesh asset and one mesh geom per collision piece to a `mujoco.MjSpec`.
@@ -586,18 +590,19 @@ def with_edge_radius(stim: Stimulus, radius_mm: float) -> Stimulus:
     narrowest width."""
     if radius_mm == 0.0:
         return stim
-    what = f"object {stim.name}: edge radius {radius_mm:g} mm"
-    inset = stim.outline.buffer(-radius_mm, join_style="mitre")
-    too_wide = f"{what}: beyond the object's thickness ({stim.thickness_mm:g} mm) or half its width"
-    if radius_mm > stim.thickness_mm or inset.is_empty or inset.geom_type != "Polygon":
+    too_wide = (
+        f"object {stim.name}: edge radius {radius_mm:g} mm: beyond the object's thickness "
+        f"({stim.thickness_mm:g} mm) or half its width"
+    )
+    if radius_mm > stim.thickness_mm:
         raise UserError(too_wide)
     rounded = replace(stim, collision="prism", edge_radius_mm=radius_mm)
-    try:
+    try:  # the pieces stay cached on `rounded`, which takes its mesh in place
         pieces = rounded._rounded_pieces
-        mesh = pieces[0] if len(pieces) == 1 else rounded_top_mesh(stim.outline, stim.thickness_mm, radius_mm)
+        rounded.mesh = pieces[0] if len(pieces) == 1 else rounded_top_mesh(rounded._rounded_sections, stim.thickness_mm)
     except ValueError:
         raise UserError(too_wide) from None
-    return replace(rounded, mesh=mesh)
+    return rounded
 
 
 def _check_size(path: Path, extent_mm: np.ndarray, what: str) -> None:

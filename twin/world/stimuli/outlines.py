@@ -314,11 +314,13 @@ def extrude_mesh(poly: Polygon, thickness_mm: float) -> trimesh.Trimesh:
 ROUNDED_EDGE_FACETS = 32
 
 
-def _rounded_layers(outline: Polygon, radius_mm: float) -> list[tuple[Polygon, float]]:
-    """The sections of `outline`'s rounded top edge, from the flat top down: the outline
-    inset by r(1 − sin φ) at z = −r(1 − cos φ) (mm), φ over a quarter turn in
+def rounded_sections(outline: Polygon, radius_mm: float) -> list[tuple[Polygon, float]]:
+    """The sections (mm) of `outline`'s rounded top edge, from the flat top down: the
+    outline inset by r(1 − sin φ) at z = −r(1 − cos φ), φ over a quarter turn in
     `ROUNDED_EDGE_FACETS` steps; mitred, so corners seen from above stay as they are. The
-    last is `outline` itself, its vertices as they are, where the side meets the round."""
+    last is the outline itself, where the side meets the round, counter-clockwise and
+    without vertices midway along a side (earcut drops those; so then do the sides)."""
+    outline = orient(outline.simplify(0.0), 1.0)
     phis = np.linspace(0.0, 0.5 * np.pi, ROUNDED_EDGE_FACETS + 1)[:-1]
     return [
         (outline.buffer(-radius_mm * (1.0 - np.sin(p)), join_style="mitre"), -radius_mm * (1.0 - np.cos(p)))
@@ -326,16 +328,15 @@ def _rounded_layers(outline: Polygon, radius_mm: float) -> list[tuple[Polygon, f
     ] + [(outline, -radius_mm)]
 
 
-def rounded_top_mesh(outline: Polygon, thickness_mm: float, radius_mm: float) -> trimesh.Trimesh:
-    """Watertight solid in metres of `outline` (mm, convex or not) over z ∈ [−thickness, 0],
-    its top edge rounded all round with `radius_mm` (`_rounded_layers`): the flat top, each
-    band between two sections and the bottom triangulated by earcut on the sections' own
-    vertices, so every band shares its edges with the next. ValueError where a section is
-    not one polygon (a radius beyond half the outline's width somewhere)."""
-    outline = orient(outline.simplify(0.0), 1.0)  # earcut drops a vertex midway along a side; so do the sides
-    layers = _rounded_layers(outline, radius_mm) + [(outline, -thickness_mm)]
+def rounded_top_mesh(sections: list[tuple[Polygon, float]], thickness_mm: float) -> trimesh.Trimesh:
+    """Watertight solid in metres over z ∈ [−thickness, 0] of the outline whose rounded top
+    edge has these `rounded_sections` (convex or not): the flat top, each band between two
+    sections and the bottom triangulated by earcut on the sections' own vertices, so every
+    band shares its edges with the next. ValueError where a section is not one polygon (a
+    radius beyond half the outline's width somewhere)."""
+    layers = [*sections, (sections[-1][0], -thickness_mm)]
     if any(section.geom_type != "Polygon" or section.is_empty for section, _ in layers):
-        raise ValueError(f"an inset of up to {radius_mm:g} mm splits or empties the outline")
+        raise ValueError("an inset of the round splits or empties the outline")
     vertices: list[np.ndarray] = []
     index: list[dict[tuple[float, float], int]] = []
     for section, z in layers:
@@ -368,13 +369,13 @@ def rounded_top_mesh(outline: Polygon, thickness_mm: float, radius_mm: float) ->
     return mesh
 
 
-def rounded_piece_mesh(piece: Polygon, outline: Polygon, thickness_mm: float, radius_mm: float) -> trimesh.Trimesh:
-    """Convex solid in metres of the convex `piece` of `outline` (mm) over z ∈ [−thickness, 0],
-    the outline's top edge rounded where it bounds the piece with `radius_mm`, the piece's
-    cuts through the outline left upright: the hull of the piece within each of
-    `_rounded_layers`' sections and of the piece at the bottom. The pieces of a partition
-    then meet along their cuts at every height. ValueError where a section leaves nothing
-    of the piece (a radius beyond half the outline's width there)."""
+def rounded_piece_mesh(piece: Polygon, sections: list[tuple[Polygon, float]], thickness_mm: float) -> trimesh.Trimesh:
+    """Convex solid in metres of the convex `piece` (mm) of an outline over z ∈ [−thickness, 0],
+    the outline's top edge rounded where it bounds the piece as its `rounded_sections` say,
+    the piece's cuts through the outline left upright: the hull of the piece within each
+    section and of the piece at the bottom. The pieces of a partition then meet along their
+    cuts at every height. ValueError where a section leaves nothing of the piece (a radius
+    beyond half the outline's width there)."""
 
     def layer(section: Polygon, z_mm: float) -> np.ndarray:
         within = piece.intersection(section)
@@ -388,7 +389,7 @@ def rounded_piece_mesh(piece: Polygon, outline: Polygon, thickness_mm: float, ra
         ring = np.vstack(rings)
         return np.column_stack([ring, np.full(len(ring), z_mm)])
 
-    layers = [layer(section, z) for section, z in _rounded_layers(outline, radius_mm)]
+    layers = [layer(section, z) for section, z in sections]
     layers.append(layer(piece, -thickness_mm))
     return trimesh.convex.convex_hull(np.vstack(layers) * MM)
 
